@@ -1,0 +1,49 @@
+// A triangle surface: the mesher's input. Indexed (welded) vertices and triangles, with the
+// validation report that tells the user what kind of surface they gave us.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <vector>
+
+#include "core/geometry.h"
+
+namespace mchex {
+
+struct TriangleSurface {
+  std::vector<Vec3> vertices;
+  std::vector<std::array<uint32_t, 3>> triangles;
+
+  Box bounds() const;
+};
+
+// What validate_surface() found. A surface is "closed" when every edge has exactly two
+// triangles; "consistently oriented" when each such pair traverses the edge in opposite
+// directions. The reference SDF's sign is exact only for closed, consistently oriented input.
+struct SurfaceReport {
+  std::size_t vertices = 0;
+  std::size_t triangles = 0;
+  std::size_t welded_vertices = 0;       // duplicates merged by the reader's weld
+  std::size_t edges = 0;
+  std::size_t boundary_edges = 0;        // edges with one triangle (holes)
+  std::size_t nonmanifold_edges = 0;     // edges with three or more triangles
+  std::size_t degenerate_faces = 0;      // repeated vertex index or zero area
+  std::size_t inconsistent_edges = 0;    // two-triangle edges traversed the same way by both
+  std::size_t components = 0;            // connected by shared edges
+  bool closed = false;                   // no boundary and no non-manifold edge
+  bool consistently_oriented = false;
+  double volume = 0;                     // signed volume (divergence theorem); > 0 means outward normals
+};
+
+// Merges vertices with bit-identical coordinates (+0 and -0 are the same), drops nothing else.
+// Returns how many vertices were merged.
+std::size_t weld_vertices(TriangleSurface& surface);
+
+SurfaceReport validate_surface(const TriangleSurface& surface);
+
+// Reads STL (ascii and binary), OBJ, OFF or PLY, welds and checks indices and coordinates.
+// Throws InputError("PATH: reason") on anything unreadable, empty, non-finite or out of range.
+TriangleSurface read_surface(const std::filesystem::path& path, std::size_t* welded = nullptr);
+
+}  // namespace mchex
