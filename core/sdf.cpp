@@ -1,1 +1,273 @@
-// placeholder: replaced by its implementation
+#include "core/sdf.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <stdexcept>
+#include <string>
+
+#include <embree3/rtcore.h>
+
+#include "core/parallel.h"
+
+namespace mchex {
+
+ClosestPoint closest_point_on_triangle(Vec3 p, Vec3 a, Vec3 b, Vec3 c) {
+  // Voronoi-region walk over the triangle's features (Ericson, Real-Time Collision Detection,
+  // 5.1.5): the region is what decides which pseudonormal gives the sign.
+  const Vec3 ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = dot(ab, ap), d2 = dot(ac, ap);
+  if (d1 <= 0 && d2 <= 0) return {a, squared_norm(ap), 0};
+  const Vec3 bp = p - b;
+  const double d3 = dot(ab, bp), d4 = dot(ac, bp);
+  if (d3 >= 0 && d4 <= d3) return {b, squared_norm(bp), 1};
+  const Vec3 cp = p - c;
+  const double d5 = dot(ab, cp), d6 = dot(ac, cp);
+  if (d6 >= 0 && d5 <= d6) return {c, squared_norm(cp), 2};
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) {
+    const Vec3 q = a + (d1 / (d1 - d3)) * ab;
+    return {q, squared_norm(p - q), 3};
+  }
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) {
+    const Vec3 q = a + (d2 / (d2 - d6)) * ac;
+    return {q, squared_norm(p - q), 5};
+  }
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0) {
+    const Vec3 q = b + ((d4 - d3) / ((d4 - d3) + (d5 - d6))) * (c - b);
+    return {q, squared_norm(p - q), 4};
+  }
+  const double sum = va + vb + vc;
+  if (sum > 0 && std::isfinite(sum)) {
+    const Vec3 q = a + (vb / sum) * ab + (vc / sum) * ac;
+    return {q, squared_norm(p - q), 6};
+  }
+  // Zero-area triangle that slipped past every edge test through rounding: the nearest of its
+  // three edges is its closest point.
+  ClosestPoint best{a, squared_norm(ap), 0};
+  const Vec3 ends[3][2] = {{a, b}, {b, c}, {c, a}};
+  for (int e = 0; e < 3; ++e) {
+    const Vec3 u = ends[e][0], v = ends[e][1], uv = v - u;
+    const double len2 = squared_norm(uv);
+    const double t = len2 > 0 ? std::clamp(dot(p - u, uv) / len2, 0.0, 1.0) : 0.0;
+    const Vec3 q = u + t * uv;
+    const double d = squared_norm(p - q);
+    if (d < best.squared_distance) best = {q, d, 3 + e};
+  }
+  return best;
+}
+
+namespace {
+
+// Angle-weighted pseudonormals: one per face, per edge and per vertex. For a closed, consistently
+// oriented manifold, the sign of dot(p - q, N) with q the closest point and N the pseudonormal of
+// the feature q lies on is the side of p (Baerentzen & Aanaes, IEEE TVCG 2005, Theorem 1).
+struct Pseudonormals {
+  std::vector<Vec3> face, vertex, edge;
+  std::vector<std::array<uint32_t, 3>> triangle_edges;  // edge ids of (ab, bc, ca)
+
+  explicit Pseudonormals(const TriangleSurface& s) {
+    const std::size_t nt = s.triangles.size();
+    face.resize(nt);
+    vertex.assign(s.vertices.size(), Vec3{});
+    for (std::size_t t = 0; t < nt; ++t) {
+      const auto& tri = s.triangles[t];
+      const Vec3 p[3] = {s.vertices[tri[0]], s.vertices[tri[1]], s.vertices[tri[2]]};
+      face[t] = normalized(cross(p[1] - p[0], p[2] - p[0]));
+      for (int k = 0; k < 3; ++k) {
+        const Vec3 u = p[(k + 1) % 3] - p[k], v = p[(k + 2) % 3] - p[k];
+        const double angle = std::atan2(norm(cross(u, v)), dot(u, v));
+        vertex[tri[k]] += angle * face[t];
+      }
+    }
+    // Edges by sorting the 3T directed half-edges on their unordered vertex pair.
+    std::vector<std::pair<uint64_t, uint32_t>> half(3 * nt);
+    for (std::size_t t = 0; t < nt; ++t)
+      for (int k = 0; k < 3; ++k) {
+        uint64_t u = s.triangles[t][k], v = s.triangles[t][(k + 1) % 3];
+        if (u > v) std::swap(u, v);
+        half[3 * t + k] = {(u << 32) | v, uint32_t(3 * t + k)};
+      }
+    std::sort(half.begin(), half.end());
+    triangle_edges.resize(nt);
+    for (std::size_t i = 0; i < half.size();) {
+      std::size_t j = i;
+      Vec3 sum{};
+      while (j < half.size() && half[j].first == half[i].first) sum += face[half[j++].second / 3];
+      for (std::size_t k = i; k < j; ++k)
+        triangle_edges[half[k].second / 3][half[k].second % 3] = uint32_t(edge.size());
+      edge.push_back(sum);
+      i = j;
+    }
+  }
+
+  Vec3 of(uint32_t t, int region, const TriangleSurface& s) const {
+    if (region < 3) return vertex[s.triangles[t][region]];
+    if (region < 6) return edge[triangle_edges[t][region - 3]];
+    return face[t];
+  }
+};
+
+// The sign rule in one place (both the BVH path and brute force use it). A point exactly on the
+// surface gets 0; a point whose offset is orthogonal to the pseudonormal (possible only on
+// non-manifold or inconsistent input) is called outside.
+double signed_value(Vec3 p, const ClosestPoint& cp, Vec3 pseudonormal) {
+  const double d = std::sqrt(cp.squared_distance);
+  if (d == 0) return 0;
+  return dot(p - cp.point, pseudonormal) > 0 ? -d : d;
+}
+
+void check_embree(RTCDevice device, const char* what) {
+  const RTCError e = rtcGetDeviceError(device);
+  if (e != RTC_ERROR_NONE)
+    throw std::runtime_error(std::string("Embree failed in ") + what + " (error " +
+                             std::to_string(int(e)) + ")");
+}
+
+}  // namespace
+
+struct SurfaceSdf::Impl {
+  TriangleSurface surface;
+  Pseudonormals normals;
+  Box box;
+  double scale = 1;
+  RTCDevice device = nullptr;
+  RTCScene scene = nullptr;
+
+  explicit Impl(const TriangleSurface& s) : surface(s), normals(s), box(s.bounds()) {
+    scale = std::max({std::abs(box.lo.x), std::abs(box.lo.y), std::abs(box.lo.z),
+                      std::abs(box.hi.x), std::abs(box.hi.y), std::abs(box.hi.z), box.diagonal()});
+    device = rtcNewDevice(nullptr);
+    if (!device) throw std::runtime_error("Embree device could not be created");
+    scene = rtcNewScene(device);
+    rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_HIGH);
+    RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(
+        geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), s.vertices.size()));
+    auto* ib = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(
+        geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), s.triangles.size()));
+    check_embree(device, "buffer allocation");
+    for (std::size_t i = 0; i < s.vertices.size(); ++i) {
+      vb[3 * i] = float(s.vertices[i].x);
+      vb[3 * i + 1] = float(s.vertices[i].y);
+      vb[3 * i + 2] = float(s.vertices[i].z);
+    }
+    std::copy_n(&s.triangles[0][0], 3 * s.triangles.size(), ib);
+    rtcCommitGeometry(geom);
+    rtcAttachGeometry(scene, geom);
+    rtcReleaseGeometry(geom);
+    rtcCommitScene(scene);
+    check_embree(device, "BVH build");
+  }
+  ~Impl() {
+    if (scene) rtcReleaseScene(scene);
+    if (device) rtcReleaseDevice(device);
+  }
+
+  struct Query {
+    const Impl* impl;
+    Vec3 p;
+    double margin;
+    ClosestPoint best;
+    uint32_t best_triangle;
+  };
+
+  static bool visit(RTCPointQueryFunctionArguments* args) {
+    auto* q = static_cast<Query*>(args->userPtr);
+    const auto& s = q->impl->surface;
+    const auto& tri = s.triangles[args->primID];
+    const ClosestPoint cp =
+        closest_point_on_triangle(q->p, s.vertices[tri[0]], s.vertices[tri[1]], s.vertices[tri[2]]);
+    // Ties go to the lower triangle index, so the answer does not depend on traversal order.
+    if (cp.squared_distance < q->best.squared_distance ||
+        (cp.squared_distance == q->best.squared_distance && args->primID < q->best_triangle)) {
+      q->best = cp;
+      q->best_triangle = args->primID;
+      args->query->radius = float(std::sqrt(cp.squared_distance) + q->margin);
+      return true;
+    }
+    return false;
+  }
+
+  // Closest triangle to p with a search radius known to hold it. The BVH lives in float: the
+  // margin (a few float ulps of the coordinates) keeps its culling conservative, and every
+  // candidate is then measured in double.
+  Query closest(Vec3 p, double radius) const {
+    const double mag = std::max({std::abs(p.x), std::abs(p.y), std::abs(p.z)});
+    Query q{this, p, 4e-6 * (scale + mag),
+            {p, std::numeric_limits<double>::infinity(), -1}, std::numeric_limits<uint32_t>::max()};
+    RTCPointQuery pq;
+    pq.x = float(p.x);
+    pq.y = float(p.y);
+    pq.z = float(p.z);
+    pq.time = 0;
+    pq.radius = std::isfinite(radius) ? float(radius + q.margin) : std::numeric_limits<float>::infinity();
+    RTCPointQueryContext ctx;
+    rtcInitPointQueryContext(&ctx);
+    rtcPointQuery(scene, &pq, &ctx, &Impl::visit, &q);
+    return q;
+  }
+
+  template <class Out>
+  void run(std::span<const Vec3> points, std::span<double> values, Out out) const {
+    if (points.size() != values.size()) throw std::invalid_argument("SDF batch size mismatch");
+    if (surface.triangles.empty()) {
+      std::fill(values.begin(), values.end(), -std::numeric_limits<double>::infinity());
+      return;
+    }
+    // Coherence bound: |d(p) - d(prev)| <= |p - prev| (distance is 1-Lipschitz), so the previous
+    // point's answer bounds this point's search sphere and most of the BVH is culled at once.
+    parallel_chunks(points.size(), 256, [&](std::size_t b, std::size_t e) {
+      double prev_d = std::numeric_limits<double>::infinity();
+      Vec3 prev = points[b];
+      for (std::size_t i = b; i < e; ++i) {
+        const Vec3 p = points[i];
+        Query q = closest(p, prev_d + norm(p - prev));
+        if (!(q.best.squared_distance < std::numeric_limits<double>::infinity()))
+          q = closest(p, std::numeric_limits<double>::infinity());  // non-finite input point
+        values[i] = out(p, q);
+        prev = p;
+        prev_d = std::sqrt(q.best.squared_distance);
+      }
+    });
+  }
+};
+
+SurfaceSdf::SurfaceSdf(const TriangleSurface& surface) : impl_(std::make_unique<Impl>(surface)) {}
+SurfaceSdf::~SurfaceSdf() = default;
+
+Box SurfaceSdf::bounds() const { return impl_->box; }
+
+void SurfaceSdf::evaluate(std::span<const Vec3> points, std::span<double> values) const {
+  const Impl& m = *impl_;
+  m.run(points, values, [&m](Vec3 p, const Impl::Query& q) {
+    return signed_value(p, q.best, m.normals.of(q.best_triangle, q.best.region, m.surface));
+  });
+}
+
+void SurfaceSdf::distance(std::span<const Vec3> points, std::span<double> values) const {
+  impl_->run(points, values,
+             [](Vec3, const Impl::Query& q) { return std::sqrt(q.best.squared_distance); });
+}
+
+void brute_force_sdf(const TriangleSurface& surface, std::span<const Vec3> points,
+                     std::span<double> values) {
+  const Pseudonormals normals(surface);
+  parallel_for(points.size(), [&](std::size_t i) {
+    ClosestPoint best{points[i], std::numeric_limits<double>::infinity(), -1};
+    uint32_t best_t = 0;
+    for (uint32_t t = 0; t < surface.triangles.size(); ++t) {
+      const auto& tri = surface.triangles[t];
+      const ClosestPoint cp = closest_point_on_triangle(
+          points[i], surface.vertices[tri[0]], surface.vertices[tri[1]], surface.vertices[tri[2]]);
+      if (cp.squared_distance < best.squared_distance) best = cp, best_t = t;
+    }
+    values[i] = best.region < 0 ? -std::numeric_limits<double>::infinity()
+                                : signed_value(points[i], best, normals.of(best_t, best.region, surface));
+  });
+}
+
+}  // namespace mchex

@@ -1,0 +1,24 @@
+// The RO ("remove outside") baseline of the paper's section 6: a grid cell belongs to the solid
+// when the sum of the SDF values at its 8 corners is positive. The solid's mesh is those cells,
+// the outside mesh the rest; both are exactly the grid's cells, so they conform by construction.
+#pragma once
+
+#include <span>
+
+#include "core/grid.h"
+#include "core/hex_mesh.h"
+
+namespace mchex {
+
+struct MeshPair {
+  HexMesh inside, outside;
+};
+
+// values: the SDF at every grid vertex, in UniformGrid::vertex_index order.
+MeshPair mesh_remove_outside(const UniformGrid& grid, std::span<const double> values);
+
+// Splits a set of hexes over shared points into a compact mesh of those hexes only (points
+// renumbered in first-use order, so the result is deterministic).
+HexMesh compact_mesh(std::span<const Vec3> points, std::span<const Hex> hexes, int32_t region);
+
+}  // namespace mchex
