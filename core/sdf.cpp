@@ -7,8 +7,7 @@
 #include <stdexcept>
 #include <string>
 
-#include <embree3/rtcore.h>
-
+#include "core/bvh.h"
 #include "core/parallel.h"
 
 namespace mchex {
@@ -120,94 +119,58 @@ double signed_value(Vec3 p, const ClosestPoint& cp, Vec3 pseudonormal) {
   return dot(p - cp.point, pseudonormal) > 0 ? -d : d;
 }
 
-void check_embree(RTCDevice device, const char* what) {
-  const RTCError e = rtcGetDeviceError(device);
-  if (e != RTC_ERROR_NONE)
-    throw std::runtime_error(std::string("Embree failed in ") + what + " (error " +
-                             std::to_string(int(e)) + ")");
-}
-
 }  // namespace
 
 struct SurfaceSdf::Impl {
   TriangleSurface surface;
   Pseudonormals normals;
+  TriangleBvh bvh;
   Box box;
-  double scale = 1;
-  RTCDevice device = nullptr;
-  RTCScene scene = nullptr;
 
-  explicit Impl(const TriangleSurface& s) : surface(s), normals(s), box(s.bounds()) {
-    scale = std::max({std::abs(box.lo.x), std::abs(box.lo.y), std::abs(box.lo.z),
-                      std::abs(box.hi.x), std::abs(box.hi.y), std::abs(box.hi.z), box.diagonal()});
-    device = rtcNewDevice(nullptr);
-    if (!device) throw std::runtime_error("Embree device could not be created");
-    scene = rtcNewScene(device);
-    rtcSetSceneBuildQuality(scene, RTC_BUILD_QUALITY_HIGH);
-    RTCGeometry geom = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(
-        geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), s.vertices.size()));
-    auto* ib = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(
-        geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), s.triangles.size()));
-    check_embree(device, "buffer allocation");
-    for (std::size_t i = 0; i < s.vertices.size(); ++i) {
-      vb[3 * i] = float(s.vertices[i].x);
-      vb[3 * i + 1] = float(s.vertices[i].y);
-      vb[3 * i + 2] = float(s.vertices[i].z);
-    }
-    std::copy_n(&s.triangles[0][0], 3 * s.triangles.size(), ib);
-    rtcCommitGeometry(geom);
-    rtcAttachGeometry(scene, geom);
-    rtcReleaseGeometry(geom);
-    rtcCommitScene(scene);
-    check_embree(device, "BVH build");
-  }
-  ~Impl() {
-    if (scene) rtcReleaseScene(scene);
-    if (device) rtcReleaseDevice(device);
-  }
+  explicit Impl(const TriangleSurface& s)
+      : surface(s), normals(s), bvh(TriangleBvh::build(s)), box(s.bounds()) {}
 
   struct Query {
-    const Impl* impl;
-    Vec3 p;
-    double margin;
     ClosestPoint best;
     uint32_t best_triangle;
   };
 
-  static bool visit(RTCPointQueryFunctionArguments* args) {
-    auto* q = static_cast<Query*>(args->userPtr);
-    const auto& s = q->impl->surface;
-    const auto& tri = s.triangles[args->primID];
-    const ClosestPoint cp =
-        closest_point_on_triangle(q->p, s.vertices[tri[0]], s.vertices[tri[1]], s.vertices[tri[2]]);
-    // Ties go to the lower triangle index, so the answer does not depend on traversal order.
-    if (cp.squared_distance < q->best.squared_distance ||
-        (cp.squared_distance == q->best.squared_distance && args->primID < q->best_triangle)) {
-      q->best = cp;
-      q->best_triangle = args->primID;
-      args->query->radius = float(std::sqrt(cp.squared_distance) + q->margin);
-      return true;
+  // Nearest triangle to p among those within sqrt(bound2), nearest boxes first. Ties go to the
+  // lower triangle index, so the answer does not depend on the tree's shape or traversal order.
+  Query closest(Vec3 p, double bound2) const {
+    Query q{{p, bound2, -1}, std::numeric_limits<uint32_t>::max()};
+    uint32_t stack[128];
+    double stack_d2[128];
+    int top = 0;
+    stack[top] = 0;
+    stack_d2[top++] = bvh.box_distance2(0, p);
+    while (top > 0) {
+      --top;
+      if (stack_d2[top] > q.best.squared_distance) continue;
+      const BvhNode& n = bvh.nodes[stack[top]];
+      if (n.count > 0) {
+        for (uint32_t k = n.index; k < n.index + n.count; ++k) {
+          const uint32_t t = bvh.leaf_triangles[k];
+          const auto& tri = surface.triangles[t];
+          const ClosestPoint cp = closest_point_on_triangle(p, surface.vertices[tri[0]],
+                                                            surface.vertices[tri[1]], surface.vertices[tri[2]]);
+          if (cp.squared_distance < q.best.squared_distance ||
+              (cp.squared_distance == q.best.squared_distance && t < q.best_triangle)) {
+            q.best = cp;
+            q.best_triangle = t;
+          }
+        }
+        continue;
+      }
+      const uint32_t a = stack[top] + 1, b = n.index;
+      double da = bvh.box_distance2(a, p), db = bvh.box_distance2(b, p);
+      // Push the farther child first so the nearer one is searched first and shrinks the bound.
+      const bool swap = da < db;
+      const uint32_t first = swap ? b : a, second = swap ? a : b;
+      if (swap) std::swap(da, db);
+      if (da <= q.best.squared_distance) stack[top] = first, stack_d2[top++] = da;
+      if (db <= q.best.squared_distance) stack[top] = second, stack_d2[top++] = db;
     }
-    return false;
-  }
-
-  // Closest triangle to p with a search radius known to hold it. The BVH lives in float: the
-  // margin (a few float ulps of the coordinates) keeps its culling conservative, and every
-  // candidate is then measured in double.
-  Query closest(Vec3 p, double radius) const {
-    const double mag = std::max({std::abs(p.x), std::abs(p.y), std::abs(p.z)});
-    Query q{this, p, 4e-6 * (scale + mag),
-            {p, std::numeric_limits<double>::infinity(), -1}, std::numeric_limits<uint32_t>::max()};
-    RTCPointQuery pq;
-    pq.x = float(p.x);
-    pq.y = float(p.y);
-    pq.z = float(p.z);
-    pq.time = 0;
-    pq.radius = std::isfinite(radius) ? float(radius + q.margin) : std::numeric_limits<float>::infinity();
-    RTCPointQueryContext ctx;
-    rtcInitPointQueryContext(&ctx);
-    rtcPointQuery(scene, &pq, &ctx, &Impl::visit, &q);
     return q;
   }
 
@@ -219,15 +182,15 @@ struct SurfaceSdf::Impl {
       return;
     }
     // Coherence bound: |d(p) - d(prev)| <= |p - prev| (distance is 1-Lipschitz), so the previous
-    // point's answer bounds this point's search sphere and most of the BVH is culled at once.
+    // point's answer bounds this point's search; the slack covers rounding in that bound.
     parallel_chunks(points.size(), 256, [&](std::size_t b, std::size_t e) {
       double prev_d = std::numeric_limits<double>::infinity();
       Vec3 prev = points[b];
       for (std::size_t i = b; i < e; ++i) {
         const Vec3 p = points[i];
-        Query q = closest(p, prev_d + norm(p - prev));
-        if (!(q.best.squared_distance < std::numeric_limits<double>::infinity()))
-          q = closest(p, std::numeric_limits<double>::infinity());  // non-finite input point
+        const double r = (prev_d + norm(p - prev)) * (1 + 1e-12) + 1e-300;
+        Query q = closest(p, r * r);
+        if (q.best.region < 0) q = closest(p, std::numeric_limits<double>::infinity());
         values[i] = out(p, q);
         prev = p;
         prev_d = std::sqrt(q.best.squared_distance);

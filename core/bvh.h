@@ -1,0 +1,46 @@
+// A flattened bounding volume hierarchy over triangles, built by Embree's BVH builder
+// (rtcBuildBVH, SAH) into our own node layout: flat arrays, no pointers, so the same buffers
+// serve the CPU reference and, later, the OpenCL and Vulkan kernels.
+//
+// Layout: nodes in depth-first order; an inner node's left child is the next node and its right
+// child is node.index; a leaf holds triangles leaf_triangles[index .. index + count). Bounds are
+// floats rounded outward from the double triangles, so distance culling against them is
+// conservative while every triangle is measured in double.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/surface.h"
+
+namespace mchex {
+
+struct BvhNode {
+  float lo[3];
+  uint32_t index;  // inner: right child; leaf: first slot in leaf_triangles
+  float hi[3];
+  uint32_t count;  // 0 for an inner node
+};
+static_assert(sizeof(BvhNode) == 32, "BvhNode is shared with device code: keep it 32 bytes");
+
+struct TriangleBvh {
+  std::vector<BvhNode> nodes;
+  std::vector<uint32_t> leaf_triangles;
+
+  // Empty surfaces give an empty hierarchy.
+  static TriangleBvh build(const TriangleSurface& surface);
+
+  // Squared distance from p to node n's box (0 inside it).
+  double box_distance2(uint32_t n, Vec3 p) const {
+    const BvhNode& b = nodes[n];
+    double d2 = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double lo = b.lo[a] - p[a], hi = p[a] - b.hi[a];
+      const double d = lo > 0 ? lo : (hi > 0 ? hi : 0);
+      d2 += d * d;
+    }
+    return d2;
+  }
+};
+
+}  // namespace mchex
