@@ -6,6 +6,8 @@
 // left before anything is allocated for it.
 #include "core/mesh_io.h"
 
+#include <fcntl.h>
+#include <sys/mman.h>
 #include <sys/stat.h>
 #include <tbb/parallel_pipeline.h>
 #include <tbb/task_arena.h>
@@ -441,32 +443,45 @@ void write_gmsh(const HexMesh& mesh, AtomicOutput& out) {
 // =============================================================================================
 // Input
 
-std::string read_whole_file(const fs::path& path) {
-  std::FILE* f = std::fopen(path.c_str(), "rb");
-  if (f == nullptr) {
-    const int e = errno;
-    throw FormatError("cannot open: " + errno_message(e));
+// The bytes of a file, mapped rather than copied: a copy needs as much fresh memory as the file,
+// and zeroing that memory was most of the time of reading a large binary mesh.
+class MappedFile {
+ public:
+  explicit MappedFile(const fs::path& path) : fd_(::open(path.c_str(), O_RDONLY | O_CLOEXEC)) {
+    if (fd_ < 0) throw FormatError("cannot open: " + errno_message(errno));
+    try {
+      map();
+    } catch (...) {
+      ::close(fd_);
+      throw;
+    }
   }
-  struct Closer {
-    std::FILE* f;
-    ~Closer() { std::fclose(f); }
-  } closer{f};
-  struct stat st {};
-  if (::fstat(::fileno(f), &st) != 0) throw FormatError("cannot open: " + errno_message(errno));
-  // A directory, a device or a pipe has no size to bound the parse by, and may never end.
-  if (!S_ISREG(st.st_mode)) throw FormatError("not a regular file");
-  std::string text(static_cast<std::size_t>(st.st_size), '\0');
-  std::size_t size = 0;
-  for (;;) {
-    if (size == text.size()) text.resize(std::max<std::size_t>(4096, 2 * text.size()));
-    const std::size_t got = std::fread(text.data() + size, 1, text.size() - size, f);
-    size += got;
-    if (got == 0) break;
+  MappedFile(const MappedFile&) = delete;
+  MappedFile& operator=(const MappedFile&) = delete;
+  ~MappedFile() {
+    if (data_ != nullptr) ::munmap(data_, size_);
+    ::close(fd_);
   }
-  if (std::ferror(f)) throw FormatError("read failed: " + errno_message(errno));
-  text.resize(size);
-  return text;
-}
+
+  std::string_view text() const { return data_ != nullptr ? std::string_view(static_cast<const char*>(data_), size_) : ""; }
+
+ private:
+  void map() {
+    struct stat st {};
+    if (::fstat(fd_, &st) != 0) throw FormatError("cannot open: " + errno_message(errno));
+    // A directory, a device or a pipe has no size to bound the parse by, and may never end.
+    if (!S_ISREG(st.st_mode)) throw FormatError("not a regular file");
+    size_ = static_cast<std::size_t>(st.st_size);
+    if (size_ == 0) return;
+    void* p = ::mmap(nullptr, size_, PROT_READ, MAP_PRIVATE | MAP_POPULATE, fd_, 0);
+    if (p == MAP_FAILED) throw FormatError("cannot read: " + errno_message(errno));
+    data_ = p;
+  }
+
+  int fd_;
+  void* data_ = nullptr;
+  std::size_t size_ = 0;
+};
 
 // Whitespace-separated tokens of an ascii format, with the line of the last token for messages.
 class Scanner {
@@ -498,6 +513,21 @@ class Scanner {
 
   template <class Int>
   Int integer(std::string_view what) {
+    // Nearly every integer of a mesh file is a short run of digits before a blank; only other
+    // tokens take the general path. 18 digits cannot overflow 64 bits.
+    skip_blank();
+    const bool negative = std::is_signed_v<Int> && p_ != end_ && *p_ == '-';
+    const char* q = p_ + (negative ? 1 : 0);
+    const char* first_digit = q;
+    std::uint64_t magnitude = 0;
+    while (q != end_ && static_cast<unsigned char>(*q - '0') < 10 && q - first_digit < 18)
+      magnitude = 10 * magnitude + static_cast<unsigned>(*q++ - '0');
+    if (q != first_digit && (q == end_ || is_blank(*q)) &&
+        magnitude <= static_cast<std::uint64_t>(std::numeric_limits<Int>::max())) {
+      last_ = p_;
+      p_ = q;
+      return negative ? static_cast<Int>(-static_cast<Int>(magnitude)) : static_cast<Int>(magnitude);
+    }
     const std::string_view t = token(what);
     Int v{};
     if (parse_int(t, v)) return v;
@@ -1429,7 +1459,8 @@ void write_hex_mesh(const HexMesh& mesh, const std::filesystem::path& path) {
 HexMesh read_hex_mesh(const std::filesystem::path& path) {
   const MeshFormat format = mesh_format(path);
   try {
-    const std::string text = read_whole_file(path);
+    const MappedFile file(path);
+    const std::string_view text = file.text();
     switch (format) {
       case MeshFormat::kMedit: return read_medit(text);
       case MeshFormat::kVtu: return VtuReader(text).read();
