@@ -205,6 +205,8 @@ void check_writable(const HexMesh& mesh) {
   if (mesh.region.size() != mesh.hexes.size())
     throw FormatError("the mesh has " + std::to_string(mesh.hexes.size()) + " hexes but " +
                       std::to_string(mesh.region.size()) + " region labels");
+  if (mesh.points.size() > kMaxPoints)
+    throw FormatError(std::to_string(mesh.points.size()) + " points are more than 32-bit indices can address");
   for (std::size_t i = 0; i < mesh.points.size(); ++i)
     if (!is_finite(mesh.points[i]))
       throw FormatError("point " + std::to_string(i) + " has a non-finite coordinate");
@@ -473,7 +475,12 @@ class MappedFile {
     if (!S_ISREG(st.st_mode)) throw FormatError("not a regular file");
     size_ = static_cast<std::size_t>(st.st_size);
     if (size_ == 0) return;
-    void* p = ::mmap(nullptr, size_, PROT_READ, MAP_PRIVATE | MAP_POPULATE, fd_, 0);
+#ifdef MAP_POPULATE
+    constexpr int kFlags = MAP_PRIVATE | MAP_POPULATE;  // the parse reads every page, in order
+#else
+    constexpr int kFlags = MAP_PRIVATE;
+#endif
+    void* p = ::mmap(nullptr, size_, PROT_READ, kFlags, fd_, 0);
     if (p == MAP_FAILED) throw FormatError("cannot read: " + errno_message(errno));
     data_ = p;
   }

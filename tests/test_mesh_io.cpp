@@ -1,6 +1,6 @@
 // Mesh files: exact round trips, atomic writes, files from other tools, and bad files that must
 // fail with an InputError naming the file. tests/test_meshio_formats.py drives the two
-// MeshIoSamples tests to check the same files against meshio, an independent reader and writer.
+// HexmeshSamples tests to check the same files against meshio, an independent reader and writer.
 #include "core/mesh_io.h"
 
 #include <gtest/gtest.h>
@@ -189,7 +189,7 @@ class EveryFormat : public ::testing::TestWithParam<std::string> {
   TempDir dir_;
 };
 
-INSTANTIATE_TEST_SUITE_P(MeshIo, EveryFormat, ::testing::Values(".mesh", ".vtu", ".msh", ".MESH", ".Vtu", ".MSH"),
+INSTANTIATE_TEST_SUITE_P(Hexmesh, EveryFormat, ::testing::Values(".mesh", ".vtu", ".msh", ".MESH", ".Vtu", ".MSH"),
                          [](const auto& info) {
                            std::string name = info.param.substr(1);
                            return name + (std::any_of(name.begin(), name.end(), ::isupper) ? "_upper" : "");
@@ -291,7 +291,7 @@ TEST_P(EveryFormat, DirectoryIsNotAMeshFile) {
 // ---------------------------------------------------------------------------------------------
 // Atomic writes
 
-TEST(MeshIoWrite, MissingFolderThrowsAndCreatesNothing) {
+TEST(HexmeshWrite, MissingFolderThrowsAndCreatesNothing) {
   TempDir dir;
   const fs::path path = dir / "no/such/out.mesh";
   const std::string message = input_error([&] { write_hex_mesh(sample_mesh(), path); });
@@ -300,7 +300,7 @@ TEST(MeshIoWrite, MissingFolderThrowsAndCreatesNothing) {
   EXPECT_TRUE(listing(dir.path()).empty());
 }
 
-TEST(MeshIoWrite, InconsistentMeshKeepsTheOldFile) {
+TEST(HexmeshWrite, InconsistentMeshKeepsTheOldFile) {
   TempDir dir;
   const fs::path path = dir / "out.vtu";
   write_bytes(path, "old");
@@ -321,7 +321,7 @@ TEST(MeshIoWrite, InconsistentMeshKeepsTheOldFile) {
   }
 }
 
-TEST(MeshIoWrite, TargetThatIsAFolderIsNotReplaced) {
+TEST(HexmeshWrite, TargetThatIsAFolderIsNotReplaced) {
   TempDir dir;
   const fs::path path = dir / "taken.msh";
   fs::create_directories(path / "inside");
@@ -331,7 +331,7 @@ TEST(MeshIoWrite, TargetThatIsAFolderIsNotReplaced) {
   EXPECT_EQ(listing(dir.path()), std::vector<std::string>{"taken.msh"});
 }
 
-TEST(MeshIoWrite, UnknownExtension) {
+TEST(HexmeshWrite, UnknownExtension) {
   TempDir dir;
   EXPECT_EQ(input_error([&] { write_hex_mesh(sample_mesh(), dir / "out.stl"); }),
             (dir / "out.stl").string() + ": unknown mesh format '.stl' (use .mesh, .vtu or .msh)");
@@ -345,7 +345,7 @@ TEST(MeshIoWrite, UnknownExtension) {
   EXPECT_EQ(mesh_format("b.msh"), MeshFormat::kGmsh);
 }
 
-TEST(MeshIoWrite, WrittenTextIsWhatOtherToolsExpect) {
+TEST(HexmeshWrite, WrittenTextIsWhatOtherToolsExpect) {
   TempDir dir;
   HexMesh one;
   one.points = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 0.5}};
@@ -369,7 +369,7 @@ TEST(MeshIoWrite, WrittenTextIsWhatOtherToolsExpect) {
 // ---------------------------------------------------------------------------------------------
 // MEDIT
 
-TEST(MeshIoMedit, ReadsFilesOfOtherTools) {
+TEST(HexmeshMedit, ReadsFilesOfOtherTools) {
   TempDir dir;
   const HexMesh mesh = read_text(dir, "other.mesh",
                                  "# written by hand\r\n"
@@ -398,7 +398,7 @@ TEST(MeshIoMedit, ReadsFilesOfOtherTools) {
   EXPECT_EQ(mesh.region, (std::vector<int32_t>{11, -4}));
 }
 
-TEST(MeshIoMedit, HexahedraBeforeVerticesAreCheckedAtTheEnd) {
+TEST(HexmeshMedit, HexahedraBeforeVerticesAreCheckedAtTheEnd) {
   TempDir dir;
   const std::string head = "MeshVersionFormatted 2\nDimension 3\nHexahedra\n1\n1 2 3 4 5 6 7 ";
   std::string vertices;
@@ -409,7 +409,7 @@ TEST(MeshIoMedit, HexahedraBeforeVerticesAreCheckedAtTheEnd) {
                     "hexahedron 1 refers to vertex 9 but the file has 8 vertices");
 }
 
-TEST(MeshIoMedit, BadFiles) {
+TEST(HexmeshMedit, BadFiles) {
   TempDir dir;
   const std::string head = "MeshVersionFormatted 2\nDimension 3\nVertices\n8\n";
   std::string vertices;
@@ -453,7 +453,7 @@ TEST(MeshIoMedit, BadFiles) {
 // ---------------------------------------------------------------------------------------------
 // Gmsh
 
-TEST(MeshIoGmsh, ReadsFilesOfOtherTools) {
+TEST(HexmeshGmsh, ReadsFilesOfOtherTools) {
   TempDir dir;
   // Node tags sparse, unordered and split over blocks (one parametric), lower-dimension elements
   // of several types, hexes with unordered element tags, unknown sections.
@@ -492,7 +492,7 @@ TEST(MeshIoGmsh, ReadsFilesOfOtherTools) {
   EXPECT_EQ(mesh.region, (std::vector<int32_t>{6, 42}));
 }
 
-TEST(MeshIoGmsh, WithoutEntitiesTheEntityTagIsTheRegion) {
+TEST(HexmeshGmsh, WithoutEntitiesTheEntityTagIsTheRegion) {
   TempDir dir;
   const HexMesh mesh = read_text(dir, "plain.msh",
                                  "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n"
@@ -502,7 +502,7 @@ TEST(MeshIoGmsh, WithoutEntitiesTheEntityTagIsTheRegion) {
   EXPECT_EQ(mesh.region, std::vector<int32_t>{4});
 }
 
-TEST(MeshIoGmsh, BadFiles) {
+TEST(HexmeshGmsh, BadFiles) {
   TempDir dir;
   const std::string format = "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n";
   const std::string nodes =
@@ -600,7 +600,7 @@ std::string vtu_file(std::size_t points, std::size_t cells, const std::string& a
          arrays_cells + "</Cells>\n<CellData>\n" + arrays_cell_data + "</CellData>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n";
 }
 
-TEST(MeshIoVtu, ReadsInlineAsciiAndBase64InEitherByteOrder) {
+TEST(HexmeshVtu, ReadsInlineAsciiAndBase64InEitherByteOrder) {
   TempDir dir;
   const HexMesh mesh = sample_mesh();
   std::vector<double> xyz;
@@ -636,7 +636,7 @@ TEST(MeshIoVtu, ReadsInlineAsciiAndBase64InEitherByteOrder) {
     }
 }
 
-TEST(MeshIoVtu, MissingRegionArrayReadsAsZero) {
+TEST(HexmeshVtu, MissingRegionArrayReadsAsZero) {
   TempDir dir;
   const HexMesh mesh = sample_mesh();
   std::vector<double> xyz;
@@ -658,7 +658,7 @@ TEST(MeshIoVtu, MissingRegionArrayReadsAsZero) {
   EXPECT_EQ(got.region, std::vector<int32_t>(mesh.hexes.size(), 0));
 }
 
-TEST(MeshIoVtu, BadFiles) {
+TEST(HexmeshVtu, BadFiles) {
   TempDir dir;
   write_hex_mesh(sample_mesh(), dir / "good.vtu");
   const std::string good = read_bytes(dir / "good.vtu");
@@ -716,7 +716,7 @@ TEST(MeshIoVtu, BadFiles) {
 // ---------------------------------------------------------------------------------------------
 // Files for and from meshio (driven by tests/test_meshio_formats.py)
 
-TEST(MeshIoSamples, WriteSamples) {
+TEST(HexmeshSamples, WriteSamples) {
   const char* out = std::getenv("MCHEX_MESHIO_OUT");
   TempDir own;
   const fs::path dir = out != nullptr ? fs::path(out) : own.path();
@@ -728,7 +728,7 @@ TEST(MeshIoSamples, WriteSamples) {
 
 // Reads every file in $MCHEX_MESHIO_IN and writes it back as NAME.vtu into $MCHEX_MESHIO_OUT, where
 // the python side compares it with what meshio was given.
-TEST(MeshIoSamples, ConvertSamples) {
+TEST(HexmeshSamples, ConvertSamples) {
   const char* in = std::getenv("MCHEX_MESHIO_IN");
   const char* out = std::getenv("MCHEX_MESHIO_OUT");
   if (in == nullptr || out == nullptr) GTEST_SKIP() << "MCHEX_MESHIO_IN/OUT not set (test_meshio_formats.py sets them)";
@@ -745,7 +745,7 @@ TEST(MeshIoSamples, ConvertSamples) {
 }
 
 // Run by hand: --gtest_also_run_disabled_tests --gtest_filter=*LargeMeshTiming*
-TEST(MeshIoTiming, DISABLED_LargeMeshTiming) {
+TEST(HexmeshTiming, DISABLED_LargeMeshTiming) {
   TempDir dir;
   const HexMesh mesh = grid_mesh(171);  // 5.0M hexes, 5.1M points
   for (const char* ext : {".mesh", ".vtu", ".msh"}) {

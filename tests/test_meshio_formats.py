@@ -1,11 +1,11 @@
 """Our .mesh/.vtu/.msh files checked against meshio, an independent reader and writer.
 
 Both directions go through the gtest binary test_mesh_io (beside the CLI in the build tree):
-  - its MeshIoSamples.WriteSamples test writes the sample mesh in the three formats with our
+  - its HexmeshSamples.WriteSamples test writes the sample mesh in the three formats with our
     writer; meshio reads them and they must hold the sample, rebuilt here independently, with
     bit-identical points;
   - meshio writes the sample (and variants with surface cells, several blocks, other byte layouts)
-    in the three formats; MeshIoSamples.ConvertSamples reads each with our reader and writes it
+    in the three formats; HexmeshSamples.ConvertSamples reads each with our reader and writes it
     back as .vtu, which meshio reads again for the comparison.
 
 ctest runs this from tests/ with MCHEX_GPU set to the CLI; MCHEX_TEST_MESH_IO may name the gtest
@@ -80,7 +80,7 @@ class MeshioFormats(unittest.TestCase):
 
     def run_gtest(self, name, **env):
         result = subprocess.run(
-            [self.binary, f"--gtest_filter=MeshIoSamples.{name}"],
+            [self.binary, f"--gtest_filter=HexmeshSamples.{name}"],
             env=dict(os.environ, **env), capture_output=True, text=True, timeout=300)
         output = result.stdout + result.stderr
         self.assertEqual(result.returncode, 0, output)
