@@ -1,7 +1,7 @@
 // MEDIT, VTU and Gmsh 4.1 files for HexMesh; mesh_io.h states the contract.
 //
 // Writers format large tables chunk by chunk on all threads (tbb::parallel_pipeline) and write the
-// chunks in order, so memory stays bounded and a 5M-hex mesh takes seconds. Readers load the whole
+// chunks in order, so memory stays bounded and a 5M-hex mesh takes seconds. Readers map the whole
 // file and parse it in place; every count read from a file is checked against the bytes that are
 // left before anything is allocated for it.
 #include "core/mesh_io.h"
