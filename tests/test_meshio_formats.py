@@ -1,0 +1,200 @@
+"""Our .mesh/.vtu/.msh files checked against meshio, an independent reader and writer.
+
+Both directions go through the gtest binary test_mesh_io (beside the CLI in the build tree):
+  - its HexmeshSamples.WriteSamples test writes the sample mesh in the three formats with our
+    writer; meshio reads them and they must hold the sample, rebuilt here independently, with
+    bit-identical points;
+  - meshio writes the sample (and variants with surface cells, several blocks, other byte layouts)
+    in the three formats; HexmeshSamples.ConvertSamples reads each with our reader and writes it
+    back as .vtu, which meshio reads again for the comparison.
+
+ctest runs this from tests/ with MCHEX_GPU set to the CLI; MCHEX_TEST_MESH_IO may name the gtest
+binary directly.
+"""
+
+import os
+import subprocess
+import sys
+import tempfile
+import unittest
+
+try:
+    import meshio
+    import numpy as np
+except ImportError:
+    # ctest may run an interpreter of its own (a pyenv one, say) without Debian's python3-meshio
+    # and python3-numpy, which setup.sh installs for /usr/bin/python3 of the same version.
+    sys.path.append("/usr/lib/python3/dist-packages")
+    try:
+        import meshio
+        import numpy as np
+    except ImportError as error:
+        raise ImportError(
+            f"{error}: this test needs meshio and numpy (setup.sh installs python3-meshio and "
+            f"python3-numpy); {sys.executable} cannot import them"
+        ) from error
+
+
+def sample():
+    """The mesh of sample_mesh() in test_mesh_io.cpp, built from its description."""
+    points = [[i / 3.0, j * 0.1, float(k)] for k in range(3) for j in range(3) for i in range(3)]
+    points[0] = [-0.0, 1e-17, 1.0 / 3.0]
+    points[4][0] = 1e300
+    points[13] = [5e-324, -1.7976931348623157e308, 0.1 + 0.2]
+    points[26][2] = -2.2250738585072014e-308
+    hexes = []
+    for k in range(2):
+        for j in range(2):
+            for i in range(2):
+                b = i + 3 * j + 9 * k
+                # VTK_HEXAHEDRON: bottom face counter-clockwise seen from +z, then the top face.
+                hexes.append([b, b + 1, b + 4, b + 3, b + 9, b + 10, b + 13, b + 12])
+    regions = [1, 2, 2, 1, 3, 1, 1, 2]
+    return (np.array(points, dtype=np.float64), np.array(hexes, dtype=np.int64),
+            np.array(regions, dtype=np.int64))
+
+
+def gtest_binary():
+    explicit = os.environ.get("MCHEX_TEST_MESH_IO")
+    if explicit:
+        return explicit
+    cli = os.environ.get("MCHEX_GPU")
+    if cli:
+        return os.path.normpath(os.path.join(os.path.dirname(cli), "..", "tests", "test_mesh_io"))
+    return None
+
+
+class MeshioFormats(unittest.TestCase):
+    def setUp(self):
+        self.binary = gtest_binary()
+        if self.binary is None:
+            self.skipTest("MCHEX_GPU (or MCHEX_TEST_MESH_IO) is not set: run through ctest")
+        self.assertTrue(os.access(self.binary, os.X_OK), f"no test binary at {self.binary}")
+        self.tmp = tempfile.TemporaryDirectory(prefix="mchex_meshio_")
+        self.addCleanup(self.tmp.cleanup)
+
+    def folder(self, name):
+        path = os.path.join(self.tmp.name, name)
+        os.makedirs(path)
+        return path
+
+    def run_gtest(self, name, **env):
+        result = subprocess.run(
+            [self.binary, f"--gtest_filter=HexmeshSamples.{name}"],
+            env=dict(os.environ, **env), capture_output=True, text=True, timeout=300)
+        output = result.stdout + result.stderr
+        self.assertEqual(result.returncode, 0, output)
+        self.assertIn("[  PASSED  ] 1 test", output, output)
+
+    def assert_points_exact(self, got, expected):
+        self.assertEqual(got.dtype, np.float64)
+        self.assertEqual(got.shape, expected.shape)
+        # Compare bit patterns: -0.0 == 0.0 would hide a lost sign.
+        np.testing.assert_array_equal(np.ascontiguousarray(got).view(np.uint64), expected.view(np.uint64))
+
+    def hexes_of(self, mesh, key):
+        """Hexahedra and their labels in file order; every other cell type is a failure."""
+        hexes, labels = [], []
+        for block, data in zip(mesh.cells, mesh.cell_data[key]):
+            self.assertEqual(block.type, "hexahedron")
+            hexes.append(block.data)
+            labels.append(data)
+        return np.concatenate(hexes), np.concatenate(labels)
+
+    def test_meshio_reads_what_we_write(self):
+        out = self.folder("ours")
+        self.run_gtest("WriteSamples", MCHEX_MESHIO_OUT=out)
+        points, hexes, regions = sample()
+
+        mesh = meshio.read(os.path.join(out, "sample.mesh"))
+        self.assert_points_exact(mesh.points, points)
+        got_hexes, got_regions = self.hexes_of(mesh, "medit:ref")
+        np.testing.assert_array_equal(got_hexes, hexes)
+        np.testing.assert_array_equal(got_regions, regions)
+        np.testing.assert_array_equal(mesh.point_data["medit:ref"], np.zeros(len(points)))
+
+        mesh = meshio.read(os.path.join(out, "sample.vtu"))
+        self.assert_points_exact(mesh.points, points)
+        got_hexes, got_regions = self.hexes_of(mesh, "region")
+        np.testing.assert_array_equal(got_hexes, hexes)
+        np.testing.assert_array_equal(got_regions, regions)
+        self.assertEqual(got_regions.dtype, np.int32)
+
+        mesh = meshio.read(os.path.join(out, "sample.msh"))
+        self.assert_points_exact(mesh.points, points)
+        got_hexes, got_regions = self.hexes_of(mesh, "gmsh:physical")
+        np.testing.assert_array_equal(got_hexes, hexes)
+        np.testing.assert_array_equal(got_regions, regions)
+        # Entity tags equal the regions when those are positive.
+        np.testing.assert_array_equal(self.hexes_of(mesh, "gmsh:geometrical")[1], regions)
+        self.assertEqual({name: list(v) for name, v in mesh.field_data.items()},
+                         {f"region_{r}": [r, 3] for r in (1, 2, 3)})
+
+    def test_we_read_what_meshio_writes(self):
+        points, hexes, regions = sample()
+        quads = np.array([[0, 1, 4, 3], [1, 2, 5, 4]])
+        files = {}  # file name -> (expected points, hexes, regions, exact points?)
+
+        def save(name, mesh, expected_hexes=hexes, expected_regions=regions, exact=True, **options):
+            meshio.write(os.path.join(inputs, name), mesh, **options)
+            files[name] = (points, expected_hexes, expected_regions, exact)
+
+        inputs = self.folder("meshio")
+        hex_only = [("hexahedron", hexes)]
+        save("medit.mesh", meshio.Mesh(points, hex_only, cell_data={"medit:ref": [regions]}),
+             file_format="medit")
+        # Surface cells beside the hexes: written as Quadrilaterals and Edges, which we skip.
+        save("medit_surface.mesh",
+             meshio.Mesh(points, [("quad", quads), ("hexahedron", hexes), ("line", quads[:, :2])],
+                         cell_data={"medit:ref": [np.array([7, 8]), regions, np.array([5, 6])]}),
+             file_format="medit")
+        save("binary.vtu",
+             meshio.Mesh(points, hex_only, cell_data={"region": [regions.astype(np.int32)]}),
+             file_format="vtu", binary=True, compression=None)
+        # Quads between the hexes, Int64 labels, UInt32 block headers (meshio's defaults).
+        save("mixed.vtu",
+             meshio.Mesh(points, [("hexahedron", hexes[:3]), ("quad", quads), ("hexahedron", hexes[3:])],
+                         cell_data={"region": [regions[:3], np.array([7, 8]), regions[3:]]}),
+             file_format="vtu", binary=True, compression=None)
+        # meshio's ascii VTU keeps 12 significant digits only.
+        save("ascii.vtu",
+             meshio.Mesh(points, hex_only, cell_data={"region": [regions.astype(np.int32)]}),
+             exact=False, file_format="vtu", binary=False)
+        # One hex block, no $Entities: the entity tag is the region.
+        save("single.msh",
+             meshio.Mesh(points, hex_only, cell_data={"gmsh:geometrical": [np.full(len(hexes), 5)],
+                                                      "gmsh:physical": [np.full(len(hexes), 5)]}),
+             expected_regions=np.full(len(hexes), 5), file_format="gmsh", binary=False)
+        # One block per region (meshio wants a distinct entity per block), entities 11..13 with
+        # the regions as physical tags, a quad block on a surface entity, nodes spread over the
+        # entities so that the node blocks are not in point order, physical names.
+        order = np.argsort(regions, kind="stable")
+        blocks = [("quad", quads)] + [("hexahedron", hexes[regions == r]) for r in (1, 2, 3)]
+        dim_tags = np.array([[3, 11 + i % 3] for i in range(len(points))])
+        dim_tags[0] = [2, 7]
+        save("blocks.msh",
+             meshio.Mesh(points, blocks,
+                         point_data={"gmsh:dim_tags": dim_tags},
+                         cell_data={"gmsh:geometrical": [np.full(len(b[1]), t) for b, t in zip(blocks, (7, 11, 12, 13))],
+                                    "gmsh:physical": [np.full(len(b[1]), t) for b, t in zip(blocks, (9, 1, 2, 3))]},
+                         field_data={"wall": np.array([9, 2]), "one": np.array([1, 3]),
+                                     "two": np.array([2, 3]), "three": np.array([3, 3])}),
+             expected_hexes=hexes[order], expected_regions=regions[order], file_format="gmsh", binary=False)
+
+        out = self.folder("converted")
+        self.run_gtest("ConvertSamples", MCHEX_MESHIO_IN=inputs, MCHEX_MESHIO_OUT=out)
+        self.assertEqual(sorted(os.listdir(out)), sorted(name + ".vtu" for name in files))
+        for name, (expected_points, expected_hexes, expected_regions, exact) in files.items():
+            with self.subTest(name):
+                mesh = meshio.read(os.path.join(out, name + ".vtu"))
+                if exact:
+                    self.assert_points_exact(mesh.points, expected_points)
+                else:
+                    np.testing.assert_allclose(mesh.points, expected_points, rtol=1e-11, atol=0)
+                got_hexes, got_regions = self.hexes_of(mesh, "region")
+                np.testing.assert_array_equal(got_hexes, expected_hexes)
+                np.testing.assert_array_equal(got_regions, expected_regions)
+
+
+if __name__ == "__main__":
+    unittest.main()
