@@ -119,31 +119,103 @@ double signed_value(Vec3 p, const ClosestPoint& cp, Vec3 pseudonormal) {
   return dot(p - cp.point, pseudonormal) > 0 ? -d : d;
 }
 
+
+// The triangles under a node inside a box aligned with their mean normal. Low in the tree a node
+// is a nearly flat piece of surface, so this box is thin where the axis-aligned one is fat, and
+// its distance is a much tighter lower bound: for a point far above a patch, the axis-aligned
+// boxes of tilted pieces a whole patch wide come within the search radius, oriented ones only
+// right under the point. High in the tree the normals cancel and the frame is arbitrary, which
+// is why the search takes the larger of the two distances.
+struct NodeFrame {
+  Vec3 axis[3];
+  double lo[3], hi[3];
+
+  double distance2(Vec3 p) const {
+    double d2 = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double t = dot(axis[a], p);
+      const double d = t < lo[a] ? lo[a] - t : (t > hi[a] ? t - hi[a] : 0);
+      d2 += d * d;
+    }
+    return d2;
+  }
+};
+
+std::vector<NodeFrame> node_frames(const TriangleSurface& s, const TriangleBvh& bvh) {
+  // Depth-first layout: the leaf slots under a node are one contiguous range.
+  std::vector<std::pair<uint32_t, uint32_t>> slots(bvh.nodes.size());
+  for (std::size_t n = bvh.nodes.size(); n-- > 0;) {
+    const BvhNode& node = bvh.nodes[n];
+    slots[n] = node.count ? std::pair{node.index, node.index + node.count}
+                          : std::pair{slots[n + 1].first, slots[node.index].second};
+  }
+  std::vector<NodeFrame> frames(bvh.nodes.size());
+  parallel_for(bvh.nodes.size(), [&](std::size_t n) {
+    const auto [first, last] = slots[n];
+    Vec3 normal{};
+    for (uint32_t k = first; k < last; ++k) {
+      const auto& t = s.triangles[bvh.leaf_triangles[k]];
+      normal += cross(s.vertices[t[1]] - s.vertices[t[0]], s.vertices[t[2]] - s.vertices[t[0]]);
+    }
+    NodeFrame& f = frames[n];
+    f.axis[0] = normalized(normal);
+    if (squared_norm(f.axis[0]) == 0) f.axis[0] = {0, 0, 1};  // normals cancel: any frame is a box
+    const Vec3 helper = std::abs(f.axis[0].x) < 0.6 ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
+    f.axis[1] = normalized(cross(f.axis[0], helper));
+    f.axis[2] = cross(f.axis[0], f.axis[1]);
+    double scale = 0;
+    for (int a = 0; a < 3; ++a) f.lo[a] = std::numeric_limits<double>::infinity(), f.hi[a] = -f.lo[a];
+    for (uint32_t k = first; k < last; ++k)
+      for (uint32_t v : s.triangles[bvh.leaf_triangles[k]])
+        for (int a = 0; a < 3; ++a) {
+          const double t = dot(f.axis[a], s.vertices[v]);
+          f.lo[a] = std::min(f.lo[a], t), f.hi[a] = std::max(f.hi[a], t);
+          scale = std::max(scale, std::abs(t));
+        }
+  // Rounding in the projections is a few ulps of the coordinates: pad by far more than that so
+    // the bound stays a bound.
+    for (int a = 0; a < 3; ++a) f.lo[a] -= 1e-12 * scale, f.hi[a] += 1e-12 * scale;
+  });
+  return frames;
+}
+
 }  // namespace
 
 struct SurfaceSdf::Impl {
   TriangleSurface surface;
   Pseudonormals normals;
   TriangleBvh bvh;
+  std::vector<NodeFrame> frames;
   Box box;
 
   explicit Impl(const TriangleSurface& s)
-      : surface(s), normals(s), bvh(TriangleBvh::build(s)), box(s.bounds()) {}
+      : surface(s), normals(s), bvh(TriangleBvh::build(s)), frames(node_frames(s, bvh)), box(s.bounds()) {}
+
+  // Lower bound of the squared distance from p to the triangles under node n; the oriented box
+  // is only consulted when the axis-aligned one does not already rule the node out.
+  double node_distance2(uint32_t n, Vec3 p, double best2) const {
+    const double d2 = bvh.box_distance2(n, p);
+    return d2 > best2 ? d2 : std::max(d2, frames[n].distance2(p));
+  }
 
   struct Query {
     ClosestPoint best;
     uint32_t best_triangle;
   };
 
-  // Nearest triangle to p among those within sqrt(bound2), nearest boxes first. Ties go to the
-  // lower triangle index, so the answer does not depend on the tree's shape or traversal order.
-  Query closest(Vec3 p, double bound2) const {
-    Query q{{p, bound2, -1}, std::numeric_limits<uint32_t>::max()};
+  // Nearest triangle to p, nearest boxes first, starting from a candidate triangle (the previous
+  // point's answer: on a grid it is usually the answer here too, so the search starts with an
+  // exact bound and only has to prove it). Ties go to the lower triangle index, so the answer does
+  // not depend on the candidate, the tree's shape or the traversal order.
+  Query closest(Vec3 p, uint32_t candidate) const {
+    const auto& c = surface.triangles[candidate];
+    Query q{closest_point_on_triangle(p, surface.vertices[c[0]], surface.vertices[c[1]], surface.vertices[c[2]]),
+            candidate};
     uint32_t stack[128];
     double stack_d2[128];
     int top = 0;
     stack[top] = 0;
-    stack_d2[top++] = bvh.box_distance2(0, p);
+    stack_d2[top++] = node_distance2(0, p, q.best.squared_distance);
     while (top > 0) {
       --top;
       if (stack_d2[top] > q.best.squared_distance) continue;
@@ -163,7 +235,7 @@ struct SurfaceSdf::Impl {
         continue;
       }
       const uint32_t a = stack[top] + 1, b = n.index;
-      double da = bvh.box_distance2(a, p), db = bvh.box_distance2(b, p);
+      double da = node_distance2(a, p, q.best.squared_distance), db = node_distance2(b, p, q.best.squared_distance);
       // Push the farther child first so the nearer one is searched first and shrinks the bound.
       const bool swap = da < db;
       const uint32_t first = swap ? b : a, second = swap ? a : b;
@@ -181,19 +253,12 @@ struct SurfaceSdf::Impl {
       std::fill(values.begin(), values.end(), -std::numeric_limits<double>::infinity());
       return;
     }
-    // Coherence bound: |d(p) - d(prev)| <= |p - prev| (distance is 1-Lipschitz), so the previous
-    // point's answer bounds this point's search; the slack covers rounding in that bound.
     parallel_chunks(points.size(), 256, [&](std::size_t b, std::size_t e) {
-      double prev_d = std::numeric_limits<double>::infinity();
-      Vec3 prev = points[b];
+      uint32_t candidate = 0;
       for (std::size_t i = b; i < e; ++i) {
-        const Vec3 p = points[i];
-        const double r = (prev_d + norm(p - prev)) * (1 + 1e-12) + 1e-300;
-        Query q = closest(p, r * r);
-        if (q.best.region < 0) q = closest(p, std::numeric_limits<double>::infinity());
-        values[i] = out(p, q);
-        prev = p;
-        prev_d = std::sqrt(q.best.squared_distance);
+        const Query q = closest(points[i], candidate);
+        values[i] = out(points[i], q);
+        candidate = q.best_triangle;
       }
     });
   }
