@@ -2,13 +2,49 @@
 
 #include <sys/resource.h>
 
+#include <condition_variable>
 #include <cstdio>
+#include <mutex>
+#include <thread>
 
 namespace mchex {
 
-void StageClock::finish(const std::string& name, double seconds) {
+struct StageClock::ProgressWatch::State {
+  std::string name;
+  std::mutex mutex;
+  std::condition_variable done;
+  bool stopped = false, announced = false;
+  std::thread thread;
+};
+
+StageClock::ProgressWatch::ProgressWatch(std::string name) : state_(std::make_unique<State>()) {
+  if (name.empty()) return;
+  state_->name = std::move(name);
+  state_->thread = std::thread([s = state_.get()] {
+    std::unique_lock lock(s->mutex);
+    if (!s->done.wait_for(lock, std::chrono::seconds(1), [s] { return s->stopped; })) {
+      std::fprintf(stderr, "mchex-gpu: %s ...\n", s->name.c_str());
+      s->announced = true;
+    }
+  });
+}
+
+bool StageClock::ProgressWatch::stop() {
+  if (!state_->thread.joinable()) return false;
+  {
+    std::lock_guard lock(state_->mutex);
+    state_->stopped = true;
+  }
+  state_->done.notify_one();
+  state_->thread.join();
+  return state_->announced;
+}
+
+StageClock::ProgressWatch::~ProgressWatch() { stop(); }
+
+void StageClock::finish(const std::string& name, double seconds, bool announced) {
   stages_.emplace_back(name, seconds);
-  if (!quiet_ && seconds > 1.0) std::fprintf(stderr, "mchex-gpu: %s took %.1f s\n", name.c_str(), seconds);
+  if (announced) std::fprintf(stderr, "mchex-gpu: %s done in %.1f s\n", name.c_str(), seconds);
 }
 
 nlohmann::json StageClock::to_json() const {

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <chrono>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -13,24 +14,39 @@ namespace mchex {
 class StageClock {
  public:
   explicit StageClock(bool quiet) : quiet_(quiet) {}
-  // Runs f as the named stage; a stage that takes more than a second leaves one progress line
-  // on stderr (unless quiet).
+  // Runs f as the named stage. A stage still running after a second says so on stderr, and
+  // when it ends how long it took (unless quiet); short stages print nothing.
   template <class F>
   decltype(auto) run(const std::string& name, F&& f) {
-    const auto t0 = std::chrono::steady_clock::now();
     struct Done {
       StageClock* self;
       const std::string& name;
       std::chrono::steady_clock::time_point t0;
-      ~Done() { self->finish(name, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()); }
-    } done{this, name, t0};
+      ProgressWatch watch;
+      ~Done() {
+        const bool announced = watch.stop();
+        self->finish(name, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), announced);
+      }
+    } done{this, name, std::chrono::steady_clock::now(), ProgressWatch(quiet_ ? "" : name)};
     return f();
   }
   nlohmann::json to_json() const;
   double total() const;
 
  private:
-  void finish(const std::string& name, double seconds);
+  // Prints "mchex-gpu: NAME ..." from a helper thread once NAME has run for a second.
+  class ProgressWatch {
+   public:
+    explicit ProgressWatch(std::string name);
+    ~ProgressWatch();
+    ProgressWatch(ProgressWatch&&) = delete;
+    bool stop();  // true when the line was printed
+
+   private:
+    struct State;
+    std::unique_ptr<State> state_;
+  };
+  void finish(const std::string& name, double seconds, bool announced);
   bool quiet_;
   std::vector<std::pair<std::string, double>> stages_;
 };
