@@ -7,9 +7,7 @@ namespace mchex {
 namespace {
 
 // Corner index of reference vertex (a, b, c), a, b, c in {0,1}, in the Eq. 8 / VTK order.
-constexpr int corner_index(int a, int b, int c) {
-  return 4 * c + (b == 0 ? a : 3 - a);
-}
+constexpr int corner_index(int a, int b, int c) { return 4 * c + (b == 0 ? a : 3 - a); }
 
 // The 12 edge vectors, grouped by direction. Each points in the + direction of its reference
 // axis, so that at corner (a,b,c) the columns of J are exactly xi[b][c], eta[a][c], zeta[a][b]

@@ -15,8 +15,8 @@
 namespace mchex {
 namespace {
 
-const HexCorners kUnitCube = {{{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0},
-                               {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}}};
+const HexCorners kUnitCube = {
+    {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}}};
 
 // Reference coordinates of each corner (paper Eq. 8 order).
 Vec3 reference_corner(int i) { return kUnitCube[i]; }
@@ -67,7 +67,8 @@ double evaluate_bernstein(const BernsteinCoefficients& beta, double xi, double e
   for (int k = 0; k < 3; ++k) {
     for (int j = 0; j < 3; ++j) {
       for (int i = 0; i < 3; ++i) {
-        sum += beta[i + 3 * j + 9 * k] * bernstein2(i, xi) * bernstein2(j, eta) * bernstein2(k, zeta);
+        sum +=
+            beta[i + 3 * j + 9 * k] * bernstein2(i, xi) * bernstein2(j, eta) * bernstein2(k, zeta);
       }
     }
   }
@@ -124,7 +125,7 @@ HexCorners mirrored(const HexCorners& c) {
   return m;
 }
 
-TEST(Quality, UnitCube) {
+TEST(quality, UnitCube) {
   const BernsteinCoefficients beta = bernstein_jacobian(kUnitCube);
   for (double b : beta) EXPECT_EQ(b, 1.0);
   EXPECT_TRUE(bernstein_certified(kUnitCube));
@@ -151,7 +152,7 @@ TEST(Quality, UnitCube) {
 
 // x -> A x + b has J = A everywhere, so det J is the constant det A and so is every Bernstein
 // coefficient. With small integer A and b every operation is exact: compare with ==.
-TEST(Quality, AffineIntegerHexesHaveEveryCoefficientEqualToDetA) {
+TEST(quality, AffineIntegerHexesHaveEveryCoefficientEqualToDetA) {
   std::mt19937_64 rng(11);
   for (int t = 0; t < 200; ++t) {
     const Affine a = random_affine(rng, true);
@@ -164,27 +165,29 @@ TEST(Quality, AffineIntegerHexesHaveEveryCoefficientEqualToDetA) {
     EXPECT_TRUE(bernstein_certified(c));
     EXPECT_EQ(jacobian_determinant(c, 0.25, 0.5, 0.75), d);
     // Scaled Jacobian: det of A's normalized columns, the same at all 9 points.
-    const double expected = triple(normalized(a.col[0]), normalized(a.col[1]), normalized(a.col[2]));
+    const double expected =
+        triple(normalized(a.col[0]), normalized(a.col[1]), normalized(a.col[2]));
     for (double s : scaled_jacobians(c)) EXPECT_NEAR(s, expected, 1e-15);
     const double h = (4 * norm(a.col[0]) + 4 * norm(a.col[1]) + 4 * norm(a.col[2])) / 12;
     EXPECT_NEAR(min_bernstein_scaled(c), d / (h * h * h), 1e-14 * d / (h * h * h));
   }
 }
 
-TEST(Quality, AffineRealHexesHaveEveryCoefficientEqualToDetA) {
+TEST(quality, AffineRealHexesHaveEveryCoefficientEqualToDetA) {
   std::mt19937_64 rng(12);
   for (int t = 0; t < 200; ++t) {
     const Affine a = random_affine(rng, false);
     const HexCorners c = map_corners(kUnitCube, a);
     const double d = a.det();
     // Rounding in the corners is relative to their size, a few units: scale the tolerance.
-    const double tol = 1e-13 * std::pow(norm(a.col[0]) + norm(a.col[1]) + norm(a.col[2]) + norm(a.b), 3);
+    const double tol =
+        1e-13 * std::pow(norm(a.col[0]) + norm(a.col[1]) + norm(a.col[2]) + norm(a.b), 3);
     for (double b : bernstein_jacobian(c)) ASSERT_NEAR(b, d, tol) << "trial " << t;
     EXPECT_NEAR(hex_volume(c), d, tol);
   }
 }
 
-TEST(Quality, MirroredHexHasEveryCoefficientNegated) {
+TEST(quality, MirroredHexHasEveryCoefficientNegated) {
   for (double b : bernstein_jacobian(mirrored(kUnitCube))) EXPECT_EQ(b, -1.0);
   EXPECT_FALSE(bernstein_certified(mirrored(kUnitCube)));
   EXPECT_EQ(scaled_jacobian(mirrored(kUnitCube)), -1.0);
@@ -211,7 +214,7 @@ TEST(Quality, MirroredHexHasEveryCoefficientNegated) {
 }
 
 // Corner 6 pushed through the centre to (1/4, 1/4, 1/4): the element folds over itself.
-TEST(Quality, CornerPushedThroughIsNotCertified) {
+TEST(quality, CornerPushedThroughIsNotCertified) {
   HexCorners c = kUnitCube;
   c[6] = {0.25, 0.25, 0.25};
   EXPECT_FALSE(bernstein_certified(c));
@@ -224,7 +227,7 @@ TEST(Quality, CornerPushedThroughIsNotCertified) {
 // An element that the customary 9-point measure passes but that folds inside: det J > 0 at the
 // 8 corners and the centre, det J < 0 elsewhere. Found by a search over corners on a 1/4
 // lattice (two corners moved); all coordinates are dyadic, so the values below are exact.
-TEST(Quality, NinePointMeasurePassesAnElementThatFoldsInside) {
+TEST(quality, NinePointMeasurePassesAnElementThatFoldsInside) {
   HexCorners c = kUnitCube;
   c[3] = {-1.25, 2, 2};
   c[6] = {0.25, 3, 0.75};
@@ -244,7 +247,7 @@ TEST(Quality, NinePointMeasurePassesAnElementThatFoldsInside) {
 // columns at grid and random points; (2) coefficients rebuilt from det J at {0,1/2,1}^3
 // agree; (3) min beta bounds det J from below (convex hull property); (4) corner coefficients
 // are det J at the corners.
-TEST(Quality, BernsteinCoefficientsMatchSampledDeterminant) {
+TEST(quality, BernsteinCoefficientsMatchSampledDeterminant) {
   std::mt19937_64 rng(14);
   std::uniform_real_distribution<double> u(0, 1);
   int uncertified = 0;
@@ -312,7 +315,7 @@ double midpoint_volume(const HexCorners& c, int n) {
   return v / (double(n) * n * n);
 }
 
-TEST(Quality, VolumeIsExactForTrilinearHexes) {
+TEST(quality, VolumeIsExactForTrilinearHexes) {
   std::mt19937_64 rng(15);
   for (int t = 0; t < 100; ++t) {
     const HexCorners c = random_hex(rng, 0.4);
@@ -324,13 +327,19 @@ TEST(Quality, VolumeIsExactForTrilinearHexes) {
   }
   // A frustum: square base 2 x 2, top 1 x 1 centred one unit above. Its faces are planar, so
   // the trilinear element is the polyhedron: V = h (A1 + A2 + sqrt(A1 A2)) / 3 = 7/3.
-  const HexCorners frustum = {{{0, 0, 0}, {2, 0, 0}, {2, 2, 0}, {0, 2, 0},
-                               {0.5, 0.5, 1}, {1.5, 0.5, 1}, {1.5, 1.5, 1}, {0.5, 1.5, 1}}};
+  const HexCorners frustum = {{{0, 0, 0},
+                               {2, 0, 0},
+                               {2, 2, 0},
+                               {0, 2, 0},
+                               {0.5, 0.5, 1},
+                               {1.5, 0.5, 1},
+                               {1.5, 1.5, 1},
+                               {0.5, 1.5, 1}}};
   EXPECT_NEAR(hex_volume(frustum), 7.0 / 3.0, 1e-15);
   EXPECT_TRUE(bernstein_certified(frustum));
 }
 
-TEST(Quality, EdgeRatioAndScaledJacobianOfSimpleShapes) {
+TEST(quality, EdgeRatioAndScaledJacobianOfSimpleShapes) {
   const HexCorners box = map_corners(kUnitCube, [](Vec3 p) { return Vec3{p.x, 2 * p.y, 3 * p.z}; });
   EXPECT_EQ(edge_ratio(box), 3.0);
   EXPECT_EQ(scaled_jacobian(box), 1.0);
@@ -340,7 +349,9 @@ TEST(Quality, EdgeRatioAndScaledJacobianOfSimpleShapes) {
 
   // Shear x += s y: columns (1,0,0), (s,1,0), (0,0,1); scaled Jacobian 1 / sqrt(1 + s^2).
   const double s = 0.75;
-  const HexCorners sheared = map_corners(kUnitCube, [&](Vec3 p) { return Vec3{p.x + s * p.y, p.y, p.z}; });
+  const HexCorners sheared = map_corners(kUnitCube, [&](Vec3 p) {
+    return Vec3{p.x + s * p.y, p.y, p.z};
+  });
   for (double v : scaled_jacobians(sheared)) EXPECT_NEAR(v, 1 / std::sqrt(1 + s * s), 1e-15);
   EXPECT_EQ(hex_volume(sheared), 1.0);
 
@@ -360,7 +371,7 @@ TEST(Quality, EdgeRatioAndScaledJacobianOfSimpleShapes) {
 
 // The scaled minimum coefficient is invariant under uniform scaling and translation; the raw
 // one scales with the cube of the size.
-TEST(Quality, ScaledBernsteinIsSizeIndependent) {
+TEST(quality, ScaledBernsteinIsSizeIndependent) {
   std::mt19937_64 rng(16);
   for (int t = 0; t < 50; ++t) {
     const HexCorners c = random_hex(rng, 0.3);
