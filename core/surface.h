@@ -37,10 +37,18 @@ struct SurfaceReport {
 };
 
 // Merges vertices with bit-identical coordinates (+0 and -0 are the same), drops nothing else.
-// Returns how many vertices were merged.
+// The first occurrence of each position keeps its value and the survivors keep their order, so
+// the result depends only on the input. Returns how many vertices were merged.
 std::size_t weld_vertices(TriangleSurface& surface);
 
-SurfaceReport validate_surface(const TriangleSurface& surface);
+// Triangles with a repeated vertex index count as degenerate and add no edges: welding collapses
+// slivers to them, and their doubled edge would otherwise make a closed surface look
+// non-manifold. They still join the component of their neighbours. An empty surface is not
+// closed. The volume is taken about the centre of bounds() to keep far-off models accurate; it
+// is origin-independent only for closed surfaces. welded_vertices is copied into the report
+// (validate_surface cannot know what the reader merged). Throws InputError if a triangle
+// refers to a vertex that does not exist.
+SurfaceReport validate_surface(const TriangleSurface& surface, std::size_t welded_vertices = 0);
 
 // Reads STL (ascii and binary), OBJ, OFF or PLY, welds and checks indices and coordinates.
 // Throws InputError("PATH: reason") on anything unreadable, empty, non-finite or out of range.

@@ -1,0 +1,387 @@
+// Element quality of one trilinear hex (core/quality.h): the Bernstein certificate of det J
+// (paper Section 5, Eq. 7-10), the 9-point scaled Jacobian, edge ratio and exact volume.
+// References here are independent of the library's formulas: det J sampled from the Jacobian
+// columns, the Bernstein polynomial summed from its basis, coefficients rebuilt from values at
+// {0, 1/2, 1}^3, volumes by Gauss and midpoint quadrature, and closed forms for affine hexes.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include "core/quality.h"
+
+namespace mchex {
+namespace {
+
+const HexCorners kUnitCube = {
+    {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}}};
+
+// Reference coordinates of each corner (paper Eq. 8 order).
+Vec3 reference_corner(int i) { return kUnitCube[i]; }
+
+HexCorners map_corners(const HexCorners& c, auto&& f) {
+  HexCorners out;
+  for (int i = 0; i < 8; ++i) out[i] = f(c[i]);
+  return out;
+}
+
+struct Affine {
+  Vec3 col[3];  // A's columns
+  Vec3 b;
+  Vec3 operator()(Vec3 p) const { return p.x * col[0] + p.y * col[1] + p.z * col[2] + b; }
+  double det() const { return triple(col[0], col[1], col[2]); }
+};
+
+// A random affine map with det A > 0. Integer entries keep every product exact in doubles.
+Affine random_affine(std::mt19937_64& rng, bool integer) {
+  std::uniform_int_distribution<int> small(-3, 3);
+  std::uniform_real_distribution<double> real(-2.0, 2.0);
+  auto draw = [&] { return integer ? static_cast<double>(small(rng)) : real(rng); };
+  while (true) {
+    Affine a{{{draw(), draw(), draw()}, {draw(), draw(), draw()}, {draw(), draw(), draw()}},
+             {draw(), draw(), draw()}};
+    const double d = a.det();
+    if (d > 0.1) return a;
+    if (d < -0.1) {  // flip one column to make it positive
+      a.col[0] = -a.col[0];
+      return a;
+    }
+  }
+}
+
+// The unit cube with each corner moved by up to `amount` in each coordinate.
+HexCorners random_hex(std::mt19937_64& rng, double amount) {
+  std::uniform_real_distribution<double> d(-amount, amount);
+  return map_corners(kUnitCube, [&](Vec3 p) { return p + Vec3{d(rng), d(rng), d(rng)}; });
+}
+
+double bernstein2(int i, double t) {
+  return i == 0 ? (1 - t) * (1 - t) : (i == 1 ? 2 * t * (1 - t) : t * t);
+}
+
+// sum beta_ijk B_i(xi) B_j(eta) B_k(zeta), written out here rather than taken from the library.
+double evaluate_bernstein(const BernsteinCoefficients& beta, double xi, double eta, double zeta) {
+  double sum = 0;
+  for (int k = 0; k < 3; ++k) {
+    for (int j = 0; j < 3; ++j) {
+      for (int i = 0; i < 3; ++i) {
+        sum +=
+            beta[i + 3 * j + 9 * k] * bernstein2(i, xi) * bernstein2(j, eta) * bernstein2(k, zeta);
+      }
+    }
+  }
+  return sum;
+}
+
+// Coefficients from det J at {0, 1/2, 1}^3: per axis a quadratic with values p0, pm, p1 has
+// Bernstein coefficients p0, 2 pm - (p0 + p1) / 2, p1 (since p(1/2) = (b0 + 2 b1 + b2) / 4).
+BernsteinCoefficients coefficients_from_values(const HexCorners& c) {
+  double v[3][3][3];  // [k][j][i]
+  for (int k = 0; k < 3; ++k) {
+    for (int j = 0; j < 3; ++j) {
+      for (int i = 0; i < 3; ++i) v[k][j][i] = jacobian_determinant(c, i / 2.0, j / 2.0, k / 2.0);
+    }
+  }
+  auto convert = [](double& p0, double& pm, double& p1) { pm = 2 * pm - (p0 + p1) / 2; };
+  for (int k = 0; k < 3; ++k) {
+    for (int j = 0; j < 3; ++j) convert(v[k][j][0], v[k][j][1], v[k][j][2]);
+  }
+  for (int k = 0; k < 3; ++k) {
+    for (int i = 0; i < 3; ++i) convert(v[k][0][i], v[k][1][i], v[k][2][i]);
+  }
+  for (int j = 0; j < 3; ++j) {
+    for (int i = 0; i < 3; ++i) convert(v[0][j][i], v[1][j][i], v[2][j][i]);
+  }
+  BernsteinCoefficients beta{};
+  for (int k = 0; k < 3; ++k) {
+    for (int j = 0; j < 3; ++j) {
+      for (int i = 0; i < 3; ++i) beta[bernstein_index(i, j, k)] = v[k][j][i];
+    }
+  }
+  return beta;
+}
+
+double sampled_min_det(const HexCorners& c, int n) {
+  double m = std::numeric_limits<double>::infinity();
+  for (int k = 0; k <= n; ++k) {
+    for (int j = 0; j <= n; ++j) {
+      for (int i = 0; i <= n; ++i) {
+        m = std::min(m, jacobian_determinant(c, double(i) / n, double(j) / n, double(k) / n));
+      }
+    }
+  }
+  return m;
+}
+
+// Swapping the bottom and top faces mirrors zeta -> 1 - zeta.
+HexCorners mirrored(const HexCorners& c) {
+  HexCorners m;
+  for (int i = 0; i < 4; ++i) {
+    m[i] = c[i + 4];
+    m[i + 4] = c[i];
+  }
+  return m;
+}
+
+TEST(quality, UnitCube) {
+  const BernsteinCoefficients beta = bernstein_jacobian(kUnitCube);
+  for (double b : beta) EXPECT_EQ(b, 1.0);
+  EXPECT_TRUE(bernstein_certified(kUnitCube));
+  EXPECT_EQ(min_bernstein(kUnitCube), 1.0);
+  EXPECT_EQ(min_bernstein_scaled(kUnitCube), 1.0);
+  for (double s : scaled_jacobians(kUnitCube)) EXPECT_EQ(s, 1.0);
+  EXPECT_EQ(scaled_jacobian(kUnitCube), 1.0);
+  for (double d : corner_jacobians(kUnitCube)) EXPECT_EQ(d, 1.0);
+  EXPECT_EQ(edge_ratio(kUnitCube), 1.0);
+  EXPECT_EQ(mean_edge_length(kUnitCube), 1.0);
+  EXPECT_EQ(hex_volume(kUnitCube), 1.0);
+  EXPECT_EQ(jacobian_determinant(kUnitCube, 0.3, 0.7, 0.1), 1.0);
+  const auto j = jacobian(kUnitCube, 0.5, 0.25, 0.75);
+  EXPECT_EQ(j[0], (Vec3{1, 0, 0}));
+  EXPECT_EQ(j[1], (Vec3{0, 1, 0}));
+  EXPECT_EQ(j[2], (Vec3{0, 0, 1}));
+  const HexQuality q = hex_quality(kUnitCube);
+  EXPECT_EQ(q.min_corner_jacobian, 1.0);
+  EXPECT_EQ(q.min_bernstein, 1.0);
+  EXPECT_EQ(q.scaled_jacobian, 1.0);
+  EXPECT_EQ(q.volume, 1.0);
+  EXPECT_TRUE(q.certified());
+}
+
+// x -> A x + b has J = A everywhere, so det J is the constant det A and so is every Bernstein
+// coefficient. With small integer A and b every operation is exact: compare with ==.
+TEST(quality, AffineIntegerHexesHaveEveryCoefficientEqualToDetA) {
+  std::mt19937_64 rng(11);
+  for (int t = 0; t < 200; ++t) {
+    const Affine a = random_affine(rng, true);
+    const HexCorners c = map_corners(kUnitCube, a);
+    const double d = a.det();
+    for (double b : bernstein_jacobian(c)) ASSERT_EQ(b, d) << "trial " << t;
+    for (double x : corner_jacobians(c)) ASSERT_EQ(x, d);
+    EXPECT_EQ(hex_volume(c), d);
+    EXPECT_EQ(min_bernstein(c), d);
+    EXPECT_TRUE(bernstein_certified(c));
+    EXPECT_EQ(jacobian_determinant(c, 0.25, 0.5, 0.75), d);
+    // Scaled Jacobian: det of A's normalized columns, the same at all 9 points.
+    const double expected =
+        triple(normalized(a.col[0]), normalized(a.col[1]), normalized(a.col[2]));
+    for (double s : scaled_jacobians(c)) EXPECT_NEAR(s, expected, 1e-15);
+    const double h = (4 * norm(a.col[0]) + 4 * norm(a.col[1]) + 4 * norm(a.col[2])) / 12;
+    EXPECT_NEAR(min_bernstein_scaled(c), d / (h * h * h), 1e-14 * d / (h * h * h));
+  }
+}
+
+TEST(quality, AffineRealHexesHaveEveryCoefficientEqualToDetA) {
+  std::mt19937_64 rng(12);
+  for (int t = 0; t < 200; ++t) {
+    const Affine a = random_affine(rng, false);
+    const HexCorners c = map_corners(kUnitCube, a);
+    const double d = a.det();
+    // Rounding in the corners is relative to their size, a few units: scale the tolerance.
+    const double tol =
+        1e-13 * std::pow(norm(a.col[0]) + norm(a.col[1]) + norm(a.col[2]) + norm(a.b), 3);
+    for (double b : bernstein_jacobian(c)) ASSERT_NEAR(b, d, tol) << "trial " << t;
+    EXPECT_NEAR(hex_volume(c), d, tol);
+  }
+}
+
+TEST(quality, MirroredHexHasEveryCoefficientNegated) {
+  for (double b : bernstein_jacobian(mirrored(kUnitCube))) EXPECT_EQ(b, -1.0);
+  EXPECT_FALSE(bernstein_certified(mirrored(kUnitCube)));
+  EXPECT_EQ(scaled_jacobian(mirrored(kUnitCube)), -1.0);
+  EXPECT_EQ(hex_volume(mirrored(kUnitCube)), -1.0);
+
+  // In general det J of the mirror at zeta is -det J at 1 - zeta: beta'_ijk = -beta_ij(2-k).
+  std::mt19937_64 rng(13);
+  for (int t = 0; t < 100; ++t) {
+    const HexCorners c = random_hex(rng, 0.15);
+    ASSERT_TRUE(bernstein_certified(c));
+    const BernsteinCoefficients beta = bernstein_jacobian(c);
+    const BernsteinCoefficients m = bernstein_jacobian(mirrored(c));
+    for (int k = 0; k < 3; ++k) {
+      for (int j = 0; j < 3; ++j) {
+        for (int i = 0; i < 3; ++i) {
+          EXPECT_NEAR(m[bernstein_index(i, j, k)], -beta[bernstein_index(i, j, 2 - k)], 1e-12);
+          EXPECT_LT(m[bernstein_index(i, j, k)], 0);
+        }
+      }
+    }
+    EXPECT_FALSE(bernstein_certified(mirrored(c)));
+    EXPECT_LT(scaled_jacobian(mirrored(c)), 0);
+  }
+}
+
+// Corner 6 pushed through the centre to (1/4, 1/4, 1/4): the element folds over itself.
+TEST(quality, CornerPushedThroughIsNotCertified) {
+  HexCorners c = kUnitCube;
+  c[6] = {0.25, 0.25, 0.25};
+  EXPECT_FALSE(bernstein_certified(c));
+  EXPECT_LT(min_bernstein(c), 0);
+  EXPECT_LT(corner_jacobians(c)[6], 0);
+  EXPECT_LT(sampled_min_det(c, 16), 0);
+  EXPECT_LE(min_bernstein(c), sampled_min_det(c, 16));
+}
+
+// An element that the customary 9-point measure passes but that folds inside: det J > 0 at the
+// 8 corners and the centre, det J < 0 elsewhere. Found by a search over corners on a 1/4
+// lattice (two corners moved); all coordinates are dyadic, so the values below are exact.
+TEST(quality, NinePointMeasurePassesAnElementThatFoldsInside) {
+  HexCorners c = kUnitCube;
+  c[3] = {-1.25, 2, 2};
+  c[6] = {0.25, 3, 0.75};
+  for (double d : corner_jacobians(c)) EXPECT_GT(d, 0);
+  EXPECT_GT(jacobian_determinant(c, 0.5, 0.5, 0.5), 0);
+  EXPECT_GT(scaled_jacobian(c), 0);  // all 9 scaled values positive
+
+  const double sampled = sampled_min_det(c, 32);
+  EXPECT_LT(sampled, -0.4);
+  EXPECT_FALSE(bernstein_certified(c));
+  EXPECT_LE(min_bernstein(c), sampled);
+  EXPECT_FALSE(hex_quality(c).certified());
+}
+
+// The library's coefficients against independent references on random, sometimes inverted,
+// trilinear hexes: (1) the Bernstein polynomial summed here equals det J from the Jacobian
+// columns at grid and random points; (2) coefficients rebuilt from det J at {0,1/2,1}^3
+// agree; (3) min beta bounds det J from below (convex hull property); (4) corner coefficients
+// are det J at the corners.
+TEST(quality, BernsteinCoefficientsMatchSampledDeterminant) {
+  std::mt19937_64 rng(14);
+  std::uniform_real_distribution<double> u(0, 1);
+  int uncertified = 0;
+  for (int t = 0; t < 300; ++t) {
+    const HexCorners c = random_hex(rng, t < 150 ? 0.3 : 0.6);
+    const BernsteinCoefficients beta = bernstein_jacobian(c);
+    const BernsteinCoefficients rebuilt = coefficients_from_values(c);
+    for (int i = 0; i < 27; ++i) ASSERT_NEAR(beta[i], rebuilt[i], 1e-12) << "trial " << t;
+
+    const double lo = min_bernstein(c);
+    const int n = 10;
+    for (int k = 0; k <= n; ++k) {
+      for (int j = 0; j <= n; ++j) {
+        for (int i = 0; i <= n; ++i) {
+          const double x = double(i) / n, y = double(j) / n, z = double(k) / n;
+          const double d = jacobian_determinant(c, x, y, z);
+          ASSERT_NEAR(evaluate_bernstein(beta, x, y, z), d, 1e-12);
+          ASSERT_GE(d, lo - 1e-12);
+        }
+      }
+    }
+    for (int s = 0; s < 200; ++s) {
+      const double x = u(rng), y = u(rng), z = u(rng);
+      ASSERT_NEAR(evaluate_bernstein(beta, x, y, z), jacobian_determinant(c, x, y, z), 1e-12);
+    }
+    const auto corners = corner_jacobians(c);
+    for (int i = 0; i < 8; ++i) {
+      const Vec3 r = reference_corner(i);
+      const double at = jacobian_determinant(c, r.x, r.y, r.z);
+      EXPECT_NEAR(corners[i], at, 1e-12);
+      EXPECT_EQ(corners[i], beta[bernstein_index(2 * int(r.x), 2 * int(r.y), 2 * int(r.z))]);
+    }
+    if (bernstein_certified(c)) {
+      EXPECT_GT(sampled_min_det(c, 8), 0);
+    } else {
+      ++uncertified;
+    }
+    EXPECT_EQ(hex_quality(c).min_bernstein, lo);
+    EXPECT_EQ(bernstein_certified(c), lo > 0);
+  }
+  EXPECT_GT(uncertified, 10);  // the sample covers both outcomes
+}
+
+double gauss_volume(const HexCorners& c) {
+  // 2-point Gauss-Legendre per axis on [0,1] is exact up to degree 3 >= 2 per axis.
+  const double g[2] = {0.5 - 0.5 / std::sqrt(3.0), 0.5 + 0.5 / std::sqrt(3.0)};
+  double v = 0;
+  for (double x : g) {
+    for (double y : g) {
+      for (double z : g) v += jacobian_determinant(c, x, y, z) / 8;
+    }
+  }
+  return v;
+}
+
+double midpoint_volume(const HexCorners& c, int n) {
+  double v = 0;
+  for (int k = 0; k < n; ++k) {
+    for (int j = 0; j < n; ++j) {
+      for (int i = 0; i < n; ++i) {
+        v += jacobian_determinant(c, (i + 0.5) / n, (j + 0.5) / n, (k + 0.5) / n);
+      }
+    }
+  }
+  return v / (double(n) * n * n);
+}
+
+TEST(quality, VolumeIsExactForTrilinearHexes) {
+  std::mt19937_64 rng(15);
+  for (int t = 0; t < 100; ++t) {
+    const HexCorners c = random_hex(rng, 0.4);
+    const double v = hex_volume(c);
+    EXPECT_NEAR(v, gauss_volume(c), 1e-13);
+    // The midpoint rule converges as 1/n^2 (error about h^2/24 times a second derivative).
+    EXPECT_NEAR(v, midpoint_volume(c, 48), 2e-3 * std::abs(v));
+    EXPECT_EQ(hex_quality(c).volume, v);
+  }
+  // A frustum: square base 2 x 2, top 1 x 1 centred one unit above. Its faces are planar, so
+  // the trilinear element is the polyhedron: V = h (A1 + A2 + sqrt(A1 A2)) / 3 = 7/3.
+  const HexCorners frustum = {{{0, 0, 0},
+                               {2, 0, 0},
+                               {2, 2, 0},
+                               {0, 2, 0},
+                               {0.5, 0.5, 1},
+                               {1.5, 0.5, 1},
+                               {1.5, 1.5, 1},
+                               {0.5, 1.5, 1}}};
+  EXPECT_NEAR(hex_volume(frustum), 7.0 / 3.0, 1e-15);
+  EXPECT_TRUE(bernstein_certified(frustum));
+}
+
+TEST(quality, EdgeRatioAndScaledJacobianOfSimpleShapes) {
+  const HexCorners box = map_corners(kUnitCube, [](Vec3 p) { return Vec3{p.x, 2 * p.y, 3 * p.z}; });
+  EXPECT_EQ(edge_ratio(box), 3.0);
+  EXPECT_EQ(scaled_jacobian(box), 1.0);
+  EXPECT_EQ(hex_volume(box), 6.0);
+  EXPECT_EQ(mean_edge_length(box), 2.0);
+  EXPECT_DOUBLE_EQ(min_bernstein_scaled(box), 6.0 / 8.0);
+
+  // Shear x += s y: columns (1,0,0), (s,1,0), (0,0,1); scaled Jacobian 1 / sqrt(1 + s^2).
+  const double s = 0.75;
+  const HexCorners sheared = map_corners(kUnitCube, [&](Vec3 p) {
+    return Vec3{p.x + s * p.y, p.y, p.z};
+  });
+  for (double v : scaled_jacobians(sheared)) EXPECT_NEAR(v, 1 / std::sqrt(1 + s * s), 1e-15);
+  EXPECT_EQ(hex_volume(sheared), 1.0);
+
+  // A collapsed edge: corners 6 and 7 coincide. Scaled Jacobian 0 there, edge ratio infinite.
+  HexCorners collapsed = kUnitCube;
+  collapsed[6] = collapsed[7];
+  EXPECT_EQ(edge_ratio(collapsed), std::numeric_limits<double>::infinity());
+  EXPECT_EQ(scaled_jacobians(collapsed)[6], 0.0);
+  EXPECT_EQ(scaled_jacobians(collapsed)[7], 0.0);
+  EXPECT_FALSE(bernstein_certified(collapsed));  // det J = 0 on that edge: not > 0
+
+  // A hex collapsed to one point: no division by zero.
+  HexCorners point{};
+  EXPECT_EQ(min_bernstein_scaled(point), 0.0);
+  EXPECT_EQ(scaled_jacobian(point), 0.0);
+}
+
+// The scaled minimum coefficient is invariant under uniform scaling and translation; the raw
+// one scales with the cube of the size.
+TEST(quality, ScaledBernsteinIsSizeIndependent) {
+  std::mt19937_64 rng(16);
+  for (int t = 0; t < 50; ++t) {
+    const HexCorners c = random_hex(rng, 0.3);
+    const HexCorners big = map_corners(c, [](Vec3 p) { return 8.0 * p + Vec3{100, -50, 3}; });
+    EXPECT_NEAR(min_bernstein_scaled(big), min_bernstein_scaled(c), 1e-12);
+    EXPECT_NEAR(min_bernstein(big), 512 * min_bernstein(c), 1e-9);
+    EXPECT_NEAR(scaled_jacobian(big), scaled_jacobian(c), 1e-12);
+    EXPECT_NEAR(edge_ratio(big), edge_ratio(c), 1e-12);
+  }
+}
+
+}  // namespace
+}  // namespace mchex
