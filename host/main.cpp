@@ -1,1 +1,361 @@
-int main() { return 0; }
+// mchex-gpu: the command line. Subcommands:
+//   mesh   surface or analytic shape -> inside and outside all-hex meshes (+ JSON report)
+//   check  validate hex meshes: structure, quality (Bernstein certificate), conformity, fidelity
+// Every failure is one line on stderr and a non-zero exit: 1 bad input or usage, 2 resource limit.
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+#include <tbb/global_control.h>
+#include <tbb/info.h>
+
+#include "core/error.h"
+#include "core/fidelity.h"
+#include "core/grid.h"
+#include "core/mesh_check.h"
+#include "core/mesh_io.h"
+#include "core/report.h"
+#include "core/ro.h"
+#include "core/sdf.h"
+#include "core/shapes.h"
+#include "core/surface.h"
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using namespace mchex;
+
+namespace {
+
+constexpr const char* kDefaultShape = "torus";
+
+// The solid a command works on: a surface file or a built-in shape.
+struct Solid {
+  std::string name;
+  std::optional<TriangleSurface> surface;
+  SurfaceReport report;
+  std::size_t welded = 0;
+  std::unique_ptr<SignedDistance> sdf;
+
+  bool analytic() const { return !surface; }
+  json to_json() const {
+    if (analytic()) return {{"shape", name}, {"analytic", true}};
+    return {{"file", name},
+            {"triangles", report.triangles},
+            {"vertices", report.vertices},
+            {"welded_vertices", welded},
+            {"closed", report.closed},
+            {"consistently_oriented", report.consistently_oriented},
+            {"boundary_edges", report.boundary_edges},
+            {"nonmanifold_edges", report.nonmanifold_edges},
+            {"degenerate_faces", report.degenerate_faces},
+            {"inconsistent_edges", report.inconsistent_edges},
+            {"components", report.components},
+            {"volume", report.volume}};
+  }
+};
+
+Solid load_solid(const std::string& input, const std::string& shape, StageClock& clock, bool quiet) {
+  Solid s;
+  if (input.empty()) {
+    s.name = shape.empty() ? kDefaultShape : shape;
+    s.sdf = std::make_unique<ShapeSdf>(parse_shape(s.name));
+    return s;
+  }
+  s.name = input;
+  s.surface = clock.run("read", [&] { return read_surface(input, &s.welded); });
+  s.report = validate_surface(*s.surface);
+  if (!quiet && !(s.report.closed && s.report.consistently_oriented))
+    std::fprintf(stderr,
+                 "mchex-gpu: warning: %s is not a closed, consistently oriented surface (%zu boundary, "
+                 "%zu non-manifold, %zu inconsistent edges); inside/outside follows the nearest triangle\n",
+                 input.c_str(), s.report.boundary_edges, s.report.nonmanifold_edges, s.report.inconsistent_edges);
+  s.sdf = clock.run("bvh", [&] { return std::make_unique<SurfaceSdf>(*s.surface); });
+  return s;
+}
+
+std::vector<Vec3> reference_samples(const Solid& s, double spacing) {
+  if (s.surface) return sample_surface(*s.surface, spacing);
+  return sample_surface(*s.sdf, padded_cube(s.sdf->bounds(), 0.05), spacing);
+}
+
+fs::path default_outside(const fs::path& inside) {
+  return inside.parent_path() / ("outside" + inside.extension().string());
+}
+
+// Memory the mesher will need for a uniform grid, against what the machine has: refuse early
+// (exit 2) rather than die half-way.
+void check_memory_budget(const UniformGrid& grid) {
+  const double bytes = double(grid.vertex_count()) * (3 * 24 + 8) + double(grid.cell_count()) * (2 * 36 + 8);
+  const double physical = double(sysconf(_SC_PHYS_PAGES)) * double(sysconf(_SC_PAGE_SIZE));
+  if (physical > 0 && bytes > 0.8 * physical)
+    throw ResourceError(fmt::format("depth {} needs about {:.1f} GiB, more than this machine's {:.1f} GiB; use a smaller --depth",
+                                    grid.depth(), bytes / (1 << 30), physical / (1 << 30)));
+}
+
+json fidelity_json(const Fidelity& f) {
+  return {{"iou", f.iou},
+          {"hausdorff", f.hausdorff},
+          {"hausdorff_ratio", f.hausdorff_ratio},
+          {"mesh_to_surface", f.mesh_to_surface},
+          {"surface_to_mesh", f.surface_to_mesh},
+          {"mesh_volume", f.mesh_volume},
+          {"solid_volume", f.solid_volume},
+          {"lattice", f.lattice},
+          {"unresolved_samples", f.unresolved}};
+}
+
+Fidelity measure(const HexMesh& inside, const Solid& solid, const Box& box, std::size_t lattice) {
+  const double spacing = box.diagonal() / 400;
+  const auto samples = reference_samples(solid, spacing);
+  return measure_fidelity(inside, *solid.sdf, samples, box, lattice, spacing);
+}
+
+std::string first_error(const MeshCheck& c) {
+  return c.errors.empty() ? std::string("unknown error") : c.errors.front();
+}
+
+std::string describe(const char* label, const MeshStats& m) {
+  const QualityStats& q = m.quality;
+  const BoundaryStats& b = m.boundary;
+  std::string s = fmt::format("  {} quality: min scaled Jacobian {:.4f} (mean {:.4f}), Bernstein-certified {}/{} ({:.2f}%), max edge ratio {:.3g}\n",
+                              label, q.min_scaled_jacobian, q.mean_scaled_jacobian, q.certified, q.count,
+                              q.count ? 100.0 * q.certified / q.count : 100.0, q.max_edge_ratio);
+  s += fmt::format("  {} boundary: {} quads, {}, Euler characteristic {}, {} component(s)\n", label, b.quads,
+                   b.closed_manifold() ? "closed 2-manifold"
+                                       : fmt::format("not a closed 2-manifold ({} edges, {} vertices off)", b.bad_edges, b.bad_vertices),
+                   b.euler_characteristic, b.components);
+  return s;
+}
+
+// The human-readable lines of a check, shared by `mesh` and `check`.
+std::string summary(const MeshCheck& c) {
+  std::string s = describe("inside ", c.inside);
+  if (c.outside) s += describe("outside", *c.outside);
+  if (c.combined)
+    s += fmt::format("  conformity: {} interface faces, {} gap, {} overlap faces, volume error {:.2e}\n",
+                     c.combined->interface_faces, c.combined->gap_faces, c.combined->overlap_faces,
+                     c.combined->volume_relative_error);
+  s += c.ok ? "  structure: ok\n" : fmt::format("  structure: {} error(s), first: {}\n", c.error_count, first_error(c));
+  return s;
+}
+
+void write_json(const fs::path& path, const json& j) {
+  // Same atomic rule as the meshes: a temporary file renamed at the end.
+  const fs::path tmp = path.parent_path() / ("." + path.filename().string() + ".tmp");
+  {
+    std::ofstream out(tmp);
+    out << j.dump(2) << '\n';
+    if (!out) {
+      std::error_code ec;
+      fs::remove(tmp, ec);
+      throw InputError(path.string() + ": cannot write the report");
+    }
+  }
+  std::error_code ec;
+  fs::rename(tmp, path, ec);
+  if (ec) throw InputError(path.string() + ": " + ec.message());
+}
+
+struct MeshCommand {
+  std::string input, shape, inside = "inside.mesh", outside, report, method = "ro", backend = "auto";
+  int depth = 3;
+  double pad = 0.1;
+  bool fidelity = false;
+  std::size_t lattice = 128;
+};
+
+int run_mesh(const MeshCommand& o, bool quiet) {
+  if (!o.input.empty() && !o.shape.empty()) throw InputError("give either INPUT or --shape, not both");
+  const fs::path inside_path = o.inside;
+  const fs::path outside_path = o.outside.empty() ? default_outside(inside_path) : fs::path(o.outside);
+  // Reject bad output names before any work.
+  for (const fs::path& out : {inside_path, outside_path}) {
+    mesh_format(out);
+    if (!out.parent_path().empty() && !fs::is_directory(out.parent_path()))
+      throw InputError(out.string() + ": the folder " + out.parent_path().string() + " does not exist");
+  }
+  if (fs::weakly_canonical(inside_path) == fs::weakly_canonical(outside_path))
+    throw InputError("the inside and outside meshes need different file names");
+
+  StageClock clock(quiet);
+  const Solid solid = load_solid(o.input, o.shape, clock, quiet);
+  const Box cube = padded_cube(solid.sdf->bounds(), o.pad);
+  const UniformGrid grid(cube, o.depth);
+  check_memory_budget(grid);
+
+  const std::vector<double> values = clock.run("sdf", [&] {
+    const std::vector<Vec3> points = grid.vertices();
+    std::vector<double> v(points.size());
+    solid.sdf->evaluate(points, v);
+    return v;
+  });
+  const MeshPair meshes = clock.run("ro", [&] { return mesh_remove_outside(grid, values); });
+  const MeshCheck check = clock.run("check", [&] { return check_mesh(meshes.inside, &meshes.outside, &cube); });
+  std::optional<Fidelity> fid;
+  if (o.fidelity) fid = clock.run("fidelity", [&] { return measure(meshes.inside, solid, cube, o.lattice); });
+  clock.run("write", [&] {
+    write_hex_mesh(meshes.inside, inside_path);
+    write_hex_mesh(meshes.outside, outside_path);
+  });
+
+  json report = {
+      {"input", solid.to_json()},
+      {"method", o.method},
+      {"backend", {{"name", "cpu"}, {"device", "reference (Embree + TBB)"}, {"threads", tbb::info::default_concurrency()}}},
+      {"grid",
+       {{"kind", "uniform"},
+        {"levels", grid.depth()},
+        {"cells_per_axis", grid.cells_per_axis()},
+        {"cells", grid.cell_count()},
+        {"cells_per_type", {{"cube", grid.cell_count()}}},
+        {"box", {{"lo", {cube.lo.x, cube.lo.y, cube.lo.z}}, {"hi", {cube.hi.x, cube.hi.y, cube.hi.z}}}},
+        {"cell_size", grid.cell_size()}}},
+      {"elements",
+       {{"inside_hexes", meshes.inside.hexes.size()},
+        {"outside_hexes", meshes.outside.hexes.size()},
+        {"inside_vertices", meshes.inside.points.size()},
+        {"outside_vertices", meshes.outside.points.size()}}},
+      {"check", to_json(check)},
+      {"outputs", {{"inside", inside_path.string()}, {"outside", outside_path.string()}}},
+  };
+  if (fid) report["fidelity"] = fidelity_json(*fid);
+  report["times"] = clock.to_json();
+  report["peak_memory_bytes"] = peak_memory_bytes();
+  if (!o.report.empty()) write_json(o.report, report);
+
+  if (!quiet) {
+    fmt::print("mchex-gpu: {} -> {} grid of {}^3 cells (depth {}), method {}\n", solid.name,
+               "uniform", grid.cells_per_axis(), grid.depth(), o.method);
+    fmt::print("  inside : {:>10} hexes {:>10} vertices -> {}\n", meshes.inside.hexes.size(),
+               meshes.inside.points.size(), inside_path.string());
+    fmt::print("  outside: {:>10} hexes {:>10} vertices -> {}\n", meshes.outside.hexes.size(),
+               meshes.outside.points.size(), outside_path.string());
+    fmt::print("{}", summary(check));
+    if (fid)
+      fmt::print("  fidelity: IoU {:.4f}, Hausdorff {:.4g} ({:.3f}% of the input diagonal)\n", fid->iou,
+                 fid->hausdorff, 100 * fid->hausdorff_ratio);
+    fmt::print("  time: {:.2f} s, peak memory {:.0f} MiB\n", clock.total(), peak_memory_bytes() / 1048576.0);
+  }
+  if (!check.ok) throw std::runtime_error("internal error: the mesher made a mesh that fails its own check: " + first_error(check));
+  return 0;
+}
+
+struct CheckCommand {
+  std::string mesh, outside, input, shape;
+  bool json = false;
+  std::size_t lattice = 128;
+};
+
+int run_check(const CheckCommand& o, bool quiet) {
+  if (!o.input.empty() && !o.shape.empty()) throw InputError("give either --input or --shape, not both");
+  StageClock clock(true);
+  const HexMesh inside = read_hex_mesh(o.mesh);
+  std::optional<HexMesh> outside;
+  if (!o.outside.empty()) outside = read_hex_mesh(o.outside);
+  const MeshCheck check = check_mesh(inside, outside ? &*outside : nullptr, nullptr);
+  json j = {{"mesh", o.mesh}, {"check", to_json(check)}};
+  if (outside) j["outside"] = o.outside;
+  std::optional<Fidelity> fid;
+  if (!o.input.empty() || !o.shape.empty()) {
+    const Solid solid = load_solid(o.input, o.shape, clock, quiet || o.json);
+    Box box;
+    for (const Vec3& p : inside.points) box.extend(p);
+    if (outside)
+      for (const Vec3& p : outside->points) box.extend(p);
+    box.extend(solid.sdf->bounds().lo);
+    box.extend(solid.sdf->bounds().hi);
+    fid = measure(inside, solid, box, o.lattice);
+    j["input"] = solid.to_json();
+    j["fidelity"] = fidelity_json(*fid);
+  }
+  if (o.json) {
+    fmt::print("{}\n", j.dump(2));
+  } else if (!quiet) {
+    fmt::print("mchex-gpu check: {}{}\n", o.mesh, outside ? " + " + o.outside : "");
+    fmt::print("{}", summary(check));
+    if (fid)
+      fmt::print("  fidelity: IoU {:.4f}, Hausdorff {:.4g} ({:.3f}% of the input diagonal)\n", fid->iou,
+                 fid->hausdorff, 100 * fid->hausdorff_ratio);
+  }
+  if (!check.ok) {
+    std::fprintf(stderr, "mchex-gpu: %s: check failed: %s\n", o.mesh.c_str(), first_error(check).c_str());
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"mchex-gpu: all-hex meshes of a solid and of the box around it (MCHex, Tong & Zhang 2025)"};
+  app.require_subcommand(1);
+  app.fallthrough();  // --quiet and --threads also after the subcommand name
+  bool quiet = false;
+  int threads = 0;
+  app.add_flag("--quiet,-q", quiet, "no summary and no progress lines");
+  app.add_option("--threads", threads, "worker threads (default: all cores)")->check(CLI::Range(1, 1024));
+
+  MeshCommand mo;
+  auto* mesh = app.add_subcommand("mesh", "mesh a surface (STL, OBJ, OFF, PLY) or a built-in shape");
+  mesh->add_option("input", mo.input, "input surface file; without it, --shape (default: torus)");
+  mesh->add_option("--shape", mo.shape, "built-in analytic shape: sphere, torus, rounded-box, two-holed");
+  mesh->add_option("-o,--output", mo.inside, "inside mesh (.mesh, .vtu or .msh)")->capture_default_str();
+  mesh->add_option("--outside", mo.outside, "outside mesh (default: outside.EXT beside the inside mesh)");
+  mesh->add_option("--method", mo.method, "ro: keep the cells whose 8 corner values sum above 0")
+      ->check(CLI::IsMember({"ro"}))->capture_default_str();
+  mesh->add_option("--depth", mo.depth, "uniform 3-refinement depth: 3^depth cells per axis")
+      ->check(CLI::Range(0, kMaxUniformDepth))->capture_default_str();
+  mesh->add_option("--pad", mo.pad, "padding around the input, as a fraction of its largest extent")
+      ->check(CLI::Range(0.0, 10.0))->capture_default_str();
+  mesh->add_option("--backend", mo.backend, "where the SDF runs: auto or cpu (the reference)")
+      ->check(CLI::IsMember({"auto", "cpu"}))->capture_default_str();
+  mesh->add_option("--report", mo.report, "write a JSON report to this file");
+  mesh->add_flag("--fidelity", mo.fidelity, "measure IoU and Hausdorff distance against the input");
+  mesh->add_option("--lattice", mo.lattice, "samples per axis for the IoU")->check(CLI::Range(8, 1024))->capture_default_str();
+
+  CheckCommand co;
+  auto* check = app.add_subcommand("check", "validate a hex mesh (and its outside mesh) and measure its quality");
+  check->add_option("mesh", co.mesh, "hex mesh (.mesh, .vtu or .msh)")->required();
+  check->add_option("--outside", co.outside, "the outside mesh: check that both conform and fill their box");
+  check->add_option("--input", co.input, "the input surface: measure IoU and Hausdorff distance");
+  check->add_option("--shape", co.shape, "the built-in shape the mesh was made from, as --input");
+  check->add_flag("--json", co.json, "print the results as JSON");
+  check->add_option("--lattice", co.lattice, "samples per axis for the IoU")->check(CLI::Range(8, 1024))->capture_default_str();
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::fprintf(stderr, "mchex-gpu: %s (see --help)\n", e.what());
+    return 1;
+  }
+  try {
+    std::optional<tbb::global_control> limit;
+    if (threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, threads);
+    if (mesh->parsed()) return run_mesh(mo, quiet);
+    return run_check(co, quiet);
+  } catch (const InputError& e) {
+    std::fprintf(stderr, "mchex-gpu: %s\n", e.what());
+    return 1;
+  } catch (const ResourceError& e) {
+    std::fprintf(stderr, "mchex-gpu: %s\n", e.what());
+    return 2;
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr, "mchex-gpu: out of memory\n");
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "mchex-gpu: %s\n", e.what());
+    return 3;
+  }
+}
