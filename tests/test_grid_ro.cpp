@@ -1,0 +1,125 @@
+// The uniform grid, the RO method and the fidelity measures against hand-computed answers.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "core/error.h"
+#include "core/fidelity.h"
+#include "core/grid.h"
+#include "core/mesh_check.h"
+#include "core/ro.h"
+#include "core/shapes.h"
+
+namespace mchex {
+namespace {
+
+TEST(UniformGrid, CountsIndexingAndExactEnds) {
+  const UniformGrid g({{-1, -2, -3}, {2, 1, 0}}, 3);
+  EXPECT_EQ(g.cells_per_axis(), 27u);
+  EXPECT_EQ(g.cell_count(), 27u * 27 * 27);
+  EXPECT_EQ(g.vertex_count(), 28u * 28 * 28);
+  const auto v = g.vertices();
+  EXPECT_EQ(v.front(), (Vec3{-1, -2, -3}));
+  EXPECT_EQ(v.back(), (Vec3{2, 1, 0}));
+  EXPECT_EQ(v[g.vertex_index(1, 0, 0)], (Vec3{-1 + 3.0 / 27, -2, -3}));
+  // Corners follow the VTK order: bottom 0-1-2-3 counter-clockwise, top 4-7 above them.
+  const auto c = g.cell_corners(2, 5, 7);
+  const Vec3 o = v[c[0]], h{3.0 / 27, 3.0 / 27, 3.0 / 27};
+  const Vec3 expect[8] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}};
+  for (int i = 0; i < 8; ++i) {
+    EXPECT_NEAR(v[c[i]].x - o.x, expect[i].x * h.x, 1e-14);
+    EXPECT_NEAR(v[c[i]].y - o.y, expect[i].y * h.y, 1e-14);
+    EXPECT_NEAR(v[c[i]].z - o.z, expect[i].z * h.z, 1e-14);
+  }
+  EXPECT_THROW(UniformGrid({{0, 0, 0}, {1, 1, 1}}, kMaxUniformDepth + 1), InputError);
+}
+
+TEST(UniformGrid, PaddedCubeHoldsTheInputWithItsMargin) {
+  const Box cube = padded_cube({{0, 0, 0}, {4, 2, 1}}, 0.1);
+  EXPECT_DOUBLE_EQ(cube.size().x, 4.8);
+  EXPECT_DOUBLE_EQ(cube.size().y, 4.8);
+  EXPECT_DOUBLE_EQ(cube.size().z, 4.8);
+  EXPECT_EQ(cube.center(), (Vec3{2, 1, 0.5}));
+  EXPECT_THROW(padded_cube({{1, 1, 1}, {1, 1, 1}}, 0.1), InputError);
+  EXPECT_THROW(padded_cube(Box{}, 0.1), InputError);
+}
+
+TEST(RemoveOutside, KeepsExactlyTheCellsWithAPositiveCornerSum) {
+  const ShapeSdf torus(ShapeKind::kTorus);
+  const UniformGrid g(padded_cube(torus.bounds(), 0.1), 3);
+  const auto pts = g.vertices();
+  std::vector<double> f(pts.size());
+  torus.evaluate(pts, f);
+  const MeshPair m = mesh_remove_outside(g, f);
+  EXPECT_EQ(m.inside.hexes.size() + m.outside.hexes.size(), g.cell_count());
+  std::size_t expected_inside = 0;
+  for (uint32_t k = 0; k < 27; ++k)
+    for (uint32_t j = 0; j < 27; ++j)
+      for (uint32_t i = 0; i < 27; ++i) {
+        double sum = 0;
+        for (uint32_t v : g.cell_corners(i, j, k)) sum += torus(pts[v]);
+        expected_inside += sum > 0;
+      }
+  EXPECT_EQ(m.inside.hexes.size(), expected_inside);
+  for (std::size_t h = 0; h < m.inside.hexes.size(); ++h) {
+    double sum = 0;
+    for (const Vec3& p : m.inside.corners(h)) sum += torus(p);
+    ASSERT_GT(sum, 0);
+  }
+  for (int32_t r : m.inside.region) ASSERT_EQ(r, kInside);
+  for (int32_t r : m.outside.region) ASSERT_EQ(r, kOutside);
+  const Box box = g.box();
+  const MeshCheck check = check_mesh(m.inside, &m.outside, &box);
+  EXPECT_TRUE(check.ok);
+  EXPECT_EQ(check.inside.boundary.euler_characteristic, 0);  // a torus of cells
+  EXPECT_TRUE(check.inside.boundary.closed_manifold());
+}
+
+TEST(Fidelity, CubeOfCellsAgainstTheUnitSphere) {
+  // The cube [-0.5, 0.5]^3 lies inside the unit sphere: IoU = 1 / (4 pi / 3); the Hausdorff
+  // distance is 0.5 (face centre to sphere, and sphere pole to face).
+  const UniformGrid g({{-0.5, -0.5, -0.5}, {0.5, 0.5, 0.5}}, 1);
+  std::vector<Hex> hexes;
+  for (uint32_t k = 0; k < 3; ++k)
+    for (uint32_t j = 0; j < 3; ++j)
+      for (uint32_t i = 0; i < 3; ++i) hexes.push_back(g.cell_corners(i, j, k));
+  const auto pts = g.vertices();
+  const HexMesh cube = compact_mesh(pts, hexes, kInside);
+  const ShapeSdf sphere(ShapeKind::kSphere);
+  // Lattice step 0.02 from -1.26: the cube's faces fall halfway between sample centres, so the
+  // lattice counts exactly 50^3 samples in the cube.
+  const Box box{{-1.26, -1.26, -1.26}, {1.26, 1.26, 1.26}};
+  const double spacing = 0.01;
+  const auto samples = sample_surface(sphere, box, spacing);
+  for (const Vec3& s : samples) ASSERT_NEAR(norm(s), 1.0, 1e-9);
+  const Fidelity f = measure_fidelity(cube, sphere, samples, box, 126, spacing);
+  EXPECT_NEAR(f.mesh_volume, 1.0, 1e-12);
+  // The sphere's lattice volume is off by at most its area times half a step.
+  EXPECT_NEAR(f.solid_volume, 4 * std::numbers::pi / 3, 4 * std::numbers::pi * 0.01);
+  EXPECT_NEAR(f.iou, 1.0 / f.solid_volume, 1e-12);
+  EXPECT_NEAR(f.iou, 1.0 / (4 * std::numbers::pi / 3), 0.01);
+  EXPECT_NEAR(f.mesh_to_surface, 0.5, 1e-12);  // a face centre is a sample
+  EXPECT_NEAR(f.surface_to_mesh, 0.5, 2e-3);
+  EXPECT_NEAR(f.hausdorff_ratio, 0.5 / std::sqrt(12.0), 1e-3);
+  EXPECT_EQ(f.unresolved, 0u);
+  EXPECT_EQ(boundary_quads(cube).size(), 6u * 9);
+}
+
+TEST(Fidelity, ShearedHexesAreLocatedByTheirTrilinearMap) {
+  // One sheared, non-parallel hex: a sample is inside exactly when the inverse map lands in the
+  // unit cube; compare the lattice volume against the exact trilinear volume.
+  HexMesh m;
+  m.points = {{0, 0, 0}, {1, 0, 0}, {1.2, 1, 0}, {0, 0.9, 0}, {0.1, 0, 1}, {1, 0.1, 1.1}, {1.3, 1.2, 1}, {0, 1, 0.9}};
+  m.hexes = {{0, 1, 2, 3, 4, 5, 6, 7}};
+  m.region = {kInside};
+  const ShapeSdf sphere(ShapeKind::kSphere);
+  const Box box{{-0.1, -0.1, -0.1}, {1.4, 1.4, 1.4}};
+  const Fidelity f = measure_fidelity(m, sphere, {}, box, 120, 0.05);
+  const MeshCheck c = check_mesh(m, nullptr, nullptr);
+  EXPECT_NEAR(f.mesh_volume, c.inside.quality.volume, 0.01 * c.inside.quality.volume);
+  EXPECT_EQ(f.unresolved, 0u);
+}
+
+}  // namespace
+}  // namespace mchex
