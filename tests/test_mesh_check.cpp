@@ -13,7 +13,6 @@
 #include <random>
 #include <string>
 
-#include "core/error.h"
 #include "core/mesh_check.h"
 
 namespace mchex {
@@ -203,7 +202,7 @@ TEST(mesh_check, BallOfCellsSplitsTheGridCleanly) {
 }
 
 // A 2 x 2 x 2 block of cells in a 4^3 grid, counted by hand: the block's surface has 24 quads,
-// 26 vertices (8 per face side... 3 x 3 x 3 lattice minus its centre) and 48 edges; chi = 2.
+// 26 vertices (the 3 x 3 x 3 lattice minus its centre) and 48 edges; chi = 2.
 TEST(mesh_check, CubeOfCellsHasASphereBoundary) {
   CellGrid g({4, 4, 4});
   for (int k = 1; k < 3; ++k) {
@@ -310,7 +309,7 @@ struct Pair {
     in = build_mesh(g, true);
     out = build_mesh(g, false);
   }
-  // The index of the outside hex whose corner 0 is at (i, j, k).
+  // The index of the outside hex whose corner 0 is at p.
   std::size_t outside_hex_at(Vec3 p) const {
     for (std::size_t h = 0; h < out.hexes.size(); ++h) {
       if (out.points[out.hexes[h][0]] == p) return h;
