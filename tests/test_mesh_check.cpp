@@ -5,10 +5,8 @@
 
 #include <algorithm>
 #include <array>
-#include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <numeric>
 #include <random>
 #include <string>
@@ -589,25 +587,15 @@ TEST(mesh_check, JsonReport) {
   EXPECT_FALSE(e.dump().empty());
 }
 
-// An n^3 grid split by a ball, timed. n = 81 (531441 hexes) by default; MCHEX_CHECK_PERF_N
-// sets another n (e.g. 144 for 2.99M hexes, 171 for 5.0M).
-TEST(mesh_check, LargeGridIsCheckedQuickly) {
-  int n = 81;
-  if (const char* s = std::getenv("MCHEX_CHECK_PERF_N")) n = std::atoi(s);
+// An 81^3 grid split by a ball (531441 hexes): the counts at the size the mesher makes.
+// Its speed is measured by perf/bench_mesh, not here.
+TEST(mesh_check, LargeGridPairIsExact) {
+  const int n = 81;
   const CellGrid g = ball_grid(n, 0.35 * n);
   const Layout layout{1.0 / n, {0, 0, 0}, 0};
   const HexMesh in = build_mesh(g, true, layout);
   const HexMesh out = build_mesh(g, false, layout);
-  const auto t0 = std::chrono::steady_clock::now();
-  const MeshCheck c = check_mesh(in, &out, nullptr);
-  const double seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  std::printf("check_mesh: %d^3 = %zu hexes (%zu inside, %zu outside) in %.3f s\n", n,
-              in.hexes.size() + out.hexes.size(), in.hexes.size(), out.hexes.size(), seconds);
-  RecordProperty("seconds", std::to_string(seconds));
-  expect_pair_ok(g, c);
-  // Generous: a shared 2-core machine does 81^3 in about a second.
-  EXPECT_LT(seconds, 60.0);
+  expect_pair_ok(g, check_mesh(in, &out, nullptr));
 }
 
 }  // namespace

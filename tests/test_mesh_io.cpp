@@ -10,7 +10,6 @@
 #include <algorithm>
 #include <atomic>
 #include <bit>
-#include <chrono>
 #include <csignal>
 #include <cstdint>
 #include <cstdlib>
@@ -741,25 +740,6 @@ TEST(HexmeshSamples, ConvertSamples) {
     SCOPED_TRACE(file.string());
     const HexMesh mesh = read_hex_mesh(file);
     write_hex_mesh(mesh, fs::path(out) / (file.filename().string() + ".vtu"));
-  }
-}
-
-// Run by hand: --gtest_also_run_disabled_tests --gtest_filter=*LargeMeshTiming*
-TEST(HexmeshTiming, DISABLED_LargeMeshTiming) {
-  TempDir dir;
-  const HexMesh mesh = grid_mesh(171);  // 5.0M hexes, 5.1M points
-  for (const char* ext : {".mesh", ".vtu", ".msh"}) {
-    const fs::path path = dir / (std::string("large") + ext);
-    const auto t0 = std::chrono::steady_clock::now();
-    write_hex_mesh(mesh, path);
-    const auto t1 = std::chrono::steady_clock::now();
-    const HexMesh back = read_hex_mesh(path);
-    const auto t2 = std::chrono::steady_clock::now();
-    EXPECT_EQ(back.hexes.size(), mesh.hexes.size());
-    std::printf("%s: %zu hexes, %.0f MB, write %.2f s, read %.2f s\n", ext, mesh.hexes.size(),
-                static_cast<double>(fs::file_size(path)) / 1e6, std::chrono::duration<double>(t1 - t0).count(),
-                std::chrono::duration<double>(t2 - t1).count());
-    fs::remove(path);
   }
 }
 
