@@ -30,17 +30,6 @@ struct TriangleBvh {
   // Empty surfaces give an empty hierarchy.
   static TriangleBvh build(const TriangleSurface& surface);
 
-  // Squared distance from p to node n's box (0 inside it).
-  double box_distance2(uint32_t n, Vec3 p) const {
-    const BvhNode& b = nodes[n];
-    double d2 = 0;
-    for (int a = 0; a < 3; ++a) {
-      const double lo = b.lo[a] - p[a], hi = p[a] - b.hi[a];
-      const double d = lo > 0 ? lo : (hi > 0 ? hi : 0);
-      d2 += d * d;
-    }
-    return d2;
-  }
 };
 
 }  // namespace mchex

@@ -7,6 +7,10 @@
 #include <stdexcept>
 #include <string>
 
+#if defined(__SSE__)
+#include <xmmintrin.h>
+#endif
+
 #include "core/bvh.h"
 #include "core/parallel.h"
 
@@ -119,29 +123,62 @@ double signed_value(Vec3 p, const ClosestPoint& cp, Vec3 pseudonormal) {
   return dot(p - cp.point, pseudonormal) > 0 ? -d : d;
 }
 
+// The search tree of the reference SDF: the topology of the Embree-built TriangleBvh, with each
+// node's triangles bounded by a box in a frame of its own, one cache line per node.
+//
+// Why oriented boxes: a point far from a smooth surface is at nearly the same distance from a
+// whole patch of it (distance grows only quadratically sideways), so a search must rule out
+// every node whose bound is below the answer. An axis-aligned box around a tilted, nearly flat
+// piece of surface is as thick as the piece is wide, and comes within range a whole patch away;
+// a box aligned with the piece's mean normal is thin and comes within range only right under the
+// point. Low in the tree nodes are nearly flat pieces. Where the normals of a node's triangles
+// cancel (high in the tree, around corners) the node keeps the axis-aligned frame.
+struct OrientedBox {
+  float axis[3][3];    // orthonormal frame (to float precision)
+  float lo[3], hi[3];  // extents along the axes, rounded outward
+};
 
-// The triangles under a node inside a box aligned with their mean normal. Low in the tree a node
-// is a nearly flat piece of surface, so this box is thin where the axis-aligned one is fat, and
-// its distance is a much tighter lower bound: for a point far above a patch, the axis-aligned
-// boxes of tilted pieces a whole patch wide come within the search radius, oriented ones only
-// right under the point. High in the tree the normals cancel and the frame is arbitrary, which
-// is why the search takes the larger of the two distances.
-struct NodeFrame {
-  Vec3 axis[3];
-  double lo[3], hi[3];
+// Four children's oriented boxes side by side (structure of arrays), so that one search step
+// measures all four at once in vector registers. An absent child has an empty box (lo > hi),
+// which is at infinite distance.
+struct alignas(64) WideNode {
+  float axis[3][3][4];  // [axis][component][child]
+  float lo[3][4], hi[3][4];
+  uint32_t child[4];  // inner: wide node; leaf: first leaf slot
+  uint32_t count[4];  // triangles of a leaf child; 0 for an inner child
 
-  double distance2(Vec3 p) const {
-    double d2 = 0;
+  // Lower bounds of the squared distance from p to each child's triangles. `slack` (per query)
+  // covers float rounding of the projections and the axes' departure from orthonormality, so a
+  // bound never exceeds the true distance.
+  void distance2(const float p[3], float slack, float out[4]) const {
+#if defined(__SSE__)
+    // The same arithmetic as the portable loop below, four children per instruction (SSE is
+    // part of x86-64, so this needs no special build).
+    const __m128 px = _mm_set1_ps(p[0]), py = _mm_set1_ps(p[1]), pz = _mm_set1_ps(p[2]);
+    const __m128 s = _mm_set1_ps(slack), zero = _mm_setzero_ps();
+    __m128 d2 = zero;
     for (int a = 0; a < 3; ++a) {
-      const double t = dot(axis[a], p);
-      const double d = t < lo[a] ? lo[a] - t : (t > hi[a] ? t - hi[a] : 0);
-      d2 += d * d;
+      const __m128 t = _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_load_ps(axis[a][0]), px), _mm_mul_ps(_mm_load_ps(axis[a][1]), py)),
+                                  _mm_mul_ps(_mm_load_ps(axis[a][2]), pz));
+      const __m128 d = _mm_max_ps(
+          _mm_sub_ps(_mm_max_ps(_mm_sub_ps(_mm_load_ps(lo[a]), t), _mm_sub_ps(t, _mm_load_ps(hi[a]))), s), zero);
+      d2 = _mm_add_ps(d2, _mm_mul_ps(d, d));
     }
-    return d2;
+    _mm_storeu_ps(out, d2);
+#else
+    float d2[4] = {0, 0, 0, 0};
+    for (int a = 0; a < 3; ++a)
+      for (int c = 0; c < 4; ++c) {
+        const float t = axis[a][0][c] * p[0] + axis[a][1][c] * p[1] + axis[a][2][c] * p[2];
+        const float d = std::max(std::max(lo[a][c] - t, t - hi[a][c]) - slack, 0.0f);
+        d2[c] += d * d;
+      }
+    for (int c = 0; c < 4; ++c) out[c] = d2[c];
+#endif
   }
 };
 
-std::vector<NodeFrame> node_frames(const TriangleSurface& s, const TriangleBvh& bvh) {
+std::vector<OrientedBox> oriented_boxes(const TriangleSurface& s, const TriangleBvh& bvh) {
   // Depth-first layout: the leaf slots under a node are one contiguous range.
   std::vector<std::pair<uint32_t, uint32_t>> slots(bvh.nodes.size());
   for (std::size_t n = bvh.nodes.size(); n-- > 0;) {
@@ -149,34 +186,90 @@ std::vector<NodeFrame> node_frames(const TriangleSurface& s, const TriangleBvh& 
     slots[n] = node.count ? std::pair{node.index, node.index + node.count}
                           : std::pair{slots[n + 1].first, slots[node.index].second};
   }
-  std::vector<NodeFrame> frames(bvh.nodes.size());
+  std::vector<OrientedBox> nodes(bvh.nodes.size());
   parallel_for(bvh.nodes.size(), [&](std::size_t n) {
     const auto [first, last] = slots[n];
     Vec3 normal{};
+    double area = 0;
     for (uint32_t k = first; k < last; ++k) {
       const auto& t = s.triangles[bvh.leaf_triangles[k]];
-      normal += cross(s.vertices[t[1]] - s.vertices[t[0]], s.vertices[t[2]] - s.vertices[t[0]]);
+      const Vec3 c = cross(s.vertices[t[1]] - s.vertices[t[0]], s.vertices[t[2]] - s.vertices[t[0]]);
+      normal += c;
+      area += norm(c);
     }
-    NodeFrame& f = frames[n];
-    f.axis[0] = normalized(normal);
-    if (squared_norm(f.axis[0]) == 0) f.axis[0] = {0, 0, 1};  // normals cancel: any frame is a box
-    const Vec3 helper = std::abs(f.axis[0].x) < 0.6 ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
-    f.axis[1] = normalized(cross(f.axis[0], helper));
-    f.axis[2] = cross(f.axis[0], f.axis[1]);
-    double scale = 0;
-    for (int a = 0; a < 3; ++a) f.lo[a] = std::numeric_limits<double>::infinity(), f.hi[a] = -f.lo[a];
+    Vec3 a0{0, 0, 1}, a1{1, 0, 0};
+    if (norm(normal) > 0.5 * area && area > 0) {  // a nearly flat piece: its own frame
+      a0 = normalized(normal);
+      a1 = normalized(cross(a0, std::abs(a0.x) < 0.6 ? Vec3{1, 0, 0} : Vec3{0, 1, 0}));
+    }
+    OrientedBox& out = nodes[n];
+    const Vec3 a2 = cross(a0, a1);
+    for (int i = 0; i < 3; ++i) out.axis[0][i] = float(a0[i]), out.axis[1][i] = float(a1[i]), out.axis[2][i] = float(a2[i]);
+    // Extents along exactly the float axes that distance2() will use, computed in double and
+    // rounded outward, so every triangle lies inside its box.
+    Vec3 axes[3];
+    for (int a = 0; a < 3; ++a) axes[a] = {out.axis[a][0], out.axis[a][1], out.axis[a][2]};
+    double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (uint32_t k = first; k < last; ++k)
       for (uint32_t v : s.triangles[bvh.leaf_triangles[k]])
         for (int a = 0; a < 3; ++a) {
-          const double t = dot(f.axis[a], s.vertices[v]);
-          f.lo[a] = std::min(f.lo[a], t), f.hi[a] = std::max(f.hi[a], t);
-          scale = std::max(scale, std::abs(t));
+          const double t = dot(axes[a], s.vertices[v]);
+          lo[a] = std::min(lo[a], t), hi[a] = std::max(hi[a], t);
         }
-  // Rounding in the projections is a few ulps of the coordinates: pad by far more than that so
-    // the bound stays a bound.
-    for (int a = 0; a < 3; ++a) f.lo[a] -= 1e-12 * scale, f.hi[a] += 1e-12 * scale;
+    for (int a = 0; a < 3; ++a) {
+      out.lo[a] = std::nextafter(float(lo[a]), -INFINITY);
+      out.hi[a] = std::nextafter(float(hi[a]), INFINITY);
+    }
   });
-  return frames;
+  return nodes;
+}
+
+// Collapses the binary tree into one of four children per node: each node takes its two
+// children and keeps opening the inner one holding the most triangles until it has four. Half
+// the depth, so a search takes half the steps, each measuring four boxes together.
+std::vector<WideNode> collapse(const TriangleBvh& bvh, const std::vector<OrientedBox>& boxes) {
+  std::vector<uint32_t> size(bvh.nodes.size());
+  for (std::size_t n = bvh.nodes.size(); n-- > 0;) {
+    const BvhNode& node = bvh.nodes[n];
+    size[n] = node.count ? node.count : size[n + 1] + size[node.index];
+  }
+  std::vector<WideNode> wide;
+  auto build = [&](auto&& self, std::vector<uint32_t> kids) -> uint32_t {
+    while (kids.size() < 4) {
+      int open = -1;
+      for (int k = 0; k < int(kids.size()); ++k)
+        if (bvh.nodes[kids[k]].count == 0 && (open < 0 || size[kids[k]] > size[kids[open]])) open = k;
+      if (open < 0) break;
+      const uint32_t n = kids[open];
+      kids[open] = n + 1;
+      kids.push_back(bvh.nodes[n].index);
+    }
+    const uint32_t self_index = uint32_t(wide.size());
+    wide.emplace_back();
+    WideNode w{};
+    for (int c = 0; c < 4; ++c) {
+      for (int a = 0; a < 3; ++a) w.lo[a][c] = INFINITY, w.hi[a][c] = -INFINITY;
+      w.child[c] = 0;
+      w.count[c] = 0;
+    }
+    for (int c = 0; c < int(kids.size()); ++c) {
+      const OrientedBox& b = boxes[kids[c]];
+      for (int a = 0; a < 3; ++a) {
+        for (int i = 0; i < 3; ++i) w.axis[a][i][c] = b.axis[a][i];
+        w.lo[a][c] = b.lo[a];
+        w.hi[a][c] = b.hi[a];
+      }
+      const BvhNode& node = bvh.nodes[kids[c]];
+      w.count[c] = node.count;
+      w.child[c] = node.count ? node.index : self(self, {kids[c] + 1, node.index});
+    }
+    wide[self_index] = w;
+    return self_index;
+  };
+  if (bvh.nodes.empty()) return wide;
+  if (bvh.nodes[0].count) build(build, {0});  // a single leaf
+  else build(build, {1, bvh.nodes[0].index});
+  return wide;
 }
 
 }  // namespace
@@ -184,18 +277,22 @@ std::vector<NodeFrame> node_frames(const TriangleSurface& s, const TriangleBvh& 
 struct SurfaceSdf::Impl {
   TriangleSurface surface;
   Pseudonormals normals;
-  TriangleBvh bvh;
-  std::vector<NodeFrame> frames;
+  std::vector<WideNode> nodes;
+  std::vector<uint32_t> leaf_triangles;          // triangle id of each leaf slot
+  std::vector<std::array<Vec3, 3>> leaf_corners;  // its corners, in slot order for locality
   Box box;
+  double scale = 0;  // largest coordinate magnitude of the surface
 
-  explicit Impl(const TriangleSurface& s)
-      : surface(s), normals(s), bvh(TriangleBvh::build(s)), frames(node_frames(s, bvh)), box(s.bounds()) {}
-
-  // Lower bound of the squared distance from p to the triangles under node n; the oriented box
-  // is only consulted when the axis-aligned one does not already rule the node out.
-  double node_distance2(uint32_t n, Vec3 p, double best2) const {
-    const double d2 = bvh.box_distance2(n, p);
-    return d2 > best2 ? d2 : std::max(d2, frames[n].distance2(p));
+  explicit Impl(const TriangleSurface& s) : surface(s), normals(s), box(s.bounds()) {
+    const TriangleBvh bvh = TriangleBvh::build(s);
+    if (bvh.leaf_triangles.size() >= (1u << 29)) throw std::length_error("too many triangles for the SDF search tree");
+    nodes = collapse(bvh, oriented_boxes(s, bvh));
+    scale = std::max({std::abs(box.lo.x), std::abs(box.lo.y), std::abs(box.lo.z), std::abs(box.hi.x),
+                      std::abs(box.hi.y), std::abs(box.hi.z)});
+    leaf_triangles = bvh.leaf_triangles;
+    leaf_corners.resize(leaf_triangles.size());
+    for (std::size_t k = 0; k < leaf_triangles.size(); ++k)
+      for (int c = 0; c < 3; ++c) leaf_corners[k][c] = s.vertices[s.triangles[leaf_triangles[k]][c]];
   }
 
   struct Query {
@@ -203,7 +300,7 @@ struct SurfaceSdf::Impl {
     uint32_t best_triangle;
   };
 
-  // Nearest triangle to p, nearest boxes first, starting from a candidate triangle (the previous
+  // Nearest triangle to p, nearest nodes first, starting from a candidate triangle (the previous
   // point's answer: on a grid it is usually the answer here too, so the search starts with an
   // exact bound and only has to prove it). Ties go to the lower triangle index, so the answer does
   // not depend on the candidate, the tree's shape or the traversal order.
@@ -211,37 +308,47 @@ struct SurfaceSdf::Impl {
     const auto& c = surface.triangles[candidate];
     Query q{closest_point_on_triangle(p, surface.vertices[c[0]], surface.vertices[c[1]], surface.vertices[c[2]]),
             candidate};
-    uint32_t stack[128];
-    double stack_d2[128];
+    // Float projections err by a few ulps of |p| + |extent| (and the axes by ~1e-7 from unit
+    // length and right angles): 1e-6 of that magnitude is a safe margin.
+    const float pf[3] = {float(p.x), float(p.y), float(p.z)};
+    const float slack = float(1e-6 * (3 * std::max({std::abs(p.x), std::abs(p.y), std::abs(p.z)}) + 2 * scale));
+    float best2 = std::nextafter(float(q.best.squared_distance), INFINITY);
+    uint32_t stack[64 * 3];
+    float stack_d2[64 * 3];
     int top = 0;
     stack[top] = 0;
-    stack_d2[top++] = node_distance2(0, p, q.best.squared_distance);
+    stack_d2[top++] = 0;
     while (top > 0) {
       --top;
-      if (stack_d2[top] > q.best.squared_distance) continue;
-      const BvhNode& n = bvh.nodes[stack[top]];
-      if (n.count > 0) {
-        for (uint32_t k = n.index; k < n.index + n.count; ++k) {
-          const uint32_t t = bvh.leaf_triangles[k];
-          const auto& tri = surface.triangles[t];
-          const ClosestPoint cp = closest_point_on_triangle(p, surface.vertices[tri[0]],
-                                                            surface.vertices[tri[1]], surface.vertices[tri[2]]);
+      if (stack_d2[top] > best2) continue;
+      const WideNode& w = nodes[stack[top]];
+      float d2[4];
+      w.distance2(pf, slack, d2);
+      // Children nearest first: leaves are searched at once (shrinking the bound), inner
+      // children pushed farthest first so that the nearest is popped next.
+      int order[4] = {0, 1, 2, 3};
+      for (int i = 1; i < 4; ++i)
+        for (int j = i; j > 0 && d2[order[j]] < d2[order[j - 1]]; --j) std::swap(order[j], order[j - 1]);
+      for (int i = 0; i < 4; ++i) {
+        const int c = order[i];
+        if (d2[c] > best2 || w.count[c] == 0) continue;
+        for (uint32_t k = w.child[c]; k < w.child[c] + w.count[c]; ++k) {
+          const auto& v = leaf_corners[k];
+          const ClosestPoint cp = closest_point_on_triangle(p, v[0], v[1], v[2]);
+          const uint32_t t = leaf_triangles[k];
           if (cp.squared_distance < q.best.squared_distance ||
               (cp.squared_distance == q.best.squared_distance && t < q.best_triangle)) {
             q.best = cp;
             q.best_triangle = t;
+            // Rounded up, so that float comparisons against it never prune a node at the bound.
+            best2 = std::nextafter(float(cp.squared_distance), INFINITY);
           }
         }
-        continue;
       }
-      const uint32_t a = stack[top] + 1, b = n.index;
-      double da = node_distance2(a, p, q.best.squared_distance), db = node_distance2(b, p, q.best.squared_distance);
-      // Push the farther child first so the nearer one is searched first and shrinks the bound.
-      const bool swap = da < db;
-      const uint32_t first = swap ? b : a, second = swap ? a : b;
-      if (swap) std::swap(da, db);
-      if (da <= q.best.squared_distance) stack[top] = first, stack_d2[top++] = da;
-      if (db <= q.best.squared_distance) stack[top] = second, stack_d2[top++] = db;
+      for (int i = 3; i >= 0; --i) {
+        const int c = order[i];
+        if (d2[c] <= best2 && w.count[c] == 0) stack[top] = w.child[c], stack_d2[top++] = d2[c];
+      }
     }
     return q;
   }

@@ -101,10 +101,25 @@ TEST(SurfaceSdf, EqualsBruteForceAndIsDeterministicAcrossThreadCounts) {
     sdf.evaluate(pts, one);
   }
   for (std::size_t i = 0; i < pts.size(); ++i) {
-    ASSERT_NEAR(fast[i], brute[i], 1e-12) << i;
+    ASSERT_EQ(fast[i], brute[i]) << i;  // same nearest triangle, same arithmetic
     ASSERT_EQ(fast[i], one[i]) << i;
   }
   for (std::size_t i = 5000; i < pts.size(); ++i) EXPECT_LT(std::abs(fast[i]), 1e-12);
+}
+
+TEST(SurfaceSdf, FloatBoundsStayConservativeFarFromTheOrigin) {
+  // Coordinates of 1e4 with details of 1e-2: the search tree's float boxes are coarse here, and
+  // the per-query slack must keep every bound below the true distance. Brute force decides.
+  TriangleSurface mesh = tessellate(ShapeKind::kTorus, 64);
+  for (Vec3& v : mesh.vertices) v = v + Vec3{1e4, -2e4, 5e3};
+  const SurfaceSdf sdf(mesh);
+  auto pts = random_points(3000, -1.5, 1.5, 21);
+  for (Vec3& p : pts) p = p + Vec3{1e4, -2e4, 5e3};
+  for (int i = 0; i < 200; ++i) pts.push_back(pts[i] * 3.0);  // far away, and near the origin
+  std::vector<double> fast(pts.size()), brute(pts.size());
+  sdf.evaluate(pts, fast);
+  brute_force_sdf(mesh, pts, brute);
+  for (std::size_t i = 0; i < pts.size(); ++i) ASSERT_EQ(fast[i], brute[i]) << i;
 }
 
 TEST(SurfaceSdf, UnsignedDistanceIsTheMagnitude) {
