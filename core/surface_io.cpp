@@ -66,6 +66,9 @@ constexpr std::uintmax_t kMaxFileBytes = 0xffffff00u;
 constexpr std::size_t kMaxOffLine = 4000;
 // Assimp's OFF reader drops faces with more corners than this.
 constexpr uint64_t kMaxOffCorners = 9;
+// Assimp triangulates a polygon by ear clipping, quadratic in its corners: a corrupt face with
+// a million corners would take hours.
+constexpr std::size_t kMaxPolygonCorners = 1000;
 
 std::string hex_byte(unsigned char c) {
   char buffer[8];
@@ -266,6 +269,8 @@ class StlTokens {
     }
     return true;
   }
+  // Assimp reads a vertex's or normal's numbers from its own line only.
+  bool next_in_line(std::string_view& token) { return tokens_.next(token); }
   void skip_line() { tokens_ = Tokens({}); }
   std::size_t line() const { return lines_.number(); }
 
@@ -300,7 +305,7 @@ uint64_t check_ascii_stl(const fs::path& path, std::string_view text) {
       for (int k = 0; k < 3; ++k) {
         // The normal is ignored (orientation comes from the vertex order), but must be there
         // for the reader to stay in step.
-        if (!tokens.next(token)) fail_at(path, tokens.line(), "the file ends inside a facet normal");
+        if (!tokens.next_in_line(token)) fail_at(path, tokens.line(), "the facet normal needs three numbers on its line");
         if (!parse_number(token)) fail_at(path, tokens.line(), "the facet normal needs three numbers, found " + quote(token));
       }
       expect("outer", "after the facet normal");
@@ -310,7 +315,7 @@ uint64_t check_ascii_stl(const fs::path& path, std::string_view text) {
         if (!tokens.next(token)) fail_at(path, tokens.line(), "the file ends inside a facet");
         if (token != "vertex") break;
         for (int k = 0; k < 3; ++k) {
-          if (!tokens.next(token)) fail_at(path, tokens.line(), "the file ends inside a vertex");
+          if (!tokens.next_in_line(token)) fail_at(path, tokens.line(), "a vertex needs three coordinates on its line");
           parse_coordinate(path, tokens.line(), token);
         }
         ++corners;
@@ -368,9 +373,17 @@ StlLayout check_stl(const fs::path& path, std::string_view bytes) {
 // ---------------------------------------------------------------------------------------------
 // OBJ
 
-// Returns how many of the file's vertex records the triangles use. Assimp gives every face corner
-// its own vertex, so this is what the weld count is measured against.
-uint64_t check_obj(const fs::path& path, std::string_view text) {
+// What Assimp gets instead of the OBJ file: its vertex and polygon statements only, with
+// absolute vertex indices. Assimp 5.2's OBJ reader crashes on some material statements (a
+// "map_Kd" line after an "mtllib" it cannot open writes through a null pointer), and nothing but
+// positions and faces matters here.
+struct ObjGeometry {
+  std::string text;
+  uint64_t used_records = 0;  // vertex records the polygons use: Assimp gives every corner its own
+                              // vertex, so the weld count is measured against these
+};
+
+ObjGeometry check_obj(const fs::path& path, std::string_view text) {
   check_text(path, text, "OBJ");
   uint64_t total_vertices = 0;
   {
@@ -382,6 +395,8 @@ uint64_t check_obj(const fs::path& path, std::string_view text) {
     }
   }
 
+  ObjGeometry geometry;
+  geometry.text.reserve(text.size());
   Lines lines(text);
   std::string_view line, token;
   uint64_t vertices_so_far = 0;
@@ -392,10 +407,14 @@ uint64_t check_obj(const fs::path& path, std::string_view text) {
     Tokens tokens(line);
     if (!tokens.next(token)) continue;
     if (token == "v") {
+      geometry.text += 'v';
       for (int k = 0; k < 3; ++k) {
         if (!tokens.next(token) || token.starts_with('#')) fail_at(path, lines.number(), "a vertex needs three coordinates");
         parse_coordinate(path, lines.number(), token);
+        geometry.text += ' ';
+        geometry.text += token;
       }
+      geometry.text += '\n';
       ++vertices_so_far;
     } else if (token == "f") {
       corners.clear();
@@ -418,18 +437,28 @@ uint64_t check_obj(const fs::path& path, std::string_view text) {
         }
         corners.push_back(index > 0 ? static_cast<uint64_t>(index - 1) : vertices_so_far - static_cast<uint64_t>(-index));
       }
-      if (corners.size() >= 3) {
-        for (uint64_t v : corners) used[v] = true;
-      } else {
+      if (corners.size() < 3) {
         points_or_lines = true;
+        continue;
       }
+      if (corners.size() > kMaxPolygonCorners) {
+        fail_at(path, lines.number(), "face has " + std::to_string(corners.size()) + " corners; at most " +
+                                          std::to_string(kMaxPolygonCorners) + " are supported (triangulate the model first)");
+      }
+      geometry.text += 'f';
+      for (uint64_t v : corners) {
+        used[v] = true;
+        geometry.text += ' ';
+        geometry.text += std::to_string(v + 1);
+      }
+      geometry.text += '\n';
     } else if (token == "l" || token == "p") {
       points_or_lines = true;
     }
   }
-  const auto used_records = static_cast<uint64_t>(std::count(used.begin(), used.end(), true));
-  if (used_records == 0) fail(path, points_or_lines ? "contains no triangles, only points or lines" : "contains no triangles");
-  return used_records;
+  geometry.used_records = static_cast<uint64_t>(std::count(used.begin(), used.end(), true));
+  if (geometry.used_records == 0) fail(path, points_or_lines ? "contains no triangles, only points or lines" : "contains no triangles");
+  return geometry;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -568,10 +597,12 @@ void check_off(const fs::path& path, std::string_view text) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// PLY: the header is parsed and the data walked once, element by element, so that a truncated
-// file or a corrupt count is reported before Assimp allocates for it or reads past the end.
-// Assimp's ascii reader also accepts short or merged lines; here every element is one line
-// with exactly its properties' values. Indices and coordinates are checked on the parsed scene.
+// PLY: the header is parsed the way Assimp parses it, and the data walked once, element by
+// element, so that a truncated file or a corrupt count is reported before Assimp allocates for
+// it or reads past the end. Assimp 5.2 writes past a buffer when an element name repeats, and
+// its ascii reader accepts short, merged or blank lines by filling in zeros; here each element
+// is exactly one line with exactly its properties' values. Indices and coordinates are checked
+// on the parsed scene.
 
 struct PlyType {
   std::size_t size = 0;  // 0: unknown type
@@ -615,6 +646,13 @@ std::optional<uint64_t> read_ply_count(const char* data, PlyType type, bool big_
   return raw;
 }
 
+// An ascii value of an integer property: Assimp reads digits and stops, so "1.5" would become
+// two values.
+bool is_ply_integer(std::string_view token, bool is_signed) {
+  if (is_signed && token.starts_with('-')) token.remove_prefix(1);
+  return !token.empty() && token.size() <= 10 && token.find_first_not_of("0123456789") == std::string_view::npos;
+}
+
 void check_ply(const fs::path& path, std::string_view bytes) {
   Lines lines(bytes);
   std::string_view line, token;
@@ -626,26 +664,36 @@ void check_ply(const fs::path& path, std::string_view bytes) {
     fail(path, "does not start with 'ply', so it is not a PLY file");
   }
 
+  // Assimp reads the format from the second line only.
+  enum { ascii, little, big } format = ascii;
+  lines.next(line);
+  {
+    Tokens tokens(line);
+    if (!tokens.next(token) || token != "format") fail_at(path, lines.number(), "the second line of a PLY file must be 'format ...'");
+    tokens.next(token);
+    if (token == "ascii") {
+      format = ascii;
+    } else if (token == "binary_little_endian") {
+      format = little;
+    } else if (token == "binary_big_endian") {
+      format = big;
+    } else {
+      fail_at(path, lines.number(), "unknown PLY format " + quote(token));
+    }
+  }
+
   std::vector<PlyElement> elements;
-  enum { none, ascii, little, big } format = none;
-  bool ended = false;
+  bool ended = false, in_element = false;
   while (!ended && lines.next(line)) {
     Tokens tokens(line);
-    if (!tokens.next(token)) continue;
     const std::size_t n = lines.number();
+    if (!tokens.next(token)) {
+      in_element = false;  // Assimp ends an element's property list at any other line
+      continue;
+    }
+    if (token == "comment") continue;
     if (token == "end_header") {
       ended = true;
-    } else if (token == "format") {
-      tokens.next(token);
-      if (token == "ascii") {
-        format = ascii;
-      } else if (token == "binary_little_endian") {
-        format = little;
-      } else if (token == "binary_big_endian") {
-        format = big;
-      } else {
-        fail_at(path, n, "unknown PLY format " + quote(token));
-      }
     } else if (token == "element") {
       PlyElement element;
       element.line = n;
@@ -654,9 +702,13 @@ void check_ply(const fs::path& path, std::string_view bytes) {
       const auto count = parse_count(count_text);
       if (!count) fail_at(path, n, quote(count_text) + " is not an element count");
       element.count = *count;
+      for (const PlyElement& other : elements) {
+        if (other.name == element.name) fail_at(path, n, "the element " + quote(element.name) + " is declared twice");
+      }
       elements.push_back(element);
+      in_element = true;
     } else if (token == "property") {
-      if (elements.empty()) fail_at(path, n, "a property comes before any element");
+      if (!in_element) fail_at(path, n, "a property line that does not follow an element or its properties");
       PlyProperty property;
       std::string_view type;
       tokens.next(type);
@@ -670,12 +722,12 @@ void check_ply(const fs::path& path, std::string_view bytes) {
       property.value = ply_type(type);
       if (property.value.size == 0) fail_at(path, n, "unknown PLY property type " + quote(type));
       elements.back().properties.push_back(property);
+    } else {
+      // Ignored, as Assimp ignores it (Blender once wrote comments without 'comment').
+      in_element = false;
     }
-    // Any other line is ignored, as Assimp ignores it (Blender once wrote comments without the
-    // 'comment' keyword).
   }
   if (!ended) fail(path, "has no 'end_header' line: the PLY header is incomplete");
-  if (format == none) fail(path, "has no 'format' line in its PLY header");
 
   // Every element instance takes at least a byte (or a line), so this bounds the walk below by
   // the file size even when a count is absurd.
@@ -716,29 +768,31 @@ void check_ply(const fs::path& path, std::string_view bytes) {
     return;
   }
 
+  check_text(path, bytes.substr(lines.position()), "PLY");
   for (const PlyElement& element : elements) {
     for (uint64_t i = 0; i < element.count; ++i) {
-      do {
-        if (!lines.next(line)) truncated(element, i);
-      } while (trimmed(line).empty());
+      if (!lines.next(line)) truncated(element, i);
+      const std::size_t n = lines.number();
+      if (trimmed(line).empty()) fail_at(path, n, "a blank line where a " + quote(element.name) + " element was expected");
       Tokens tokens(line);
-      const auto value = [&]() {
-        if (!tokens.next(token)) fail_at(path, lines.number(), "too few values for a " + quote(element.name) + " element");
-        if (!parse_number(token)) fail_at(path, lines.number(), quote(token) + " is not a number");
+      const auto value = [&](PlyType type) {
+        if (!tokens.next(token)) fail_at(path, n, "too few values for a " + quote(element.name) + " element");
+        const bool ok = type.is_float ? parse_number(token).has_value() : is_ply_integer(token, type.is_signed);
+        if (!ok) fail_at(path, n, quote(token) + " is not " + (type.is_float ? "a number" : "an integer"));
       };
       for (const PlyProperty& property : element.properties) {
         if (!property.list) {
-          value();
+          value(property.value);
           continue;
         }
-        if (!tokens.next(token)) fail_at(path, lines.number(), "too few values for a " + quote(element.name) + " element");
+        if (!tokens.next(token)) fail_at(path, n, "too few values for a " + quote(element.name) + " element");
         const auto length = parse_count(token);
-        if (!length) fail_at(path, lines.number(), quote(token) + " is not a list length");
-        if (*length > line.size()) fail_at(path, lines.number(), "too few values for a " + quote(element.name) + " element");
-        for (uint64_t k = 0; k < *length; ++k) value();
+        if (!length) fail_at(path, n, quote(token) + " is not a list length");
+        if (*length > line.size()) fail_at(path, n, "too few values for a " + quote(element.name) + " element");
+        for (uint64_t k = 0; k < *length; ++k) value(property.value);
       }
       if (tokens.next(token)) {
-        fail_at(path, lines.number(), "more values than a " + quote(element.name) + " element has properties (one element per line is expected)");
+        fail_at(path, n, "more values than a " + quote(element.name) + " element has properties (one element per line is expected)");
       }
     }
   }
@@ -799,6 +853,10 @@ bool check_scene(const fs::path& path, const aiScene& scene) {
           fail(path, "a face refers to vertex " + std::to_string(face.mIndices[k]) + ", but there are only " +
                          std::to_string(mesh->mNumVertices) + " vertices");
         }
+      }
+      if (face.mNumIndices > kMaxPolygonCorners) {
+        fail(path, "has a face with " + std::to_string(face.mNumIndices) + " corners; at most " +
+                       std::to_string(kMaxPolygonCorners) + " are supported (triangulate the model first)");
       }
       polygons = polygons || face.mNumIndices > 3;
     }
@@ -866,7 +924,7 @@ TriangleSurface read_surface(const std::filesystem::path& path, std::size_t* wel
   std::string_view to_parse = bytes;
   std::optional<uint64_t> expected_triangles;
   std::optional<uint64_t> vertex_records;  // when the reader does not keep the file's indexing
-  std::string patched;  // only when the bytes Assimp sees must differ, see below
+  std::string patched;  // when the bytes Assimp sees must differ from the file's
   switch (format) {
     case Format::stl: {
       const StlLayout layout = check_stl(path, bytes);
@@ -884,10 +942,13 @@ TriangleSurface read_surface(const std::filesystem::path& path, std::size_t* wel
       }
       break;
     }
-    case Format::obj:
-      to_parse = strip_utf8_bom(bytes);
-      vertex_records = check_obj(path, to_parse);
+    case Format::obj: {
+      ObjGeometry geometry = check_obj(path, strip_utf8_bom(bytes));
+      vertex_records = geometry.used_records;
+      patched = std::move(geometry.text);
+      to_parse = patched;
       break;
+    }
     case Format::off:
       to_parse = strip_utf8_bom(bytes);
       check_off(path, to_parse);

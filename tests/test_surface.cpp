@@ -466,6 +466,14 @@ TEST_F(TempDir, ObjPolygonsAreTriangulatedAndOtherPrimitivesIgnored) {
   EXPECT_EQ(r.volume, 1.0);
 }
 
+TEST_F(TempDir, ObjMaterialStatementsAreIgnored) {
+  // Assimp 5.2 alone crashes on this: a texture map statement after an mtllib it cannot open.
+  const std::string text = "mtllib missing.mtl\nusemtl red\nmap_Kd red.png\n" + obj(unit_cube());
+  const SurfaceReport r = validate_surface(read_surface(write("material.obj", text)));
+  EXPECT_EQ(r.triangles, 12u);
+  EXPECT_TRUE(r.consistently_oriented);
+}
+
 TEST_F(TempDir, OffPolygonsAndVariants) {
   // COFF with colours, a comment in the header, CRLF line ends, quads, a face colour.
   std::string text = "COFF # coloured\r\n# counts follow\r\n8 6 12\r\n\r\n";
@@ -739,7 +747,8 @@ TEST_F(TempDir, AsciiStlStructureErrors) {
   text = cube;
   text.replace(text.find("normal 0 0 0"), 12, "normal");
   expect_input_error(write("no_normal.stl", text), "facet normal needs three numbers");
-  expect_input_error(write("cut.stl", cube.substr(0, cube.find("vertex", cube.size() / 2) + 10)), "the file ends");
+  expect_input_error(write("cut.stl", cube.substr(0, cube.find("vertex", cube.size() / 2) + 10)), "three coordinates");
+  expect_input_error(write("cut_facet.stl", cube.substr(0, cube.find("outer loop", cube.size() / 2) + 10)), "the file ends inside a facet");
   text = cube;
   text.replace(text.find("vertex 1 1 1"), 12, "vertex 1 \x10 1");
   expect_input_error(write("control.stl", text), "control character \\x10");
@@ -783,12 +792,56 @@ TEST_F(TempDir, PlyHeaderErrors) {
   expect_input_error(write("not.ply", "plx\n" + text.substr(4)), "not a PLY file");
   text.replace(text.find("ascii"), 5, "morse");
   expect_input_error(write("morse.ply", text), "unknown PLY format 'morse'");
+  // Assimp 5.2 writes past a buffer on a repeated element.
+  text = binary_ply(cube);
+  text.replace(text.find("element face"), 0, "element vertex 4\nproperty float x\nproperty float y\nproperty float z\n");
+  expect_input_error(write("two_vertex_elements.ply", text), "'vertex' is declared twice");
+  text = ascii_ply(cube);
+  text.replace(text.find("property float y"), 0, "made by hand\n");
+  expect_input_error(write("stray_property.ply", text), "does not follow an element");
+}
+
+TEST_F(TempDir, PlyAsciiDataErrors) {
+  const std::string cube = ascii_ply(unit_cube());
+  std::string text = cube;
+  text.replace(text.find("1 1 1\n"), 6, "1 1 1 0 1 1\n");
+  expect_input_error(write("merged.ply", text), "one element per line");
+  text = cube;
+  text.replace(text.find("1 1 1\n"), 6, "1 1\n");
+  expect_input_error(write("short.ply", text), "too few values for a 'vertex' element");
+  text = cube;
+  text.replace(text.find("1 1 1\n"), 0, "\n");
+  expect_input_error(write("blank.ply", text), "blank line");
+  text = cube;
+  text.replace(text.find("3 1 6 5"), 7, "3 1 6 5.5");
+  expect_input_error(write("fraction.ply", text), "'5.5' is not an integer");
+  text = cube;
+  text.replace(text.find("1 1 1\n"), 6, "1 one 1\n");
+  expect_input_error(write("word.ply", text), "'one' is not a number");
 }
 
 TEST_F(TempDir, Utf16Obj) {
   std::string text = "\xFE\xFF";
   for (char c : obj(unit_cube())) text += std::string(1, '\0') + c;
   expect_input_error(write("utf16.obj", text), "UTF-16");
+}
+
+TEST_F(TempDir, HugePolygonsAreRefused) {
+  // Ear clipping is quadratic in the corners; a corrupt face must not become an hour-long loop.
+  std::string text;
+  const int corners = 5000;
+  for (int i = 0; i < corners; ++i) text += "v " + number(std::cos(i * 2e-3)) + " " + number(std::sin(i * 2e-3)) + " 0\n";
+  text += "f";
+  for (int i = 1; i <= corners; ++i) text.append(" ").append(std::to_string(i));
+  expect_fast_input_error(write("polygon.obj", text + "\n"), "5000 corners");
+  TriangleSurface fan;
+  for (int i = 0; i < corners; ++i) fan.vertices.push_back({std::cos(i * 2e-3), std::sin(i * 2e-3), 0});
+  std::string ply = ascii_ply(fan);
+  ply.replace(ply.find("element face 0"), 14, "element face 1");
+  ply += std::to_string(corners);
+  for (int i = 0; i < corners; ++i) ply.append(" ").append(std::to_string(i));
+  ply.replace(ply.find("list uchar int"), 14, "list int int");
+  expect_fast_input_error(write("polygon.ply", ply + "\n"), "5000 corners");
 }
 
 // ---------------------------------------------------------------------------------------------
