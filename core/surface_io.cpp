@@ -18,13 +18,13 @@
 // files. The scene it returns is checked again (indices, finite coordinates) before polygons are
 // triangulated, since aiProcess_Triangulate assumes a well-formed mesh. No Assimp logger is ever
 // created, so Assimp prints nothing.
-#include <assimp/IOSystem.hpp>
-#include <assimp/Importer.hpp>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
 #include <algorithm>
 #include <array>
+#include <assimp/IOSystem.hpp>
+#include <assimp/Importer.hpp>
 #include <cctype>
 #include <cfloat>
 #include <charconv>
@@ -52,10 +52,14 @@ enum class Format { stl, obj, off, ply };
 
 const char* format_name(Format format) {
   switch (format) {
-    case Format::stl: return "STL";
-    case Format::obj: return "OBJ";
-    case Format::off: return "OFF";
-    case Format::ply: return "PLY";
+    case Format::stl:
+      return "STL";
+    case Format::obj:
+      return "OBJ";
+    case Format::off:
+      return "OFF";
+    case Format::ply:
+      return "PLY";
   }
   return "";
 }
@@ -237,8 +241,10 @@ std::optional<double> parse_number(std::string_view token) {
 double parse_coordinate(const fs::path& path, std::size_t line, std::string_view token) {
   const std::optional<double> value = parse_number(token);
   if (!value) fail_at(path, line, quote(token) + " is not a number");
-  if (!std::isfinite(*value)) fail_at(path, line, "coordinate " + quote(token) + " is not finite; NaN and infinity cannot be meshed");
-  if (std::fabs(*value) > FLT_MAX) fail_at(path, line, "coordinate " + quote(token) + " is beyond single precision, which the readers use");
+  if (!std::isfinite(*value))
+    fail_at(path, line, "coordinate " + quote(token) + " is not finite; NaN and infinity cannot be meshed");
+  if (std::fabs(*value) > FLT_MAX)
+    fail_at(path, line, "coordinate " + quote(token) + " is beyond single precision, which the readers use");
   return *value;
 }
 
@@ -284,9 +290,11 @@ uint64_t check_ascii_stl(const fs::path& path, std::string_view text) {
   StlTokens tokens(text);
   std::string_view token;
   const auto expect = [&](std::string_view keyword, std::string_view after) {
-    if (!tokens.next(token)) fail_at(path, tokens.line(), "the file ends where '" + std::string(keyword) + "' was expected");
+    if (!tokens.next(token))
+      fail_at(path, tokens.line(), "the file ends where '" + std::string(keyword) + "' was expected");
     if (token != keyword) {
-      fail_at(path, tokens.line(), "expected '" + std::string(keyword) + "' " + std::string(after) + ", found " + quote(token));
+      fail_at(path, tokens.line(),
+              "expected '" + std::string(keyword) + "' " + std::string(after) + ", found " + quote(token));
     }
   };
 
@@ -305,8 +313,10 @@ uint64_t check_ascii_stl(const fs::path& path, std::string_view text) {
       for (int k = 0; k < 3; ++k) {
         // The normal is ignored (orientation comes from the vertex order), but must be there
         // for the reader to stay in step.
-        if (!tokens.next_in_line(token)) fail_at(path, tokens.line(), "the facet normal needs three numbers on its line");
-        if (!parse_number(token)) fail_at(path, tokens.line(), "the facet normal needs three numbers, found " + quote(token));
+        if (!tokens.next_in_line(token))
+          fail_at(path, tokens.line(), "the facet normal needs three numbers on its line");
+        if (!parse_number(token))
+          fail_at(path, tokens.line(), "the facet normal needs three numbers, found " + quote(token));
       }
       expect("outer", "after the facet normal");
       expect("loop", "after 'outer'");
@@ -315,20 +325,24 @@ uint64_t check_ascii_stl(const fs::path& path, std::string_view text) {
         if (!tokens.next(token)) fail_at(path, tokens.line(), "the file ends inside a facet");
         if (token != "vertex") break;
         for (int k = 0; k < 3; ++k) {
-          if (!tokens.next_in_line(token)) fail_at(path, tokens.line(), "a vertex needs three coordinates on its line");
+          if (!tokens.next_in_line(token))
+            fail_at(path, tokens.line(), "a vertex needs three coordinates on its line");
           parse_coordinate(path, tokens.line(), token);
         }
         ++corners;
       }
-      if (token != "endloop") fail_at(path, tokens.line(), "expected 'vertex' or 'endloop', found " + quote(token));
+      if (token != "endloop")
+        fail_at(path, tokens.line(), "expected 'vertex' or 'endloop', found " + quote(token));
       if (corners != 3) {
-        fail_at(path, facet_line, "facet has " + std::to_string(corners) + " vertices; STL facets must be triangles");
+        fail_at(path, facet_line,
+                "facet has " + std::to_string(corners) + " vertices; STL facets must be triangles");
       }
       expect("endfacet", "after 'endloop'");
       ++facets;
     } else {
       fail_at(path, tokens.line(),
-              std::string(in_solid ? "expected 'facet' or 'endsolid'" : "expected 'solid' or the end of the file") +
+              std::string(in_solid ? "expected 'facet' or 'endsolid'"
+                                   : "expected 'solid' or the end of the file") +
                   ", found " + quote(token));
     }
   }
@@ -359,14 +373,17 @@ StlLayout check_stl(const fs::path& path, std::string_view bytes) {
   }
 
   if (size < 84) {
-    fail(path, "is neither an ASCII STL (it does not start with 'solid') nor a binary STL (shorter than the 84-byte header)");
+    fail(path,
+         "is neither an ASCII STL (it does not start with 'solid') nor a binary STL (shorter than the "
+         "84-byte header)");
   }
   uint32_t declared = 0;
   std::memcpy(&declared, bytes.data() + 80, sizeof declared);
   fail(path, std::string("is not an ASCII STL (") +
-                 (starts_with_solid ? "it starts with 'solid' but holds binary zeros" : "it does not start with 'solid'") +
-                 "), and as a binary STL its header declares " +
-                 std::to_string(declared) + " triangles, which need " + std::to_string(84 + 50 * uint64_t{declared}) +
+                 (starts_with_solid ? "it starts with 'solid' but holds binary zeros"
+                                    : "it does not start with 'solid'") +
+                 "), and as a binary STL its header declares " + std::to_string(declared) +
+                 " triangles, which need " + std::to_string(84 + 50 * uint64_t{declared}) +
                  " bytes, but the file has " + std::to_string(size) + " bytes: it is truncated or corrupt");
 }
 
@@ -409,7 +426,8 @@ ObjGeometry check_obj(const fs::path& path, std::string_view text) {
     if (token == "v") {
       geometry.text += 'v';
       for (int k = 0; k < 3; ++k) {
-        if (!tokens.next(token) || token.starts_with('#')) fail_at(path, lines.number(), "a vertex needs three coordinates");
+        if (!tokens.next(token) || token.starts_with('#'))
+          fail_at(path, lines.number(), "a vertex needs three coordinates");
         parse_coordinate(path, lines.number(), token);
         geometry.text += ' ';
         geometry.text += token;
@@ -421,29 +439,36 @@ ObjGeometry check_obj(const fs::path& path, std::string_view text) {
       while (tokens.next(token) && !token.starts_with('#')) {
         const std::string_view index_text = token.substr(0, token.find('/'));
         int64_t index = 0;
-        const auto [end, error] = std::from_chars(index_text.data(), index_text.data() + index_text.size(), index);
+        const auto [end, error] =
+            std::from_chars(index_text.data(), index_text.data() + index_text.size(), index);
         if (index_text.empty() || error != std::errc{} || end != index_text.data() + index_text.size()) {
-          fail_at(path, lines.number(), quote(token) + " is not a face corner (vertex index, optionally /texture/normal)");
+          fail_at(path, lines.number(),
+                  quote(token) + " is not a face corner (vertex index, optionally /texture/normal)");
         }
-        if (index == 0) fail_at(path, lines.number(), "face index 0 is invalid: OBJ vertex indices start at 1");
+        if (index == 0)
+          fail_at(path, lines.number(), "face index 0 is invalid: OBJ vertex indices start at 1");
         if (index > 0 && static_cast<uint64_t>(index) > total_vertices) {
-          fail_at(path, lines.number(), "face refers to vertex " + std::to_string(index) + ", but the file defines only " +
-                                            std::to_string(total_vertices) + " vertices");
+          fail_at(path, lines.number(),
+                  "face refers to vertex " + std::to_string(index) + ", but the file defines only " +
+                      std::to_string(total_vertices) + " vertices");
         }
         // Negative indices count back from the most recent vertex.
         if (index < 0 && static_cast<uint64_t>(-(index + 1)) >= vertices_so_far) {
-          fail_at(path, lines.number(), "face refers to vertex " + std::to_string(index) + " (counting back), but only " +
-                                            std::to_string(vertices_so_far) + " vertices come before it");
+          fail_at(path, lines.number(),
+                  "face refers to vertex " + std::to_string(index) + " (counting back), but only " +
+                      std::to_string(vertices_so_far) + " vertices come before it");
         }
-        corners.push_back(index > 0 ? static_cast<uint64_t>(index - 1) : vertices_so_far - static_cast<uint64_t>(-index));
+        corners.push_back(index > 0 ? static_cast<uint64_t>(index - 1)
+                                    : vertices_so_far - static_cast<uint64_t>(-index));
       }
       if (corners.size() < 3) {
         points_or_lines = true;
         continue;
       }
       if (corners.size() > kMaxPolygonCorners) {
-        fail_at(path, lines.number(), "face has " + std::to_string(corners.size()) + " corners; at most " +
-                                          std::to_string(kMaxPolygonCorners) + " are supported (triangulate the model first)");
+        fail_at(path, lines.number(),
+                "face has " + std::to_string(corners.size()) + " corners; at most " +
+                    std::to_string(kMaxPolygonCorners) + " are supported (triangulate the model first)");
       }
       geometry.text += 'f';
       for (uint64_t v : corners) {
@@ -457,7 +482,8 @@ ObjGeometry check_obj(const fs::path& path, std::string_view text) {
     }
   }
   geometry.used_records = static_cast<uint64_t>(std::count(used.begin(), used.end(), true));
-  if (geometry.used_records == 0) fail(path, points_or_lines ? "contains no triangles, only points or lines" : "contains no triangles");
+  if (geometry.used_records == 0)
+    fail(path, points_or_lines ? "contains no triangles, only points or lines" : "contains no triangles");
   return geometry;
 }
 
@@ -498,7 +524,8 @@ void check_off(const fs::path& path, std::string_view text) {
   // The keyword is optional in the format, but without it Assimp takes a leading '4' or 'n' of
   // the vertex count for a header prefix.
   if (keyword != "OFF") {
-    fail_at(path, lines.number(), "expected the OFF header keyword ('OFF', 'COFF', 'NOFF', ...), found " + quote(token));
+    fail_at(path, lines.number(),
+            "expected the OFF header keyword ('OFF', 'COFF', 'NOFF', ...), found " + quote(token));
   }
   if (has_dimension) {
     if (!next_in_line()) {
@@ -506,7 +533,8 @@ void check_off(const fs::path& path, std::string_view text) {
       next_in_line();
     }
     const auto dimension = parse_count(token);
-    if (!dimension || *dimension != 3) fail_at(path, lines.number(), "only 3-D vertices are supported, the header says " + quote(token));
+    if (!dimension || *dimension != 3)
+      fail_at(path, lines.number(), "only 3-D vertices are supported, the header says " + quote(token));
   }
 
   // Assimp reads the counts as tokens and the first vertex from wherever the edge count ends,
@@ -521,23 +549,26 @@ void check_off(const fs::path& path, std::string_view text) {
     count_text.push_back(token);
   } while (count_text.size() < 4 && next_in_line());
   if (count_text.size() != 3) {
-    fail_at(path, lines.number(), "the OFF header needs the vertex, face and edge counts on one line, found " +
-                                      std::to_string(count_text.size()) + " values" +
-                                      (count_text.size() == 2 ? " (the edge count is missing: write 0)" : ""));
+    fail_at(path, lines.number(),
+            "the OFF header needs the vertex, face and edge counts on one line, found " +
+                std::to_string(count_text.size()) + " values" +
+                (count_text.size() == 2 ? " (the edge count is missing: write 0)" : ""));
   }
   std::array<uint64_t, 3> counts{};
   for (std::size_t k = 0; k < 3; ++k) {
     const auto count = parse_count(count_text[k]);
     if (!count) {
-      fail_at(path, lines.number(), "expected the vertex, face and edge counts, found " + quote(count_text[k]));
+      fail_at(path, lines.number(),
+              "expected the vertex, face and edge counts, found " + quote(count_text[k]));
     }
     counts[k] = *count;
   }
   const std::size_t header_line = lines.number();
   const uint64_t vertex_count = counts[0], face_count = counts[1];
   if (vertex_count >= (uint64_t{1} << 31) || face_count >= (uint64_t{1} << 31)) {
-    fail_at(path, header_line, "the header declares " + std::to_string(vertex_count) + " vertices and " +
-                                   std::to_string(face_count) + " faces, more than the file can hold");
+    fail_at(path, header_line,
+            "the header declares " + std::to_string(vertex_count) + " vertices and " +
+                std::to_string(face_count) + " faces, more than the file can hold");
   }
   if (face_count == 0) fail(path, "contains no triangles (the OFF header declares 0 faces)");
   if (vertex_count == 0) fail(path, "contains no vertices (the OFF header declares 0 vertices)");
@@ -550,25 +581,30 @@ void check_off(const fs::path& path, std::string_view text) {
     std::string_view first;
     for (;;) {
       if (!lines.next(line)) {
-        fail(path, "the file ends after " + std::to_string(index) + " of the " + std::to_string(count) + " " + what +
-                       " its header declares (one per line is expected)");
+        fail(path, "the file ends after " + std::to_string(index) + " of the " + std::to_string(count) + " " +
+                       what + " its header declares (one per line is expected)");
       }
       if (line.empty()) continue;
       const bool has_token = Tokens(line).next(first);
       if (first_body_line && (!has_token || first.starts_with('#'))) continue;
-      if (!has_token) fail_at(path, lines.number(), std::string("expected one of the ") + what + ", found a line of spaces");
-      if (first.starts_with('#')) fail_at(path, lines.number(), std::string("comments between the ") + what + " are not supported");
+      if (!has_token)
+        fail_at(path, lines.number(),
+                std::string("expected one of the ") + what + ", found a line of spaces");
+      if (first.starts_with('#'))
+        fail_at(path, lines.number(), std::string("comments between the ") + what + " are not supported");
       break;
     }
     first_body_line = false;
-    if (line.size() > kMaxOffLine) fail_at(path, lines.number(), "line is longer than " + std::to_string(kMaxOffLine) + " characters");
+    if (line.size() > kMaxOffLine)
+      fail_at(path, lines.number(), "line is longer than " + std::to_string(kMaxOffLine) + " characters");
     return Tokens(line);
   };
 
   for (uint64_t v = 0; v < vertex_count; ++v) {
     Tokens tokens = next_body_line("vertices", v, vertex_count);
     for (int k = 0; k < 3; ++k) {
-      if (!tokens.next(token) || token.starts_with('#')) fail_at(path, lines.number(), "a vertex needs three coordinates");
+      if (!tokens.next(token) || token.starts_with('#'))
+        fail_at(path, lines.number(), "a vertex needs three coordinates");
       parse_coordinate(path, lines.number(), token);
     }
   }
@@ -579,18 +615,21 @@ void check_off(const fs::path& path, std::string_view text) {
     if (!corners) fail_at(path, lines.number(), "expected the number of face corners, found " + quote(token));
     if (*corners == 0) fail_at(path, lines.number(), "face has no corners");
     if (*corners > kMaxOffCorners) {
-      fail_at(path, lines.number(), "face has " + std::to_string(*corners) + " corners; the OFF reader supports at most " +
-                                        std::to_string(kMaxOffCorners) + " (triangulate the model first)");
+      fail_at(path, lines.number(),
+              "face has " + std::to_string(*corners) + " corners; the OFF reader supports at most " +
+                  std::to_string(kMaxOffCorners) + " (triangulate the model first)");
     }
     for (uint64_t k = 0; k < *corners; ++k) {
       if (!tokens.next(token) || token.starts_with('#')) {
-        fail_at(path, lines.number(), "face has fewer indices than its corner count " + std::to_string(*corners));
+        fail_at(path, lines.number(),
+                "face has fewer indices than its corner count " + std::to_string(*corners));
       }
       const auto index = parse_count(token);
       if (!index) fail_at(path, lines.number(), quote(token) + " is not a vertex index");
       if (*index >= vertex_count) {
-        fail_at(path, lines.number(), "face refers to vertex " + std::to_string(*index) + ", but the file has only " +
-                                          std::to_string(vertex_count) + " vertices (indices start at 0)");
+        fail_at(path, lines.number(),
+                "face refers to vertex " + std::to_string(*index) + ", but the file has only " +
+                    std::to_string(vertex_count) + " vertices (indices start at 0)");
       }
     }
   }
@@ -650,7 +689,8 @@ std::optional<uint64_t> read_ply_count(const char* data, PlyType type, bool big_
 // two values.
 bool is_ply_integer(std::string_view token, bool is_signed) {
   if (is_signed && token.starts_with('-')) token.remove_prefix(1);
-  return !token.empty() && token.size() <= 10 && token.find_first_not_of("0123456789") == std::string_view::npos;
+  return !token.empty() && token.size() <= 10 &&
+         token.find_first_not_of("0123456789") == std::string_view::npos;
 }
 
 void check_ply(const fs::path& path, std::string_view bytes) {
@@ -669,7 +709,8 @@ void check_ply(const fs::path& path, std::string_view bytes) {
   lines.next(line);
   {
     Tokens tokens(line);
-    if (!tokens.next(token) || token != "format") fail_at(path, lines.number(), "the second line of a PLY file must be 'format ...'");
+    if (!tokens.next(token) || token != "format")
+      fail_at(path, lines.number(), "the second line of a PLY file must be 'format ...'");
     tokens.next(token);
     if (token == "ascii") {
       format = ascii;
@@ -698,12 +739,14 @@ void check_ply(const fs::path& path, std::string_view bytes) {
       PlyElement element;
       element.line = n;
       std::string_view count_text;
-      if (!tokens.next(element.name) || !tokens.next(count_text)) fail_at(path, n, "an element needs a name and a count");
+      if (!tokens.next(element.name) || !tokens.next(count_text))
+        fail_at(path, n, "an element needs a name and a count");
       const auto count = parse_count(count_text);
       if (!count) fail_at(path, n, quote(count_text) + " is not an element count");
       element.count = *count;
       for (const PlyElement& other : elements) {
-        if (other.name == element.name) fail_at(path, n, "the element " + quote(element.name) + " is declared twice");
+        if (other.name == element.name)
+          fail_at(path, n, "the element " + quote(element.name) + " is declared twice");
       }
       elements.push_back(element);
       in_element = true;
@@ -716,7 +759,8 @@ void check_ply(const fs::path& path, std::string_view bytes) {
         property.list = true;
         tokens.next(type);
         property.count = ply_type(type);
-        if (property.count.size == 0 || property.count.is_float) fail_at(path, n, "a list length needs an integer type, found " + quote(type));
+        if (property.count.size == 0 || property.count.is_float)
+          fail_at(path, n, "a list length needs an integer type, found " + quote(type));
         tokens.next(type);
       }
       property.value = ply_type(type);
@@ -734,11 +778,13 @@ void check_ply(const fs::path& path, std::string_view bytes) {
   const uint64_t data_bytes = bytes.size() - lines.position();
   for (const PlyElement& element : elements) {
     uint64_t smallest = 0;
-    for (const PlyProperty& property : element.properties) smallest += format == ascii ? 2 : (property.list ? property.count.size : property.value.size);
+    for (const PlyProperty& property : element.properties)
+      smallest += format == ascii ? 2 : (property.list ? property.count.size : property.value.size);
     if (element.count > (data_bytes + 1) / std::max<uint64_t>(smallest, 1)) {
-      fail_at(path, element.line, "the header declares " + std::to_string(element.count) + " " + quote(element.name) +
-                                      " elements, but only " + std::to_string(data_bytes) +
-                                      " bytes of data follow the header: the file is truncated or corrupt");
+      fail_at(path, element.line,
+              "the header declares " + std::to_string(element.count) + " " + quote(element.name) +
+                  " elements, but only " + std::to_string(data_bytes) +
+                  " bytes of data follow the header: the file is truncated or corrupt");
     }
   }
   const auto truncated = [&](const PlyElement& element, uint64_t i) {
@@ -773,11 +819,13 @@ void check_ply(const fs::path& path, std::string_view bytes) {
     for (uint64_t i = 0; i < element.count; ++i) {
       if (!lines.next(line)) truncated(element, i);
       const std::size_t n = lines.number();
-      if (trimmed(line).empty()) fail_at(path, n, "a blank line where a " + quote(element.name) + " element was expected");
+      if (trimmed(line).empty())
+        fail_at(path, n, "a blank line where a " + quote(element.name) + " element was expected");
       Tokens tokens(line);
       const auto value = [&](PlyType type) {
         if (!tokens.next(token)) fail_at(path, n, "too few values for a " + quote(element.name) + " element");
-        const bool ok = type.is_float ? parse_number(token).has_value() : is_ply_integer(token, type.is_signed);
+        const bool ok =
+            type.is_float ? parse_number(token).has_value() : is_ply_integer(token, type.is_signed);
         if (!ok) fail_at(path, n, quote(token) + " is not " + (type.is_float ? "a number" : "an integer"));
       };
       for (const PlyProperty& property : element.properties) {
@@ -788,11 +836,14 @@ void check_ply(const fs::path& path, std::string_view bytes) {
         if (!tokens.next(token)) fail_at(path, n, "too few values for a " + quote(element.name) + " element");
         const auto length = parse_count(token);
         if (!length) fail_at(path, n, quote(token) + " is not a list length");
-        if (*length > line.size()) fail_at(path, n, "too few values for a " + quote(element.name) + " element");
+        if (*length > line.size())
+          fail_at(path, n, "too few values for a " + quote(element.name) + " element");
         for (uint64_t k = 0; k < *length; ++k) value(property.value);
       }
       if (tokens.next(token)) {
-        fail_at(path, n, "more values than a " + quote(element.name) + " element has properties (one element per line is expected)");
+        fail_at(path, n,
+                "more values than a " + quote(element.name) +
+                    " element has properties (one element per line is expected)");
       }
     }
   }
@@ -833,18 +884,20 @@ bool check_scene(const fs::path& path, const aiScene& scene) {
   for (unsigned m = 0; m < scene.mNumMeshes; ++m) {
     const aiMesh* mesh = scene.mMeshes[m];
     if (mesh == nullptr) fail(path, "the reader returned an empty mesh");
-    if (mesh->mNumVertices > 0 && mesh->mVertices == nullptr) fail(path, "the reader returned a mesh without positions");
+    if (mesh->mNumVertices > 0 && mesh->mVertices == nullptr)
+      fail(path, "the reader returned a mesh without positions");
     for (unsigned v = 0; v < mesh->mNumVertices; ++v) {
       const aiVector3D& p = mesh->mVertices[v];
       if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) {
         char buffer[128];
-        std::snprintf(buffer, sizeof buffer, "(%g, %g, %g)", static_cast<double>(p.x), static_cast<double>(p.y),
-                      static_cast<double>(p.z));
+        std::snprintf(buffer, sizeof buffer, "(%g, %g, %g)", static_cast<double>(p.x),
+                      static_cast<double>(p.y), static_cast<double>(p.z));
         fail(path, std::string("has a vertex with a non-finite coordinate ") + buffer +
                        "; NaN and infinity cannot be meshed");
       }
     }
-    if (mesh->mNumFaces > 0 && mesh->mFaces == nullptr) fail(path, "the reader returned a mesh without faces");
+    if (mesh->mNumFaces > 0 && mesh->mFaces == nullptr)
+      fail(path, "the reader returned a mesh without faces");
     for (unsigned f = 0; f < mesh->mNumFaces; ++f) {
       const aiFace& face = mesh->mFaces[f];
       if (face.mNumIndices == 0 || face.mIndices == nullptr) fail(path, "has a face without vertices");
@@ -874,17 +927,20 @@ struct Collected {
 Collected collect_triangles(const fs::path& path, const aiScene& scene) {
   Collected out;
   if (scene.mRootNode == nullptr) return out;
-  std::vector<std::pair<const aiNode*, aiMatrix4x4>> stack{{scene.mRootNode, scene.mRootNode->mTransformation}};
+  std::vector<std::pair<const aiNode*, aiMatrix4x4>> stack{
+      {scene.mRootNode, scene.mRootNode->mTransformation}};
   std::vector<uint32_t> remap;
   while (!stack.empty()) {
     const auto [node, transform] = stack.back();
     stack.pop_back();
     for (unsigned c = node->mNumChildren; c-- > 0;) {
-      if (node->mChildren[c] != nullptr) stack.emplace_back(node->mChildren[c], transform * node->mChildren[c]->mTransformation);
+      if (node->mChildren[c] != nullptr)
+        stack.emplace_back(node->mChildren[c], transform * node->mChildren[c]->mTransformation);
     }
     const bool identity = transform.IsIdentity();
     for (unsigned i = 0; i < node->mNumMeshes; ++i) {
-      if (node->mMeshes[i] >= scene.mNumMeshes) fail(path, "the reader returned a scene that refers to a missing mesh");
+      if (node->mMeshes[i] >= scene.mNumMeshes)
+        fail(path, "the reader returned a scene that refers to a missing mesh");
       const aiMesh& mesh = *scene.mMeshes[node->mMeshes[i]];
       remap.assign(mesh.mNumVertices, std::numeric_limits<uint32_t>::max());
       for (unsigned f = 0; f < mesh.mNumFaces; ++f) {
@@ -899,12 +955,15 @@ Collected collect_triangles(const fs::path& path, const aiScene& scene) {
           const unsigned v = face.mIndices[k];
           if (v >= mesh.mNumVertices) fail(path, "a triangle refers to a missing vertex");
           if (remap[v] == std::numeric_limits<uint32_t>::max()) {
-            if (out.surface.vertices.size() >= std::numeric_limits<uint32_t>::max()) fail(path, "has more than 2^32 vertices");
+            if (out.surface.vertices.size() >= std::numeric_limits<uint32_t>::max())
+              fail(path, "has more than 2^32 vertices");
             remap[v] = static_cast<uint32_t>(out.surface.vertices.size());
             aiVector3D p = mesh.mVertices[v];
             if (!identity) p = transform * p;
-            out.surface.vertices.push_back({static_cast<double>(p.x), static_cast<double>(p.y), static_cast<double>(p.z)});
-            if (!is_finite(out.surface.vertices.back())) fail(path, "has a vertex that becomes non-finite when placed in the scene");
+            out.surface.vertices.push_back(
+                {static_cast<double>(p.x), static_cast<double>(p.y), static_cast<double>(p.z)});
+            if (!is_finite(out.surface.vertices.back()))
+              fail(path, "has a vertex that becomes non-finite when placed in the scene");
           }
           triangle[k] = remap[v];
         }
@@ -924,7 +983,7 @@ TriangleSurface read_surface(const std::filesystem::path& path, std::size_t* wel
   std::string_view to_parse = bytes;
   std::optional<uint64_t> expected_triangles;
   std::optional<uint64_t> vertex_records;  // when the reader does not keep the file's indexing
-  std::string patched;  // when the bytes Assimp sees must differ from the file's
+  std::string patched;                     // when the bytes Assimp sees must differ from the file's
   switch (format) {
     case Format::stl: {
       const StlLayout layout = check_stl(path, bytes);
@@ -960,7 +1019,10 @@ TriangleSurface read_surface(const std::filesystem::path& path, std::size_t* wel
 
   Assimp::Importer importer;
   importer.SetIOHandler(new NoFileAccess);  // the importer owns it
-  const char* hint = format == Format::stl ? "stl" : format == Format::obj ? "obj" : format == Format::off ? "off" : "ply";
+  const char* hint = format == Format::stl   ? "stl"
+                     : format == Format::obj ? "obj"
+                     : format == Format::off ? "off"
+                                             : "ply";
   const aiScene* scene = nullptr;
   try {
     scene = importer.ReadFileFromMemory(to_parse.data(), to_parse.size(), 0, hint);
@@ -969,7 +1031,8 @@ TriangleSurface read_surface(const std::filesystem::path& path, std::size_t* wel
     }
     if (check_scene(path, *scene)) {
       scene = importer.ApplyPostProcessing(aiProcess_Triangulate);
-      if (scene == nullptr) fail(path, "its polygons could not be split into triangles: " + assimp_reason(importer));
+      if (scene == nullptr)
+        fail(path, "its polygons could not be split into triangles: " + assimp_reason(importer));
     }
   } catch (const std::bad_alloc&) {
     fail(path, "ran out of memory while reading");
@@ -978,17 +1041,20 @@ TriangleSurface read_surface(const std::filesystem::path& path, std::size_t* wel
   Collected collected = collect_triangles(path, *scene);
   TriangleSurface& surface = collected.surface;
   if (surface.triangles.empty()) {
-    fail(path, collected.other_primitives > 0 ? "contains no triangles, only points or lines" : "contains no triangles");
+    fail(path, collected.other_primitives > 0 ? "contains no triangles, only points or lines"
+                                              : "contains no triangles");
   }
   if (expected_triangles && surface.triangles.size() != *expected_triangles) {
-    fail(path, "the STL reader found " + std::to_string(surface.triangles.size()) + " triangles where the file has " +
-                   std::to_string(*expected_triangles) + " facets");
+    fail(path, "the STL reader found " + std::to_string(surface.triangles.size()) +
+                   " triangles where the file has " + std::to_string(*expected_triangles) + " facets");
   }
 
   const std::size_t merged = weld_vertices(surface);
   if (welded != nullptr) {
-    *welded = !vertex_records ? merged
-                              : static_cast<std::size_t>(*vertex_records - std::min<uint64_t>(*vertex_records, surface.vertices.size()));
+    *welded = !vertex_records
+                  ? merged
+                  : static_cast<std::size_t>(*vertex_records -
+                                             std::min<uint64_t>(*vertex_records, surface.vertices.size()));
   }
   return surface;
 }
