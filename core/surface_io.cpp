@@ -412,7 +412,9 @@ ObjGeometry check_obj(const fs::path& path, std::string_view text) {
     }
   }
 
+  // Vertices go first so that a face may use a vertex defined after it, as Assimp cannot.
   ObjGeometry geometry;
+  std::string faces;
   geometry.text.reserve(text.size());
   Lines lines(text);
   std::string_view line, token;
@@ -470,17 +472,18 @@ ObjGeometry check_obj(const fs::path& path, std::string_view text) {
                 "face has " + std::to_string(corners.size()) + " corners; at most " +
                     std::to_string(kMaxPolygonCorners) + " are supported (triangulate the model first)");
       }
-      geometry.text += 'f';
+      faces += 'f';
       for (uint64_t v : corners) {
         used[v] = true;
-        geometry.text += ' ';
-        geometry.text += std::to_string(v + 1);
+        faces += ' ';
+        faces += std::to_string(v + 1);
       }
-      geometry.text += '\n';
+      faces += '\n';
     } else if (token == "l" || token == "p") {
       points_or_lines = true;
     }
   }
+  geometry.text += faces;
   geometry.used_records = static_cast<uint64_t>(std::count(used.begin(), used.end(), true));
   if (geometry.used_records == 0)
     fail(path, points_or_lines ? "contains no triangles, only points or lines" : "contains no triangles");
@@ -514,11 +517,18 @@ void check_off(const fs::path& path, std::string_view text) {
   next_in_line();
   std::string_view keyword = token;
   bool has_dimension = false;
-  if (keyword.starts_with("ST")) keyword.remove_prefix(2);
+  // Values per vertex line: the position, then in this order an optional homogeneous w (4),
+  // a normal (N), one to four colour values (C) and a texture coordinate (ST).
+  std::size_t vertex_values = 3;
+  if (keyword.starts_with("ST")) {
+    keyword.remove_prefix(2);
+    vertex_values += 2;
+  }
   for (char prefix : {'C', 'N', '4', 'n'}) {
     if (keyword.starts_with(prefix)) {
       keyword.remove_prefix(1);
       has_dimension = has_dimension || prefix == 'n';
+      vertex_values += prefix == 'C' ? 1 : prefix == 'N' ? 3 : prefix == '4' ? 1 : 0;
     }
   }
   // The keyword is optional in the format, but without it Assimp takes a leading '4' or 'n' of
@@ -607,6 +617,17 @@ void check_off(const fs::path& path, std::string_view text) {
         fail_at(path, lines.number(), "a vertex needs three coordinates");
       parse_coordinate(path, lines.number(), token);
     }
+    // The values the header keyword adds (normal, colour, ...) must be numbers too, or Assimp
+    // fails on them with a message that quotes the rest of the file.
+    std::size_t values = 3;
+    for (; tokens.next(token) && !token.starts_with('#'); ++values) {
+      if (!parse_number(token)) fail_at(path, lines.number(), quote(token) + " is not a number");
+    }
+    if (values < vertex_values) {
+      fail_at(path, lines.number(),
+              "the header keyword asks for " + std::to_string(vertex_values) + " values per vertex, found " +
+                  std::to_string(values));
+    }
   }
   for (uint64_t f = 0; f < face_count; ++f) {
     Tokens tokens = next_body_line("faces", f, face_count);
@@ -665,6 +686,7 @@ struct PlyProperty {
   bool list = false;
   PlyType count;  // lists only
   PlyType value;
+  std::string_view name;
 };
 
 struct PlyElement {
@@ -765,6 +787,7 @@ void check_ply(const fs::path& path, std::string_view bytes) {
       }
       property.value = ply_type(type);
       if (property.value.size == 0) fail_at(path, n, "unknown PLY property type " + quote(type));
+      tokens.next(property.name);
       elements.back().properties.push_back(property);
     } else {
       // Ignored, as Assimp ignores it (Blender once wrote comments without 'comment').
@@ -772,6 +795,17 @@ void check_ply(const fs::path& path, std::string_view bytes) {
     }
   }
   if (!ended) fail(path, "has no 'end_header' line: the PLY header is incomplete");
+  // Without positions Assimp fails with "Unable to extract mesh data".
+  const auto vertex =
+      std::find_if(elements.begin(), elements.end(), [](const PlyElement& e) { return e.name == "vertex"; });
+  const auto has_axis = [&](std::string_view axis) {
+    return vertex != elements.end() &&
+           std::any_of(vertex->properties.begin(), vertex->properties.end(),
+                       [&](const PlyProperty& p) { return !p.list && p.name == axis; });
+  };
+  if (!has_axis("x") || !has_axis("y") || !has_axis("z")) {
+    fail(path, "has no 'vertex' element with x, y and z properties, so it holds no positions");
+  }
 
   // Every element instance takes at least a byte (or a line), so this bounds the walk below by
   // the file size even when a count is absurd.

@@ -490,6 +490,15 @@ TEST_F(TempDir, ObjMaterialStatementsAreIgnored) {
   EXPECT_TRUE(r.consistently_oriented);
 }
 
+TEST_F(TempDir, ObjFacesMayComeBeforeTheirVertices) {
+  std::string text = obj(unit_cube());
+  const std::size_t faces = text.find("\nf ") + 1;
+  text = text.substr(faces) + text.substr(0, faces);
+  const SurfaceReport r = validate_surface(read_surface(write("faces_first.obj", text)));
+  EXPECT_EQ(r.triangles, 12u);
+  EXPECT_EQ(r.volume, 1.0);
+}
+
 TEST_F(TempDir, OffPolygonsAndVariants) {
   // COFF with colours, a comment in the header, CRLF line ends, quads, a face colour.
   std::string text = "COFF # coloured\r\n# counts follow\r\n8 6 12\r\n\r\n";
@@ -801,6 +810,10 @@ TEST_F(TempDir, OffStructureErrors) {
                      "ends after 2 of the 3 vertices");
   expect_input_error(write("headerless.off", cube.substr(4)), "OFF header keyword");
   expect_input_error(write("binary.off", "OFF BINARY\n"), "binary OFF is not supported");
+  expect_input_error(write("colour.off", "COFF\n3 1 0\n0 0 0 1 1 1 1\n1 0 0 red\n0 1 0 1 1 1 1\n3 0 1 2\n"),
+                     "line 4: 'red' is not a number");
+  expect_input_error(write("normal.off", "NOFF\n3 1 0\n0 0 0 0 0 1\n1 0 0\n0 1 0 0 0 1\n3 0 1 2\n"),
+                     "asks for 6 values per vertex, found 3");
 }
 
 TEST_F(TempDir, PlyHeaderErrors) {
@@ -826,6 +839,9 @@ TEST_F(TempDir, PlyHeaderErrors) {
   text = ascii_ply(cube);
   text.replace(text.find("property float y"), 0, "made by hand\n");
   expect_input_error(write("stray_property.ply", text), "does not follow an element");
+  text = ascii_ply(cube);
+  text.replace(text.find("property float z"), 16, "property float w");
+  expect_input_error(write("no_z.ply", text), "no 'vertex' element with x, y and z");
 }
 
 TEST_F(TempDir, PlyAsciiDataErrors) {
