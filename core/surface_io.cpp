@@ -227,7 +227,7 @@ std::optional<double> parse_number(std::string_view token) {
     if (result.ec == std::errc::result_out_of_range) {
       const std::size_t e = token.find_first_of("eE");
       const bool tiny = e != std::string_view::npos && e + 1 < token.size() && token[e + 1] == '-';
-      wide = tiny ? 0.0L : HUGE_VALL;
+      wide = std::copysign(tiny ? 0.0L : HUGE_VALL, token.starts_with('-') ? -1.0L : 1.0L);
       result.ec = std::errc{};
     }
     value = std::fabs(wide) > DBL_MAX ? std::copysign(HUGE_VAL, static_cast<double>(wide))
@@ -309,7 +309,9 @@ uint64_t check_ascii_stl(const fs::path& path, std::string_view text) {
       in_solid = false;
     } else if (in_solid && token == "facet") {
       const std::size_t facet_line = tokens.line();
-      expect("normal", "after 'facet'");
+      if (!tokens.next_in_line(token) || token != "normal") {
+        fail_at(path, facet_line, "expected 'normal' after 'facet' on the same line");
+      }
       for (int k = 0; k < 3; ++k) {
         // The normal is ignored (orientation comes from the vertex order), but must be there
         // for the reader to stay in step.
@@ -432,6 +434,8 @@ ObjGeometry check_obj(const fs::path& path, std::string_view text) {
           fail_at(path, lines.number(), "a vertex needs three coordinates");
         parse_coordinate(path, lines.number(), token);
         geometry.text += ' ';
+        // Assimp's OBJ reader drops a vertex whose number starts with the decimal point.
+        if (token.starts_with('.')) geometry.text += '0';
         geometry.text += token;
       }
       geometry.text += '\n';
@@ -715,7 +719,30 @@ bool is_ply_integer(std::string_view token, bool is_signed) {
          token.find_first_not_of("0123456789") == std::string_view::npos;
 }
 
-void check_ply(const fs::path& path, std::string_view bytes) {
+// Where the parts of a checked PLY file start, for the padding read_surface adds.
+struct PlyLayout {
+  bool binary = false;
+  std::size_t header_body = 0;  // just after the format line
+  std::size_t data = 0;         // just after the end_header line
+};
+
+// Assimp 5.2 skips a line feed at the start of binary PLY data, so a file whose first data
+// byte is 0x0a (one in 256 of them) is read one byte out of step. A one-byte element placed
+// first in the data, with a letter as its value, keeps the real data where it belongs. It must
+// be an element Assimp knows ("edge", which it reads and ignores): it takes the count of any
+// other element for 0.
+std::string pad_binary_ply(std::string_view bytes, const PlyLayout& layout) {
+  std::string out;
+  out.reserve(bytes.size() + 64);
+  out.append(bytes.substr(0, layout.header_body));
+  out.append("element edge 1\nproperty uchar mchex_padding\n");
+  out.append(bytes.substr(layout.header_body, layout.data - layout.header_body));
+  out.push_back('P');
+  out.append(bytes.substr(layout.data));
+  return out;
+}
+
+PlyLayout check_ply(const fs::path& path, std::string_view bytes) {
   Lines lines(bytes);
   std::string_view line, token;
   const auto trimmed = [](std::string_view s) {
@@ -729,6 +756,8 @@ void check_ply(const fs::path& path, std::string_view bytes) {
   // Assimp reads the format from the second line only.
   enum { ascii, little, big } format = ascii;
   lines.next(line);
+  PlyLayout layout;
+  layout.header_body = lines.position();
   {
     Tokens tokens(line);
     if (!tokens.next(token) || token != "format")
@@ -766,6 +795,14 @@ void check_ply(const fs::path& path, std::string_view bytes) {
       const auto count = parse_count(count_text);
       if (!count) fail_at(path, n, quote(count_text) + " is not an element count");
       element.count = *count;
+      // Assimp 5.2 reads the count of an element it does not know as 0 and then parses the
+      // following data as if that element were absent.
+      if (element.name != "vertex" && element.name != "face" && element.name != "edge" &&
+          element.name != "material") {
+        fail_at(path, n,
+                "the element " + quote(element.name) +
+                    " is not supported (only vertex, face, edge and material elements are read)");
+      }
       for (const PlyElement& other : elements) {
         if (other.name == element.name)
           fail_at(path, n, "the element " + quote(element.name) + " is declared twice");
@@ -795,6 +832,18 @@ void check_ply(const fs::path& path, std::string_view bytes) {
     }
   }
   if (!ended) fail(path, "has no 'end_header' line: the PLY header is incomplete");
+  layout.data = lines.position();
+  layout.binary = format != ascii;
+  // Assimp's PLY reader looks for the line feed after a carriage return, past the line if need be.
+  const auto has_bare_carriage_return = [](std::string_view text) {
+    for (std::size_t at = text.find('\r'); at != std::string_view::npos; at = text.find('\r', at + 1)) {
+      if (at + 1 == text.size() || text[at + 1] != '\n') return true;
+    }
+    return false;
+  };
+  if (has_bare_carriage_return(bytes.substr(0, layout.data))) {
+    fail(path, "ends PLY header lines with a bare carriage return; save it with LF or CRLF line ends");
+  }
   // Without positions Assimp fails with "Unable to extract mesh data".
   const auto vertex =
       std::find_if(elements.begin(), elements.end(), [](const PlyElement& e) { return e.name == "vertex"; });
@@ -826,7 +875,7 @@ void check_ply(const fs::path& path, std::string_view bytes) {
                    std::to_string(element.count) + ": the file is truncated or corrupt");
   };
 
-  if (format != ascii) {
+  if (layout.binary) {
     std::size_t at = lines.position();
     for (const PlyElement& element : elements) {
       for (uint64_t i = 0; i < element.count; ++i) {
@@ -845,10 +894,14 @@ void check_ply(const fs::path& path, std::string_view bytes) {
         }
       }
     }
-    return;
+    return layout;
   }
 
-  check_text(path, bytes.substr(lines.position()), "PLY");
+  const std::string_view data = bytes.substr(layout.data);
+  check_text(path, data, "PLY");
+  if (has_bare_carriage_return(data)) {
+    fail(path, "ends PLY data lines with a bare carriage return; save it with LF or CRLF line ends");
+  }
   for (const PlyElement& element : elements) {
     for (uint64_t i = 0; i < element.count; ++i) {
       if (!lines.next(line)) truncated(element, i);
@@ -881,6 +934,7 @@ void check_ply(const fs::path& path, std::string_view bytes) {
       }
     }
   }
+  return layout;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1023,6 +1077,17 @@ TriangleSurface read_surface(const std::filesystem::path& path, std::size_t* wel
       const StlLayout layout = check_stl(path, bytes);
       expected_triangles = layout.triangles;
       to_parse = layout.bytes;
+      // Assimp converts a file that starts with a byte-order mark to UTF-8 before looking at
+      // it, which shortens or scrambles a binary STL whose free-text header happens to start
+      // that way. The header means nothing here.
+      const auto starts_with = [&](std::string_view mark) { return to_parse.starts_with(mark); };
+      using namespace std::string_view_literals;
+      if (layout.binary && (starts_with("\xEF\xBB\xBF"sv) || starts_with("\xFE\xFF"sv) ||
+                            starts_with("\xFF\xFE"sv) || starts_with("\x00\x00\xFE\xFF"sv))) {
+        patched = std::string(to_parse);
+        std::fill_n(patched.begin(), 4, '\0');
+        to_parse = patched;
+      }
       // Assimp takes an ascii file for binary when 84 + 50 n wraps (32 bits) to its size; a
       // trailing newline changes the size and nothing else.
       if (!layout.binary && to_parse.size() >= 84) {
@@ -1046,9 +1111,14 @@ TriangleSurface read_surface(const std::filesystem::path& path, std::size_t* wel
       to_parse = strip_utf8_bom(bytes);
       check_off(path, to_parse);
       break;
-    case Format::ply:
-      check_ply(path, bytes);
+    case Format::ply: {
+      const PlyLayout layout = check_ply(path, bytes);
+      if (layout.binary && layout.data < bytes.size() && bytes[layout.data] == '\n') {
+        patched = pad_binary_ply(bytes, layout);
+        to_parse = patched;
+      }
       break;
+    }
   }
 
   Assimp::Importer importer;

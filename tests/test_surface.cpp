@@ -490,6 +490,25 @@ TEST_F(TempDir, ObjMaterialStatementsAreIgnored) {
   EXPECT_TRUE(r.consistently_oriented);
 }
 
+TEST_F(TempDir, ObjNumbersStartingWithTheDecimalPoint) {
+  // Assimp 5.2 alone drops such a vertex and then finds the faces out of range.
+  const std::string text = "v 0 0 0\nv .5 0 0\nv 0 .25 0\nv 0 0 -.125\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
+  const TriangleSurface s = read_surface(write("decimal_point.obj", text));
+  EXPECT_EQ(s.vertices, (std::vector<Vec3>{{0, 0, 0}, {0, 0.25, 0}, {0.5, 0, 0}, {0, 0, -0.125}}));
+  EXPECT_TRUE(validate_surface(s).consistently_oriented);
+}
+
+TEST_F(TempDir, BinaryStlHeaderThatLooksLikeAByteOrderMark) {
+  // Assimp converts such a file to UTF-8 before checking its size; the header is free text.
+  for (const std::string& mark :
+       std::vector<std::string>{"\xEF\xBB\xBF", "\xFE\xFF", "\xFF\xFE", std::string("\0\0\xFE\xFF", 4)}) {
+    const SurfaceReport r =
+        validate_surface(read_surface(write("bom.stl", binary_stl(unit_cube(), mark + "cube"))));
+    EXPECT_EQ(r.triangles, 12u);
+    EXPECT_EQ(r.volume, 1.0);
+  }
+}
+
 TEST_F(TempDir, ObjFacesMayComeBeforeTheirVertices) {
   std::string text = obj(unit_cube());
   const std::size_t faces = text.find("\nf ") + 1;
@@ -842,6 +861,42 @@ TEST_F(TempDir, PlyHeaderErrors) {
   text = ascii_ply(cube);
   text.replace(text.find("property float z"), 16, "property float w");
   expect_input_error(write("no_z.ply", text), "no 'vertex' element with x, y and z");
+  // Assimp 5.2 counts an element it does not know as empty and reads on out of step.
+  text = ascii_ply(cube);
+  text.replace(text.find("end_header"), 0, "element range_grid 1\nproperty list uchar int vertex_indices\n");
+  expect_input_error(write("range_grid.ply", text + "0\n"), "'range_grid' is not supported");
+  text = ascii_ply(cube);
+  text.replace(text.find("element face"), 12, "element tristrips");
+  expect_input_error(write("tristrips.ply", text), "'tristrips' is not supported");
+  text = binary_ply(cube);
+  for (std::size_t at = text.find('\n'); at < text.find("end_header"); at = text.find('\n', at + 1))
+    text[at] = '\r';
+  expect_input_error(write("carriage_returns.ply", text), "bare carriage return");
+}
+
+TEST_F(TempDir, BinaryPlyWhoseDataStartsWithALineFeed) {
+  // Assimp 5.2 alone skips the 0x0a and reads every value one byte out of step.
+  TriangleSurface cube = unit_cube();
+  const uint32_t bits = 0x3f80000au;  // little-endian bytes 0a 00 80 3f: just above 1
+  float x;
+  std::memcpy(&x, &bits, 4);
+  cube.vertices[0].x = x;
+  const std::string plain = binary_ply(cube);
+  std::string with_edges = plain;
+  with_edges.replace(with_edges.find("end_header"), 0,
+                     "element edge 1\nproperty int vertex1\nproperty int vertex2\n");
+  with_edges += le32(0) + le32(1);
+  for (const auto& [name, bytes] :
+       {std::pair{"line_feed.ply", plain}, std::pair{"line_feed_edges.ply", with_edges}}) {
+    SCOPED_TRACE(name);
+    ASSERT_EQ(bytes[bytes.find("end_header\n") + 11], '\n');
+    const TriangleSurface s = read_surface(write(name, bytes));
+    EXPECT_EQ(s.vertices.front().x, double(x));
+    const SurfaceReport r = validate_surface(s);
+    EXPECT_EQ(r.vertices, 8u);
+    EXPECT_EQ(r.triangles, 12u);
+    EXPECT_TRUE(r.consistently_oriented);
+  }
 }
 
 TEST_F(TempDir, PlyAsciiDataErrors) {
