@@ -49,9 +49,8 @@ void check_indices(const TriangleSurface& surface) {
   for (std::size_t t = 0; t < surface.triangles.size(); ++t) {
     for (uint32_t v : surface.triangles[t]) {
       if (v >= n) {
-        throw InputError("surface: triangle " + std::to_string(t) + " refers to vertex " +
-                         std::to_string(v) + ", but there are only " + std::to_string(n) +
-                         " vertices");
+        throw InputError("surface: triangle " + std::to_string(t) + " refers to vertex " + std::to_string(v) +
+                         ", but there are only " + std::to_string(n) + " vertices");
       }
     }
   }

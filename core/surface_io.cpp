@@ -18,13 +18,13 @@
 // files. The scene it returns is checked again (indices, finite coordinates) before polygons are
 // triangulated, since aiProcess_Triangulate assumes a well-formed mesh. No Assimp logger is ever
 // created, so Assimp prints nothing.
-#include <assimp/IOSystem.hpp>
-#include <assimp/Importer.hpp>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
 #include <algorithm>
 #include <array>
+#include <assimp/IOSystem.hpp>
+#include <assimp/Importer.hpp>
 #include <cctype>
 #include <cfloat>
 #include <charconv>
@@ -52,10 +52,14 @@ enum class Format { stl, obj, off, ply };
 
 const char* format_name(Format format) {
   switch (format) {
-    case Format::stl: return "STL";
-    case Format::obj: return "OBJ";
-    case Format::off: return "OFF";
-    case Format::ply: return "PLY";
+    case Format::stl:
+      return "STL";
+    case Format::obj:
+      return "OBJ";
+    case Format::off:
+      return "OFF";
+    case Format::ply:
+      return "PLY";
   }
   return "";
 }
@@ -66,6 +70,9 @@ constexpr std::uintmax_t kMaxFileBytes = 0xffffff00u;
 constexpr std::size_t kMaxOffLine = 4000;
 // Assimp's OFF reader drops faces with more corners than this.
 constexpr uint64_t kMaxOffCorners = 9;
+// Assimp triangulates a polygon by ear clipping, quadratic in its corners: a corrupt face with
+// a million corners would take hours.
+constexpr std::size_t kMaxPolygonCorners = 1000;
 
 std::string hex_byte(unsigned char c) {
   char buffer[8];
@@ -220,7 +227,7 @@ std::optional<double> parse_number(std::string_view token) {
     if (result.ec == std::errc::result_out_of_range) {
       const std::size_t e = token.find_first_of("eE");
       const bool tiny = e != std::string_view::npos && e + 1 < token.size() && token[e + 1] == '-';
-      wide = tiny ? 0.0L : HUGE_VALL;
+      wide = std::copysign(tiny ? 0.0L : HUGE_VALL, token.starts_with('-') ? -1.0L : 1.0L);
       result.ec = std::errc{};
     }
     value = std::fabs(wide) > DBL_MAX ? std::copysign(HUGE_VAL, static_cast<double>(wide))
@@ -234,8 +241,10 @@ std::optional<double> parse_number(std::string_view token) {
 double parse_coordinate(const fs::path& path, std::size_t line, std::string_view token) {
   const std::optional<double> value = parse_number(token);
   if (!value) fail_at(path, line, quote(token) + " is not a number");
-  if (!std::isfinite(*value)) fail_at(path, line, "coordinate " + quote(token) + " is not finite; NaN and infinity cannot be meshed");
-  if (std::fabs(*value) > FLT_MAX) fail_at(path, line, "coordinate " + quote(token) + " is beyond single precision, which the readers use");
+  if (!std::isfinite(*value))
+    fail_at(path, line, "coordinate " + quote(token) + " is not finite; NaN and infinity cannot be meshed");
+  if (std::fabs(*value) > FLT_MAX)
+    fail_at(path, line, "coordinate " + quote(token) + " is beyond single precision, which the readers use");
   return *value;
 }
 
@@ -266,6 +275,8 @@ class StlTokens {
     }
     return true;
   }
+  // Assimp reads a vertex's or normal's numbers from its own line only.
+  bool next_in_line(std::string_view& token) { return tokens_.next(token); }
   void skip_line() { tokens_ = Tokens({}); }
   std::size_t line() const { return lines_.number(); }
 
@@ -279,9 +290,11 @@ uint64_t check_ascii_stl(const fs::path& path, std::string_view text) {
   StlTokens tokens(text);
   std::string_view token;
   const auto expect = [&](std::string_view keyword, std::string_view after) {
-    if (!tokens.next(token)) fail_at(path, tokens.line(), "the file ends where '" + std::string(keyword) + "' was expected");
+    if (!tokens.next(token))
+      fail_at(path, tokens.line(), "the file ends where '" + std::string(keyword) + "' was expected");
     if (token != keyword) {
-      fail_at(path, tokens.line(), "expected '" + std::string(keyword) + "' " + std::string(after) + ", found " + quote(token));
+      fail_at(path, tokens.line(),
+              "expected '" + std::string(keyword) + "' " + std::string(after) + ", found " + quote(token));
     }
   };
 
@@ -296,12 +309,16 @@ uint64_t check_ascii_stl(const fs::path& path, std::string_view text) {
       in_solid = false;
     } else if (in_solid && token == "facet") {
       const std::size_t facet_line = tokens.line();
-      expect("normal", "after 'facet'");
+      if (!tokens.next_in_line(token) || token != "normal") {
+        fail_at(path, facet_line, "expected 'normal' after 'facet' on the same line");
+      }
       for (int k = 0; k < 3; ++k) {
         // The normal is ignored (orientation comes from the vertex order), but must be there
         // for the reader to stay in step.
-        if (!tokens.next(token)) fail_at(path, tokens.line(), "the file ends inside a facet normal");
-        if (!parse_number(token)) fail_at(path, tokens.line(), "the facet normal needs three numbers, found " + quote(token));
+        if (!tokens.next_in_line(token))
+          fail_at(path, tokens.line(), "the facet normal needs three numbers on its line");
+        if (!parse_number(token))
+          fail_at(path, tokens.line(), "the facet normal needs three numbers, found " + quote(token));
       }
       expect("outer", "after the facet normal");
       expect("loop", "after 'outer'");
@@ -310,20 +327,24 @@ uint64_t check_ascii_stl(const fs::path& path, std::string_view text) {
         if (!tokens.next(token)) fail_at(path, tokens.line(), "the file ends inside a facet");
         if (token != "vertex") break;
         for (int k = 0; k < 3; ++k) {
-          if (!tokens.next(token)) fail_at(path, tokens.line(), "the file ends inside a vertex");
+          if (!tokens.next_in_line(token))
+            fail_at(path, tokens.line(), "a vertex needs three coordinates on its line");
           parse_coordinate(path, tokens.line(), token);
         }
         ++corners;
       }
-      if (token != "endloop") fail_at(path, tokens.line(), "expected 'vertex' or 'endloop', found " + quote(token));
+      if (token != "endloop")
+        fail_at(path, tokens.line(), "expected 'vertex' or 'endloop', found " + quote(token));
       if (corners != 3) {
-        fail_at(path, facet_line, "facet has " + std::to_string(corners) + " vertices; STL facets must be triangles");
+        fail_at(path, facet_line,
+                "facet has " + std::to_string(corners) + " vertices; STL facets must be triangles");
       }
       expect("endfacet", "after 'endloop'");
       ++facets;
     } else {
       fail_at(path, tokens.line(),
-              std::string(in_solid ? "expected 'facet' or 'endsolid'" : "expected 'solid' or the end of the file") +
+              std::string(in_solid ? "expected 'facet' or 'endsolid'"
+                                   : "expected 'solid' or the end of the file") +
                   ", found " + quote(token));
     }
   }
@@ -354,23 +375,34 @@ StlLayout check_stl(const fs::path& path, std::string_view bytes) {
   }
 
   if (size < 84) {
-    fail(path, "is neither an ASCII STL (it does not start with 'solid') nor a binary STL (shorter than the 84-byte header)");
+    fail(path,
+         "is neither an ASCII STL (it does not start with 'solid') nor a binary STL (shorter than the "
+         "84-byte header)");
   }
   uint32_t declared = 0;
   std::memcpy(&declared, bytes.data() + 80, sizeof declared);
   fail(path, std::string("is not an ASCII STL (") +
-                 (starts_with_solid ? "it starts with 'solid' but holds binary zeros" : "it does not start with 'solid'") +
-                 "), and as a binary STL its header declares " +
-                 std::to_string(declared) + " triangles, which need " + std::to_string(84 + 50 * uint64_t{declared}) +
+                 (starts_with_solid ? "it starts with 'solid' but holds binary zeros"
+                                    : "it does not start with 'solid'") +
+                 "), and as a binary STL its header declares " + std::to_string(declared) +
+                 " triangles, which need " + std::to_string(84 + 50 * uint64_t{declared}) +
                  " bytes, but the file has " + std::to_string(size) + " bytes: it is truncated or corrupt");
 }
 
 // ---------------------------------------------------------------------------------------------
 // OBJ
 
-// Returns how many of the file's vertex records the triangles use. Assimp gives every face corner
-// its own vertex, so this is what the weld count is measured against.
-uint64_t check_obj(const fs::path& path, std::string_view text) {
+// What Assimp gets instead of the OBJ file: its vertex and polygon statements only, with
+// absolute vertex indices. Assimp 5.2's OBJ reader crashes on some material statements (a
+// "map_Kd" line after an "mtllib" it cannot open writes through a null pointer), and nothing but
+// positions and faces matters here.
+struct ObjGeometry {
+  std::string text;
+  uint64_t used_records = 0;  // vertex records the polygons use: Assimp gives every corner its own
+                              // vertex, so the weld count is measured against these
+};
+
+ObjGeometry check_obj(const fs::path& path, std::string_view text) {
   check_text(path, text, "OBJ");
   uint64_t total_vertices = 0;
   {
@@ -382,6 +414,10 @@ uint64_t check_obj(const fs::path& path, std::string_view text) {
     }
   }
 
+  // Vertices go first so that a face may use a vertex defined after it, as Assimp cannot.
+  ObjGeometry geometry;
+  std::string faces;
+  geometry.text.reserve(text.size());
   Lines lines(text);
   std::string_view line, token;
   uint64_t vertices_so_far = 0;
@@ -392,44 +428,70 @@ uint64_t check_obj(const fs::path& path, std::string_view text) {
     Tokens tokens(line);
     if (!tokens.next(token)) continue;
     if (token == "v") {
+      geometry.text += 'v';
       for (int k = 0; k < 3; ++k) {
-        if (!tokens.next(token) || token.starts_with('#')) fail_at(path, lines.number(), "a vertex needs three coordinates");
+        if (!tokens.next(token) || token.starts_with('#'))
+          fail_at(path, lines.number(), "a vertex needs three coordinates");
         parse_coordinate(path, lines.number(), token);
+        geometry.text += ' ';
+        // Assimp's OBJ reader drops a vertex whose number starts with the decimal point.
+        if (token.starts_with('.')) geometry.text += '0';
+        geometry.text += token;
       }
+      geometry.text += '\n';
       ++vertices_so_far;
     } else if (token == "f") {
       corners.clear();
       while (tokens.next(token) && !token.starts_with('#')) {
         const std::string_view index_text = token.substr(0, token.find('/'));
         int64_t index = 0;
-        const auto [end, error] = std::from_chars(index_text.data(), index_text.data() + index_text.size(), index);
+        const auto [end, error] =
+            std::from_chars(index_text.data(), index_text.data() + index_text.size(), index);
         if (index_text.empty() || error != std::errc{} || end != index_text.data() + index_text.size()) {
-          fail_at(path, lines.number(), quote(token) + " is not a face corner (vertex index, optionally /texture/normal)");
+          fail_at(path, lines.number(),
+                  quote(token) + " is not a face corner (vertex index, optionally /texture/normal)");
         }
-        if (index == 0) fail_at(path, lines.number(), "face index 0 is invalid: OBJ vertex indices start at 1");
+        if (index == 0)
+          fail_at(path, lines.number(), "face index 0 is invalid: OBJ vertex indices start at 1");
         if (index > 0 && static_cast<uint64_t>(index) > total_vertices) {
-          fail_at(path, lines.number(), "face refers to vertex " + std::to_string(index) + ", but the file defines only " +
-                                            std::to_string(total_vertices) + " vertices");
+          fail_at(path, lines.number(),
+                  "face refers to vertex " + std::to_string(index) + ", but the file defines only " +
+                      std::to_string(total_vertices) + " vertices");
         }
         // Negative indices count back from the most recent vertex.
         if (index < 0 && static_cast<uint64_t>(-(index + 1)) >= vertices_so_far) {
-          fail_at(path, lines.number(), "face refers to vertex " + std::to_string(index) + " (counting back), but only " +
-                                            std::to_string(vertices_so_far) + " vertices come before it");
+          fail_at(path, lines.number(),
+                  "face refers to vertex " + std::to_string(index) + " (counting back), but only " +
+                      std::to_string(vertices_so_far) + " vertices come before it");
         }
-        corners.push_back(index > 0 ? static_cast<uint64_t>(index - 1) : vertices_so_far - static_cast<uint64_t>(-index));
+        corners.push_back(index > 0 ? static_cast<uint64_t>(index - 1)
+                                    : vertices_so_far - static_cast<uint64_t>(-index));
       }
-      if (corners.size() >= 3) {
-        for (uint64_t v : corners) used[v] = true;
-      } else {
+      if (corners.size() < 3) {
         points_or_lines = true;
+        continue;
       }
+      if (corners.size() > kMaxPolygonCorners) {
+        fail_at(path, lines.number(),
+                "face has " + std::to_string(corners.size()) + " corners; at most " +
+                    std::to_string(kMaxPolygonCorners) + " are supported (triangulate the model first)");
+      }
+      faces += 'f';
+      for (uint64_t v : corners) {
+        used[v] = true;
+        faces += ' ';
+        faces += std::to_string(v + 1);
+      }
+      faces += '\n';
     } else if (token == "l" || token == "p") {
       points_or_lines = true;
     }
   }
-  const auto used_records = static_cast<uint64_t>(std::count(used.begin(), used.end(), true));
-  if (used_records == 0) fail(path, points_or_lines ? "contains no triangles, only points or lines" : "contains no triangles");
-  return used_records;
+  geometry.text += faces;
+  geometry.used_records = static_cast<uint64_t>(std::count(used.begin(), used.end(), true));
+  if (geometry.used_records == 0)
+    fail(path, points_or_lines ? "contains no triangles, only points or lines" : "contains no triangles");
+  return geometry;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -459,17 +521,25 @@ void check_off(const fs::path& path, std::string_view text) {
   next_in_line();
   std::string_view keyword = token;
   bool has_dimension = false;
-  if (keyword.starts_with("ST")) keyword.remove_prefix(2);
+  // Values per vertex line: the position, then in this order an optional homogeneous w (4),
+  // a normal (N), one to four colour values (C) and a texture coordinate (ST).
+  std::size_t vertex_values = 3;
+  if (keyword.starts_with("ST")) {
+    keyword.remove_prefix(2);
+    vertex_values += 2;
+  }
   for (char prefix : {'C', 'N', '4', 'n'}) {
     if (keyword.starts_with(prefix)) {
       keyword.remove_prefix(1);
       has_dimension = has_dimension || prefix == 'n';
+      vertex_values += prefix == 'C' ? 1 : prefix == 'N' ? 3 : prefix == '4' ? 1 : 0;
     }
   }
   // The keyword is optional in the format, but without it Assimp takes a leading '4' or 'n' of
   // the vertex count for a header prefix.
   if (keyword != "OFF") {
-    fail_at(path, lines.number(), "expected the OFF header keyword ('OFF', 'COFF', 'NOFF', ...), found " + quote(token));
+    fail_at(path, lines.number(),
+            "expected the OFF header keyword ('OFF', 'COFF', 'NOFF', ...), found " + quote(token));
   }
   if (has_dimension) {
     if (!next_in_line()) {
@@ -477,7 +547,8 @@ void check_off(const fs::path& path, std::string_view text) {
       next_in_line();
     }
     const auto dimension = parse_count(token);
-    if (!dimension || *dimension != 3) fail_at(path, lines.number(), "only 3-D vertices are supported, the header says " + quote(token));
+    if (!dimension || *dimension != 3)
+      fail_at(path, lines.number(), "only 3-D vertices are supported, the header says " + quote(token));
   }
 
   // Assimp reads the counts as tokens and the first vertex from wherever the edge count ends,
@@ -492,23 +563,26 @@ void check_off(const fs::path& path, std::string_view text) {
     count_text.push_back(token);
   } while (count_text.size() < 4 && next_in_line());
   if (count_text.size() != 3) {
-    fail_at(path, lines.number(), "the OFF header needs the vertex, face and edge counts on one line, found " +
-                                      std::to_string(count_text.size()) + " values" +
-                                      (count_text.size() == 2 ? " (the edge count is missing: write 0)" : ""));
+    fail_at(path, lines.number(),
+            "the OFF header needs the vertex, face and edge counts on one line, found " +
+                std::to_string(count_text.size()) + " values" +
+                (count_text.size() == 2 ? " (the edge count is missing: write 0)" : ""));
   }
   std::array<uint64_t, 3> counts{};
   for (std::size_t k = 0; k < 3; ++k) {
     const auto count = parse_count(count_text[k]);
     if (!count) {
-      fail_at(path, lines.number(), "expected the vertex, face and edge counts, found " + quote(count_text[k]));
+      fail_at(path, lines.number(),
+              "expected the vertex, face and edge counts, found " + quote(count_text[k]));
     }
     counts[k] = *count;
   }
   const std::size_t header_line = lines.number();
   const uint64_t vertex_count = counts[0], face_count = counts[1];
   if (vertex_count >= (uint64_t{1} << 31) || face_count >= (uint64_t{1} << 31)) {
-    fail_at(path, header_line, "the header declares " + std::to_string(vertex_count) + " vertices and " +
-                                   std::to_string(face_count) + " faces, more than the file can hold");
+    fail_at(path, header_line,
+            "the header declares " + std::to_string(vertex_count) + " vertices and " +
+                std::to_string(face_count) + " faces, more than the file can hold");
   }
   if (face_count == 0) fail(path, "contains no triangles (the OFF header declares 0 faces)");
   if (vertex_count == 0) fail(path, "contains no vertices (the OFF header declares 0 vertices)");
@@ -521,26 +595,42 @@ void check_off(const fs::path& path, std::string_view text) {
     std::string_view first;
     for (;;) {
       if (!lines.next(line)) {
-        fail(path, "the file ends after " + std::to_string(index) + " of the " + std::to_string(count) + " " + what +
-                       " its header declares (one per line is expected)");
+        fail(path, "the file ends after " + std::to_string(index) + " of the " + std::to_string(count) + " " +
+                       what + " its header declares (one per line is expected)");
       }
       if (line.empty()) continue;
       const bool has_token = Tokens(line).next(first);
       if (first_body_line && (!has_token || first.starts_with('#'))) continue;
-      if (!has_token) fail_at(path, lines.number(), std::string("expected one of the ") + what + ", found a line of spaces");
-      if (first.starts_with('#')) fail_at(path, lines.number(), std::string("comments between the ") + what + " are not supported");
+      if (!has_token)
+        fail_at(path, lines.number(),
+                std::string("expected one of the ") + what + ", found a line of spaces");
+      if (first.starts_with('#'))
+        fail_at(path, lines.number(), std::string("comments between the ") + what + " are not supported");
       break;
     }
     first_body_line = false;
-    if (line.size() > kMaxOffLine) fail_at(path, lines.number(), "line is longer than " + std::to_string(kMaxOffLine) + " characters");
+    if (line.size() > kMaxOffLine)
+      fail_at(path, lines.number(), "line is longer than " + std::to_string(kMaxOffLine) + " characters");
     return Tokens(line);
   };
 
   for (uint64_t v = 0; v < vertex_count; ++v) {
     Tokens tokens = next_body_line("vertices", v, vertex_count);
     for (int k = 0; k < 3; ++k) {
-      if (!tokens.next(token) || token.starts_with('#')) fail_at(path, lines.number(), "a vertex needs three coordinates");
+      if (!tokens.next(token) || token.starts_with('#'))
+        fail_at(path, lines.number(), "a vertex needs three coordinates");
       parse_coordinate(path, lines.number(), token);
+    }
+    // The values the header keyword adds (normal, colour, ...) must be numbers too, or Assimp
+    // fails on them with a message that quotes the rest of the file.
+    std::size_t values = 3;
+    for (; tokens.next(token) && !token.starts_with('#'); ++values) {
+      if (!parse_number(token)) fail_at(path, lines.number(), quote(token) + " is not a number");
+    }
+    if (values < vertex_values) {
+      fail_at(path, lines.number(),
+              "the header keyword asks for " + std::to_string(vertex_values) + " values per vertex, found " +
+                  std::to_string(values));
     }
   }
   for (uint64_t f = 0; f < face_count; ++f) {
@@ -550,28 +640,33 @@ void check_off(const fs::path& path, std::string_view text) {
     if (!corners) fail_at(path, lines.number(), "expected the number of face corners, found " + quote(token));
     if (*corners == 0) fail_at(path, lines.number(), "face has no corners");
     if (*corners > kMaxOffCorners) {
-      fail_at(path, lines.number(), "face has " + std::to_string(*corners) + " corners; the OFF reader supports at most " +
-                                        std::to_string(kMaxOffCorners) + " (triangulate the model first)");
+      fail_at(path, lines.number(),
+              "face has " + std::to_string(*corners) + " corners; the OFF reader supports at most " +
+                  std::to_string(kMaxOffCorners) + " (triangulate the model first)");
     }
     for (uint64_t k = 0; k < *corners; ++k) {
       if (!tokens.next(token) || token.starts_with('#')) {
-        fail_at(path, lines.number(), "face has fewer indices than its corner count " + std::to_string(*corners));
+        fail_at(path, lines.number(),
+                "face has fewer indices than its corner count " + std::to_string(*corners));
       }
       const auto index = parse_count(token);
       if (!index) fail_at(path, lines.number(), quote(token) + " is not a vertex index");
       if (*index >= vertex_count) {
-        fail_at(path, lines.number(), "face refers to vertex " + std::to_string(*index) + ", but the file has only " +
-                                          std::to_string(vertex_count) + " vertices (indices start at 0)");
+        fail_at(path, lines.number(),
+                "face refers to vertex " + std::to_string(*index) + ", but the file has only " +
+                    std::to_string(vertex_count) + " vertices (indices start at 0)");
       }
     }
   }
 }
 
 // ---------------------------------------------------------------------------------------------
-// PLY: the header is parsed and the data walked once, element by element, so that a truncated
-// file or a corrupt count is reported before Assimp allocates for it or reads past the end.
-// Assimp's ascii reader also accepts short or merged lines; here every element is one line
-// with exactly its properties' values. Indices and coordinates are checked on the parsed scene.
+// PLY: the header is parsed the way Assimp parses it, and the data walked once, element by
+// element, so that a truncated file or a corrupt count is reported before Assimp allocates for
+// it or reads past the end. Assimp 5.2 writes past a buffer when an element name repeats, and
+// its ascii reader accepts short, merged or blank lines by filling in zeros; here each element
+// is exactly one line with exactly its properties' values. Indices and coordinates are checked
+// on the parsed scene.
 
 struct PlyType {
   std::size_t size = 0;  // 0: unknown type
@@ -595,6 +690,7 @@ struct PlyProperty {
   bool list = false;
   PlyType count;  // lists only
   PlyType value;
+  std::string_view name;
 };
 
 struct PlyElement {
@@ -615,7 +711,38 @@ std::optional<uint64_t> read_ply_count(const char* data, PlyType type, bool big_
   return raw;
 }
 
-void check_ply(const fs::path& path, std::string_view bytes) {
+// An ascii value of an integer property: Assimp reads digits and stops, so "1.5" would become
+// two values.
+bool is_ply_integer(std::string_view token, bool is_signed) {
+  if (is_signed && token.starts_with('-')) token.remove_prefix(1);
+  return !token.empty() && token.size() <= 10 &&
+         token.find_first_not_of("0123456789") == std::string_view::npos;
+}
+
+// Where the parts of a checked PLY file start, for the padding read_surface adds.
+struct PlyLayout {
+  bool binary = false;
+  std::size_t header_body = 0;  // just after the format line
+  std::size_t data = 0;         // just after the end_header line
+};
+
+// Assimp 5.2 skips a line feed at the start of binary PLY data, so a file whose first data
+// byte is 0x0a (one in 256 of them) is read one byte out of step. A one-byte element placed
+// first in the data, with a letter as its value, keeps the real data where it belongs. It must
+// be an element Assimp knows ("edge", which it reads and ignores): it takes the count of any
+// other element for 0.
+std::string pad_binary_ply(std::string_view bytes, const PlyLayout& layout) {
+  std::string out;
+  out.reserve(bytes.size() + 64);
+  out.append(bytes.substr(0, layout.header_body));
+  out.append("element edge 1\nproperty uchar mchex_padding\n");
+  out.append(bytes.substr(layout.header_body, layout.data - layout.header_body));
+  out.push_back('P');
+  out.append(bytes.substr(layout.data));
+  return out;
+}
+
+PlyLayout check_ply(const fs::path& path, std::string_view bytes) {
   Lines lines(bytes);
   std::string_view line, token;
   const auto trimmed = [](std::string_view s) {
@@ -626,37 +753,64 @@ void check_ply(const fs::path& path, std::string_view bytes) {
     fail(path, "does not start with 'ply', so it is not a PLY file");
   }
 
+  // Assimp reads the format from the second line only.
+  enum { ascii, little, big } format = ascii;
+  lines.next(line);
+  PlyLayout layout;
+  layout.header_body = lines.position();
+  {
+    Tokens tokens(line);
+    if (!tokens.next(token) || token != "format")
+      fail_at(path, lines.number(), "the second line of a PLY file must be 'format ...'");
+    tokens.next(token);
+    if (token == "ascii") {
+      format = ascii;
+    } else if (token == "binary_little_endian") {
+      format = little;
+    } else if (token == "binary_big_endian") {
+      format = big;
+    } else {
+      fail_at(path, lines.number(), "unknown PLY format " + quote(token));
+    }
+  }
+
   std::vector<PlyElement> elements;
-  enum { none, ascii, little, big } format = none;
-  bool ended = false;
+  bool ended = false, in_element = false;
   while (!ended && lines.next(line)) {
     Tokens tokens(line);
-    if (!tokens.next(token)) continue;
     const std::size_t n = lines.number();
+    if (!tokens.next(token)) {
+      in_element = false;  // Assimp ends an element's property list at any other line
+      continue;
+    }
+    if (token == "comment") continue;
     if (token == "end_header") {
       ended = true;
-    } else if (token == "format") {
-      tokens.next(token);
-      if (token == "ascii") {
-        format = ascii;
-      } else if (token == "binary_little_endian") {
-        format = little;
-      } else if (token == "binary_big_endian") {
-        format = big;
-      } else {
-        fail_at(path, n, "unknown PLY format " + quote(token));
-      }
     } else if (token == "element") {
       PlyElement element;
       element.line = n;
       std::string_view count_text;
-      if (!tokens.next(element.name) || !tokens.next(count_text)) fail_at(path, n, "an element needs a name and a count");
+      if (!tokens.next(element.name) || !tokens.next(count_text))
+        fail_at(path, n, "an element needs a name and a count");
       const auto count = parse_count(count_text);
       if (!count) fail_at(path, n, quote(count_text) + " is not an element count");
       element.count = *count;
+      // Assimp 5.2 reads the count of an element it does not know as 0 and then parses the
+      // following data as if that element were absent.
+      if (element.name != "vertex" && element.name != "face" && element.name != "edge" &&
+          element.name != "material") {
+        fail_at(path, n,
+                "the element " + quote(element.name) +
+                    " is not supported (only vertex, face, edge and material elements are read)");
+      }
+      for (const PlyElement& other : elements) {
+        if (other.name == element.name)
+          fail_at(path, n, "the element " + quote(element.name) + " is declared twice");
+      }
       elements.push_back(element);
+      in_element = true;
     } else if (token == "property") {
-      if (elements.empty()) fail_at(path, n, "a property comes before any element");
+      if (!in_element) fail_at(path, n, "a property line that does not follow an element or its properties");
       PlyProperty property;
       std::string_view type;
       tokens.next(type);
@@ -664,29 +818,56 @@ void check_ply(const fs::path& path, std::string_view bytes) {
         property.list = true;
         tokens.next(type);
         property.count = ply_type(type);
-        if (property.count.size == 0 || property.count.is_float) fail_at(path, n, "a list length needs an integer type, found " + quote(type));
+        if (property.count.size == 0 || property.count.is_float)
+          fail_at(path, n, "a list length needs an integer type, found " + quote(type));
         tokens.next(type);
       }
       property.value = ply_type(type);
       if (property.value.size == 0) fail_at(path, n, "unknown PLY property type " + quote(type));
+      tokens.next(property.name);
       elements.back().properties.push_back(property);
+    } else {
+      // Ignored, as Assimp ignores it (Blender once wrote comments without 'comment').
+      in_element = false;
     }
-    // Any other line is ignored, as Assimp ignores it (Blender once wrote comments without the
-    // 'comment' keyword).
   }
   if (!ended) fail(path, "has no 'end_header' line: the PLY header is incomplete");
-  if (format == none) fail(path, "has no 'format' line in its PLY header");
+  layout.data = lines.position();
+  layout.binary = format != ascii;
+  // Assimp's PLY reader looks for the line feed after a carriage return, past the line if need be.
+  const auto has_bare_carriage_return = [](std::string_view text) {
+    for (std::size_t at = text.find('\r'); at != std::string_view::npos; at = text.find('\r', at + 1)) {
+      if (at + 1 == text.size() || text[at + 1] != '\n') return true;
+    }
+    return false;
+  };
+  if (has_bare_carriage_return(bytes.substr(0, layout.data))) {
+    fail(path, "ends PLY header lines with a bare carriage return; save it with LF or CRLF line ends");
+  }
+  // Without positions Assimp fails with "Unable to extract mesh data".
+  const auto vertex =
+      std::find_if(elements.begin(), elements.end(), [](const PlyElement& e) { return e.name == "vertex"; });
+  const auto has_axis = [&](std::string_view axis) {
+    return vertex != elements.end() &&
+           std::any_of(vertex->properties.begin(), vertex->properties.end(),
+                       [&](const PlyProperty& p) { return !p.list && p.name == axis; });
+  };
+  if (!has_axis("x") || !has_axis("y") || !has_axis("z")) {
+    fail(path, "has no 'vertex' element with x, y and z properties, so it holds no positions");
+  }
 
   // Every element instance takes at least a byte (or a line), so this bounds the walk below by
   // the file size even when a count is absurd.
   const uint64_t data_bytes = bytes.size() - lines.position();
   for (const PlyElement& element : elements) {
     uint64_t smallest = 0;
-    for (const PlyProperty& property : element.properties) smallest += format == ascii ? 2 : (property.list ? property.count.size : property.value.size);
+    for (const PlyProperty& property : element.properties)
+      smallest += format == ascii ? 2 : (property.list ? property.count.size : property.value.size);
     if (element.count > (data_bytes + 1) / std::max<uint64_t>(smallest, 1)) {
-      fail_at(path, element.line, "the header declares " + std::to_string(element.count) + " " + quote(element.name) +
-                                      " elements, but only " + std::to_string(data_bytes) +
-                                      " bytes of data follow the header: the file is truncated or corrupt");
+      fail_at(path, element.line,
+              "the header declares " + std::to_string(element.count) + " " + quote(element.name) +
+                  " elements, but only " + std::to_string(data_bytes) +
+                  " bytes of data follow the header: the file is truncated or corrupt");
     }
   }
   const auto truncated = [&](const PlyElement& element, uint64_t i) {
@@ -694,7 +875,7 @@ void check_ply(const fs::path& path, std::string_view bytes) {
                    std::to_string(element.count) + ": the file is truncated or corrupt");
   };
 
-  if (format != ascii) {
+  if (layout.binary) {
     std::size_t at = lines.position();
     for (const PlyElement& element : elements) {
       for (uint64_t i = 0; i < element.count; ++i) {
@@ -713,35 +894,47 @@ void check_ply(const fs::path& path, std::string_view bytes) {
         }
       }
     }
-    return;
+    return layout;
   }
 
+  const std::string_view data = bytes.substr(layout.data);
+  check_text(path, data, "PLY");
+  if (has_bare_carriage_return(data)) {
+    fail(path, "ends PLY data lines with a bare carriage return; save it with LF or CRLF line ends");
+  }
   for (const PlyElement& element : elements) {
     for (uint64_t i = 0; i < element.count; ++i) {
-      do {
-        if (!lines.next(line)) truncated(element, i);
-      } while (trimmed(line).empty());
+      if (!lines.next(line)) truncated(element, i);
+      const std::size_t n = lines.number();
+      if (trimmed(line).empty())
+        fail_at(path, n, "a blank line where a " + quote(element.name) + " element was expected");
       Tokens tokens(line);
-      const auto value = [&]() {
-        if (!tokens.next(token)) fail_at(path, lines.number(), "too few values for a " + quote(element.name) + " element");
-        if (!parse_number(token)) fail_at(path, lines.number(), quote(token) + " is not a number");
+      const auto value = [&](PlyType type) {
+        if (!tokens.next(token)) fail_at(path, n, "too few values for a " + quote(element.name) + " element");
+        const bool ok =
+            type.is_float ? parse_number(token).has_value() : is_ply_integer(token, type.is_signed);
+        if (!ok) fail_at(path, n, quote(token) + " is not " + (type.is_float ? "a number" : "an integer"));
       };
       for (const PlyProperty& property : element.properties) {
         if (!property.list) {
-          value();
+          value(property.value);
           continue;
         }
-        if (!tokens.next(token)) fail_at(path, lines.number(), "too few values for a " + quote(element.name) + " element");
+        if (!tokens.next(token)) fail_at(path, n, "too few values for a " + quote(element.name) + " element");
         const auto length = parse_count(token);
-        if (!length) fail_at(path, lines.number(), quote(token) + " is not a list length");
-        if (*length > line.size()) fail_at(path, lines.number(), "too few values for a " + quote(element.name) + " element");
-        for (uint64_t k = 0; k < *length; ++k) value();
+        if (!length) fail_at(path, n, quote(token) + " is not a list length");
+        if (*length > line.size())
+          fail_at(path, n, "too few values for a " + quote(element.name) + " element");
+        for (uint64_t k = 0; k < *length; ++k) value(property.value);
       }
       if (tokens.next(token)) {
-        fail_at(path, lines.number(), "more values than a " + quote(element.name) + " element has properties (one element per line is expected)");
+        fail_at(path, n,
+                "more values than a " + quote(element.name) +
+                    " element has properties (one element per line is expected)");
       }
     }
   }
+  return layout;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -779,18 +972,20 @@ bool check_scene(const fs::path& path, const aiScene& scene) {
   for (unsigned m = 0; m < scene.mNumMeshes; ++m) {
     const aiMesh* mesh = scene.mMeshes[m];
     if (mesh == nullptr) fail(path, "the reader returned an empty mesh");
-    if (mesh->mNumVertices > 0 && mesh->mVertices == nullptr) fail(path, "the reader returned a mesh without positions");
+    if (mesh->mNumVertices > 0 && mesh->mVertices == nullptr)
+      fail(path, "the reader returned a mesh without positions");
     for (unsigned v = 0; v < mesh->mNumVertices; ++v) {
       const aiVector3D& p = mesh->mVertices[v];
       if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) {
         char buffer[128];
-        std::snprintf(buffer, sizeof buffer, "(%g, %g, %g)", static_cast<double>(p.x), static_cast<double>(p.y),
-                      static_cast<double>(p.z));
+        std::snprintf(buffer, sizeof buffer, "(%g, %g, %g)", static_cast<double>(p.x),
+                      static_cast<double>(p.y), static_cast<double>(p.z));
         fail(path, std::string("has a vertex with a non-finite coordinate ") + buffer +
                        "; NaN and infinity cannot be meshed");
       }
     }
-    if (mesh->mNumFaces > 0 && mesh->mFaces == nullptr) fail(path, "the reader returned a mesh without faces");
+    if (mesh->mNumFaces > 0 && mesh->mFaces == nullptr)
+      fail(path, "the reader returned a mesh without faces");
     for (unsigned f = 0; f < mesh->mNumFaces; ++f) {
       const aiFace& face = mesh->mFaces[f];
       if (face.mNumIndices == 0 || face.mIndices == nullptr) fail(path, "has a face without vertices");
@@ -799,6 +994,10 @@ bool check_scene(const fs::path& path, const aiScene& scene) {
           fail(path, "a face refers to vertex " + std::to_string(face.mIndices[k]) + ", but there are only " +
                          std::to_string(mesh->mNumVertices) + " vertices");
         }
+      }
+      if (face.mNumIndices > kMaxPolygonCorners) {
+        fail(path, "has a face with " + std::to_string(face.mNumIndices) + " corners; at most " +
+                       std::to_string(kMaxPolygonCorners) + " are supported (triangulate the model first)");
       }
       polygons = polygons || face.mNumIndices > 3;
     }
@@ -816,17 +1015,20 @@ struct Collected {
 Collected collect_triangles(const fs::path& path, const aiScene& scene) {
   Collected out;
   if (scene.mRootNode == nullptr) return out;
-  std::vector<std::pair<const aiNode*, aiMatrix4x4>> stack{{scene.mRootNode, scene.mRootNode->mTransformation}};
+  std::vector<std::pair<const aiNode*, aiMatrix4x4>> stack{
+      {scene.mRootNode, scene.mRootNode->mTransformation}};
   std::vector<uint32_t> remap;
   while (!stack.empty()) {
     const auto [node, transform] = stack.back();
     stack.pop_back();
     for (unsigned c = node->mNumChildren; c-- > 0;) {
-      if (node->mChildren[c] != nullptr) stack.emplace_back(node->mChildren[c], transform * node->mChildren[c]->mTransformation);
+      if (node->mChildren[c] != nullptr)
+        stack.emplace_back(node->mChildren[c], transform * node->mChildren[c]->mTransformation);
     }
     const bool identity = transform.IsIdentity();
     for (unsigned i = 0; i < node->mNumMeshes; ++i) {
-      if (node->mMeshes[i] >= scene.mNumMeshes) fail(path, "the reader returned a scene that refers to a missing mesh");
+      if (node->mMeshes[i] >= scene.mNumMeshes)
+        fail(path, "the reader returned a scene that refers to a missing mesh");
       const aiMesh& mesh = *scene.mMeshes[node->mMeshes[i]];
       remap.assign(mesh.mNumVertices, std::numeric_limits<uint32_t>::max());
       for (unsigned f = 0; f < mesh.mNumFaces; ++f) {
@@ -841,12 +1043,15 @@ Collected collect_triangles(const fs::path& path, const aiScene& scene) {
           const unsigned v = face.mIndices[k];
           if (v >= mesh.mNumVertices) fail(path, "a triangle refers to a missing vertex");
           if (remap[v] == std::numeric_limits<uint32_t>::max()) {
-            if (out.surface.vertices.size() >= std::numeric_limits<uint32_t>::max()) fail(path, "has more than 2^32 vertices");
+            if (out.surface.vertices.size() >= std::numeric_limits<uint32_t>::max())
+              fail(path, "has more than 2^32 vertices");
             remap[v] = static_cast<uint32_t>(out.surface.vertices.size());
             aiVector3D p = mesh.mVertices[v];
             if (!identity) p = transform * p;
-            out.surface.vertices.push_back({static_cast<double>(p.x), static_cast<double>(p.y), static_cast<double>(p.z)});
-            if (!is_finite(out.surface.vertices.back())) fail(path, "has a vertex that becomes non-finite when placed in the scene");
+            out.surface.vertices.push_back(
+                {static_cast<double>(p.x), static_cast<double>(p.y), static_cast<double>(p.z)});
+            if (!is_finite(out.surface.vertices.back()))
+              fail(path, "has a vertex that becomes non-finite when placed in the scene");
           }
           triangle[k] = remap[v];
         }
@@ -866,12 +1071,23 @@ TriangleSurface read_surface(const std::filesystem::path& path, std::size_t* wel
   std::string_view to_parse = bytes;
   std::optional<uint64_t> expected_triangles;
   std::optional<uint64_t> vertex_records;  // when the reader does not keep the file's indexing
-  std::string patched;  // only when the bytes Assimp sees must differ, see below
+  std::string patched;                     // when the bytes Assimp sees must differ from the file's
   switch (format) {
     case Format::stl: {
       const StlLayout layout = check_stl(path, bytes);
       expected_triangles = layout.triangles;
       to_parse = layout.bytes;
+      // Assimp converts a file that starts with a byte-order mark to UTF-8 before looking at
+      // it, which shortens or scrambles a binary STL whose free-text header happens to start
+      // that way. The header means nothing here.
+      const auto starts_with = [&](std::string_view mark) { return to_parse.starts_with(mark); };
+      using namespace std::string_view_literals;
+      if (layout.binary && (starts_with("\xEF\xBB\xBF"sv) || starts_with("\xFE\xFF"sv) ||
+                            starts_with("\xFF\xFE"sv) || starts_with("\x00\x00\xFE\xFF"sv))) {
+        patched = std::string(to_parse);
+        std::fill_n(patched.begin(), 4, '\0');
+        to_parse = patched;
+      }
       // Assimp takes an ascii file for binary when 84 + 50 n wraps (32 bits) to its size; a
       // trailing newline changes the size and nothing else.
       if (!layout.binary && to_parse.size() >= 84) {
@@ -884,22 +1100,33 @@ TriangleSurface read_surface(const std::filesystem::path& path, std::size_t* wel
       }
       break;
     }
-    case Format::obj:
-      to_parse = strip_utf8_bom(bytes);
-      vertex_records = check_obj(path, to_parse);
+    case Format::obj: {
+      ObjGeometry geometry = check_obj(path, strip_utf8_bom(bytes));
+      vertex_records = geometry.used_records;
+      patched = std::move(geometry.text);
+      to_parse = patched;
       break;
+    }
     case Format::off:
       to_parse = strip_utf8_bom(bytes);
       check_off(path, to_parse);
       break;
-    case Format::ply:
-      check_ply(path, bytes);
+    case Format::ply: {
+      const PlyLayout layout = check_ply(path, bytes);
+      if (layout.binary && layout.data < bytes.size() && bytes[layout.data] == '\n') {
+        patched = pad_binary_ply(bytes, layout);
+        to_parse = patched;
+      }
       break;
+    }
   }
 
   Assimp::Importer importer;
   importer.SetIOHandler(new NoFileAccess);  // the importer owns it
-  const char* hint = format == Format::stl ? "stl" : format == Format::obj ? "obj" : format == Format::off ? "off" : "ply";
+  const char* hint = format == Format::stl   ? "stl"
+                     : format == Format::obj ? "obj"
+                     : format == Format::off ? "off"
+                                             : "ply";
   const aiScene* scene = nullptr;
   try {
     scene = importer.ReadFileFromMemory(to_parse.data(), to_parse.size(), 0, hint);
@@ -908,7 +1135,8 @@ TriangleSurface read_surface(const std::filesystem::path& path, std::size_t* wel
     }
     if (check_scene(path, *scene)) {
       scene = importer.ApplyPostProcessing(aiProcess_Triangulate);
-      if (scene == nullptr) fail(path, "its polygons could not be split into triangles: " + assimp_reason(importer));
+      if (scene == nullptr)
+        fail(path, "its polygons could not be split into triangles: " + assimp_reason(importer));
     }
   } catch (const std::bad_alloc&) {
     fail(path, "ran out of memory while reading");
@@ -917,17 +1145,20 @@ TriangleSurface read_surface(const std::filesystem::path& path, std::size_t* wel
   Collected collected = collect_triangles(path, *scene);
   TriangleSurface& surface = collected.surface;
   if (surface.triangles.empty()) {
-    fail(path, collected.other_primitives > 0 ? "contains no triangles, only points or lines" : "contains no triangles");
+    fail(path, collected.other_primitives > 0 ? "contains no triangles, only points or lines"
+                                              : "contains no triangles");
   }
   if (expected_triangles && surface.triangles.size() != *expected_triangles) {
-    fail(path, "the STL reader found " + std::to_string(surface.triangles.size()) + " triangles where the file has " +
-                   std::to_string(*expected_triangles) + " facets");
+    fail(path, "the STL reader found " + std::to_string(surface.triangles.size()) +
+                   " triangles where the file has " + std::to_string(*expected_triangles) + " facets");
   }
 
   const std::size_t merged = weld_vertices(surface);
   if (welded != nullptr) {
-    *welded = !vertex_records ? merged
-                              : static_cast<std::size_t>(*vertex_records - std::min<uint64_t>(*vertex_records, surface.vertices.size()));
+    *welded = !vertex_records
+                  ? merged
+                  : static_cast<std::size_t>(*vertex_records -
+                                             std::min<uint64_t>(*vertex_records, surface.vertices.size()));
   }
   return surface;
 }

@@ -36,8 +36,8 @@ namespace fs = std::filesystem;
 TriangleSurface unit_cube(Vec3 offset = {}) {
   TriangleSurface s;
   for (int i = 0; i < 8; ++i) {
-    const Vec3 corner{double((i == 1 || i == 2 || i == 5 || i == 6) ? 1 : 0), double((i == 2 || i == 3 || i == 6 || i == 7) ? 1 : 0),
-                      double(i >= 4 ? 1 : 0)};
+    const Vec3 corner{double((i == 1 || i == 2 || i == 5 || i == 6) ? 1 : 0),
+                      double((i == 2 || i == 3 || i == 6 || i == 7) ? 1 : 0), double(i >= 4 ? 1 : 0)};
     s.vertices.push_back(corner + offset);
   }
   s.triangles = {{0, 2, 1}, {0, 3, 2}, {4, 5, 6}, {4, 6, 7}, {0, 1, 5}, {0, 5, 4},
@@ -71,7 +71,8 @@ TriangleSurface torus(uint32_t n, uint32_t m, double major = 3, double minor = 1
   for (uint32_t i = 0; i < n; ++i) {
     for (uint32_t j = 0; j < m; ++j) {
       const double u = two_pi * i / n, v = two_pi * j / m;
-      s.vertices.push_back({(major + minor * std::cos(v)) * std::cos(u), (major + minor * std::cos(v)) * std::sin(u), minor * std::sin(v)});
+      s.vertices.push_back({(major + minor * std::cos(v)) * std::cos(u),
+                            (major + minor * std::cos(v)) * std::sin(u), minor * std::sin(v)});
     }
   }
   const auto at = [&](uint32_t i, uint32_t j) { return (i % n) * m + (j % m); };
@@ -229,7 +230,9 @@ TEST(ValidateSurface, MillionTriangleTorus) {
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   RecordProperty("validate_seconds", std::to_string(seconds));
   EXPECT_EQ(r.edges, 3 * s.triangles.size() / 2);
-  EXPECT_EQ(static_cast<long long>(r.vertices) - static_cast<long long>(r.edges) + static_cast<long long>(r.triangles), 0);  // genus 1
+  EXPECT_EQ(static_cast<long long>(r.vertices) - static_cast<long long>(r.edges) +
+                static_cast<long long>(r.triangles),
+            0);  // genus 1
   EXPECT_TRUE(r.consistently_oriented);
   EXPECT_EQ(r.components, 1u);
   const double exact = 2 * std::pow(std::acos(-1.0), 2) * 3 * 1;
@@ -299,7 +302,8 @@ class TempDir : public ::testing::Test {
     static int counter = 0;
     const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
     dir_ = fs::temp_directory_path() /
-           ("mchex_test_surface_" + std::to_string(static_cast<long long>(::getpid())) + "_" + std::to_string(counter++) + "_" + info->name());
+           ("mchex_test_surface_" + std::to_string(static_cast<long long>(::getpid())) + "_" +
+            std::to_string(counter++) + "_" + info->name());
     fs::remove_all(dir_);
     fs::create_directories(dir_);
   }
@@ -336,7 +340,8 @@ std::string binary_stl(const TriangleSurface& s, std::string header = "binary ST
   std::string out = header + le32(static_cast<uint32_t>(s.triangles.size()));
   for (const auto& t : s.triangles) {
     out += lef(0) + lef(0) + lef(0);
-    for (uint32_t v : t) out += lef(float(s.vertices[v].x)) + lef(float(s.vertices[v].y)) + lef(float(s.vertices[v].z));
+    for (uint32_t v : t)
+      out += lef(float(s.vertices[v].x)) + lef(float(s.vertices[v].y)) + lef(float(s.vertices[v].z));
     out += std::string(2, '\0');
   }
   return out;
@@ -346,7 +351,9 @@ std::string ascii_stl(const TriangleSurface& s) {
   std::string out = "solid test\n";
   for (const auto& t : s.triangles) {
     out += "  facet normal 0 0 0\n    outer loop\n";
-    for (uint32_t v : t) out += "      vertex " + number(s.vertices[v].x) + " " + number(s.vertices[v].y) + " " + number(s.vertices[v].z) + "\n";
+    for (uint32_t v : t)
+      out += "      vertex " + number(s.vertices[v].x) + " " + number(s.vertices[v].y) + " " +
+             number(s.vertices[v].z) + "\n";
     out += "    endloop\n  endfacet\n";
   }
   return out + "endsolid test\n";
@@ -355,27 +362,33 @@ std::string ascii_stl(const TriangleSurface& s) {
 std::string obj(const TriangleSurface& s) {
   std::string out = "# written by test_surface\n";
   for (const Vec3& v : s.vertices) out += "v " + number(v.x) + " " + number(v.y) + " " + number(v.z) + "\n";
-  for (const auto& t : s.triangles) out += "f " + std::to_string(t[0] + 1) + " " + std::to_string(t[1] + 1) + " " + std::to_string(t[2] + 1) + "\n";
+  for (const auto& t : s.triangles)
+    out += "f " + std::to_string(t[0] + 1) + " " + std::to_string(t[1] + 1) + " " + std::to_string(t[2] + 1) +
+           "\n";
   return out;
 }
 
 std::string off(const TriangleSurface& s) {
-  std::string out = "OFF\n" + std::to_string(s.vertices.size()) + " " + std::to_string(s.triangles.size()) + " 0\n";
+  std::string out =
+      "OFF\n" + std::to_string(s.vertices.size()) + " " + std::to_string(s.triangles.size()) + " 0\n";
   for (const Vec3& v : s.vertices) out += number(v.x) + " " + number(v.y) + " " + number(v.z) + "\n";
-  for (const auto& t : s.triangles) out += "3 " + std::to_string(t[0]) + " " + std::to_string(t[1]) + " " + std::to_string(t[2]) + "\n";
+  for (const auto& t : s.triangles)
+    out += "3 " + std::to_string(t[0]) + " " + std::to_string(t[1]) + " " + std::to_string(t[2]) + "\n";
   return out;
 }
 
 std::string ply_header(const TriangleSurface& s, const char* format) {
-  return std::string("ply\nformat ") + format + " 1.0\ncomment written by test_surface\nelement vertex " + std::to_string(s.vertices.size()) +
-         "\nproperty float x\nproperty float y\nproperty float z\nelement face " + std::to_string(s.triangles.size()) +
-         "\nproperty list uchar int vertex_indices\nend_header\n";
+  return std::string("ply\nformat ") + format + " 1.0\ncomment written by test_surface\nelement vertex " +
+         std::to_string(s.vertices.size()) +
+         "\nproperty float x\nproperty float y\nproperty float z\nelement face " +
+         std::to_string(s.triangles.size()) + "\nproperty list uchar int vertex_indices\nend_header\n";
 }
 
 std::string ascii_ply(const TriangleSurface& s) {
   std::string out = ply_header(s, "ascii");
   for (const Vec3& v : s.vertices) out += number(v.x) + " " + number(v.y) + " " + number(v.z) + "\n";
-  for (const auto& t : s.triangles) out += "3 " + std::to_string(t[0]) + " " + std::to_string(t[1]) + " " + std::to_string(t[2]) + "\n";
+  for (const auto& t : s.triangles)
+    out += "3 " + std::to_string(t[0]) + " " + std::to_string(t[1]) + " " + std::to_string(t[2]) + "\n";
   return out;
 }
 
@@ -408,7 +421,8 @@ const std::vector<Writer>& writers() {
 TEST_F(TempDir, UnitCubeInEveryFormat) {
   for (const Writer& writer : writers()) {
     SCOPED_TRACE(writer.name);
-    const fs::path path = write(std::string("cube_") + writer.name + writer.extension, writer.write(unit_cube()));
+    const fs::path path =
+        write(std::string("cube_") + writer.name + writer.extension, writer.write(unit_cube()));
     std::size_t welded = 99;
     const TriangleSurface s = read_surface(path, &welded);
     EXPECT_EQ(welded, writer.cube_welds);
@@ -429,7 +443,8 @@ TEST_F(TempDir, TwoCubesInEveryFormatKeepTheirComponentsAndOrder) {
   const TriangleSurface two = merged(unit_cube(), unit_cube({2, 0, 0}));
   for (const Writer& writer : writers()) {
     SCOPED_TRACE(writer.name);
-    const TriangleSurface s = read_surface(write(std::string("two_") + writer.name + writer.extension, writer.write(two)));
+    const TriangleSurface s =
+        read_surface(write(std::string("two_") + writer.name + writer.extension, writer.write(two)));
     const SurfaceReport r = validate_surface(s);
     EXPECT_EQ(r.components, 2u);
     EXPECT_EQ(r.volume, 2.0);
@@ -448,7 +463,8 @@ TEST_F(TempDir, ExtensionIsCaseInsensitive) {
 
 TEST_F(TempDir, ObjPolygonsAreTriangulatedAndOtherPrimitivesIgnored) {
   std::string text = "mtllib does_not_exist.mtl\nusemtl missing\n";
-  for (const Vec3& v : unit_cube().vertices) text += "v " + number(v.x) + " " + number(v.y) + " " + number(v.z) + "\n";
+  for (const Vec3& v : unit_cube().vertices)
+    text += "v " + number(v.x) + " " + number(v.y) + " " + number(v.z) + "\n";
   text += "vt 0 0\nvn 0 0 1\n";
   // Quads of the cube, with the corner forms OBJ allows and negative (relative) indices.
   text += "f 1/1 4/1 3/1 2/1\nf 5//1 6//1 7//1 8//1\nf 1/1/1 2/1/1 6/1/1 5/1/1\n";
@@ -466,10 +482,47 @@ TEST_F(TempDir, ObjPolygonsAreTriangulatedAndOtherPrimitivesIgnored) {
   EXPECT_EQ(r.volume, 1.0);
 }
 
+TEST_F(TempDir, ObjMaterialStatementsAreIgnored) {
+  // Assimp 5.2 alone crashes on this: a texture map statement after an mtllib it cannot open.
+  const std::string text = "mtllib missing.mtl\nusemtl red\nmap_Kd red.png\n" + obj(unit_cube());
+  const SurfaceReport r = validate_surface(read_surface(write("material.obj", text)));
+  EXPECT_EQ(r.triangles, 12u);
+  EXPECT_TRUE(r.consistently_oriented);
+}
+
+TEST_F(TempDir, ObjNumbersStartingWithTheDecimalPoint) {
+  // Assimp 5.2 alone drops such a vertex and then finds the faces out of range.
+  const std::string text = "v 0 0 0\nv .5 0 0\nv 0 .25 0\nv 0 0 -.125\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
+  const TriangleSurface s = read_surface(write("decimal_point.obj", text));
+  EXPECT_EQ(s.vertices, (std::vector<Vec3>{{0, 0, 0}, {0, 0.25, 0}, {0.5, 0, 0}, {0, 0, -0.125}}));
+  EXPECT_TRUE(validate_surface(s).consistently_oriented);
+}
+
+TEST_F(TempDir, BinaryStlHeaderThatLooksLikeAByteOrderMark) {
+  // Assimp converts such a file to UTF-8 before checking its size; the header is free text.
+  for (const std::string& mark :
+       std::vector<std::string>{"\xEF\xBB\xBF", "\xFE\xFF", "\xFF\xFE", std::string("\0\0\xFE\xFF", 4)}) {
+    const SurfaceReport r =
+        validate_surface(read_surface(write("bom.stl", binary_stl(unit_cube(), mark + "cube"))));
+    EXPECT_EQ(r.triangles, 12u);
+    EXPECT_EQ(r.volume, 1.0);
+  }
+}
+
+TEST_F(TempDir, ObjFacesMayComeBeforeTheirVertices) {
+  std::string text = obj(unit_cube());
+  const std::size_t faces = text.find("\nf ") + 1;
+  text = text.substr(faces) + text.substr(0, faces);
+  const SurfaceReport r = validate_surface(read_surface(write("faces_first.obj", text)));
+  EXPECT_EQ(r.triangles, 12u);
+  EXPECT_EQ(r.volume, 1.0);
+}
+
 TEST_F(TempDir, OffPolygonsAndVariants) {
   // COFF with colours, a comment in the header, CRLF line ends, quads, a face colour.
   std::string text = "COFF # coloured\r\n# counts follow\r\n8 6 12\r\n\r\n";
-  for (const Vec3& v : unit_cube().vertices) text += number(v.x) + " " + number(v.y) + " " + number(v.z) + " 0.5 0.5 0.5 1\r\n";
+  for (const Vec3& v : unit_cube().vertices)
+    text += number(v.x) + " " + number(v.y) + " " + number(v.z) + " 0.5 0.5 0.5 1\r\n";
   text += "4 0 3 2 1\r\n4 4 5 6 7 255 0 0\r\n4 0 1 5 4\r\n4 3 7 6 2\r\n4 0 4 7 3\r\n4 1 2 6 5\r\n";
   const SurfaceReport r = validate_surface(read_surface(write("cube.off", text)));
   EXPECT_EQ(r.triangles, 12u);
@@ -478,7 +531,8 @@ TEST_F(TempDir, OffPolygonsAndVariants) {
 }
 
 TEST_F(TempDir, BinaryStlWhoseHeaderStartsWithSolid) {
-  const SurfaceReport r = validate_surface(read_surface(write("solid_header.stl", binary_stl(unit_cube(), "solid cube"))));
+  const SurfaceReport r =
+      validate_surface(read_surface(write("solid_header.stl", binary_stl(unit_cube(), "solid cube"))));
   EXPECT_EQ(r.triangles, 12u);
   EXPECT_EQ(r.volume, 1.0);
 }
@@ -547,7 +601,8 @@ std::string expect_input_error(const fs::path& path, const std::string& reason_p
   EXPECT_GT(message.size(), path.string().size() + 2) << "no reason given";
   EXPECT_EQ(message.find('\n'), std::string::npos) << message;
   EXPECT_EQ(message.find('\r'), std::string::npos) << message;
-  EXPECT_NE(message.find(reason_part), std::string::npos) << "reason should mention '" << reason_part << "': " << message;
+  EXPECT_NE(message.find(reason_part), std::string::npos)
+      << "reason should mention '" << reason_part << "': " << message;
   return message;
 }
 
@@ -579,7 +634,8 @@ TEST_F(TempDir, Directory) {
 }
 
 TEST_F(TempDir, EmptyFileInEveryFormat) {
-  for (const char* name : {"empty.stl", "empty.obj", "empty.off", "empty.ply"}) expect_input_error(write(name, ""), "empty");
+  for (const char* name : {"empty.stl", "empty.obj", "empty.off", "empty.ply"})
+    expect_input_error(write(name, ""), "empty");
 }
 
 TEST_F(TempDir, UnknownOrMissingExtension) {
@@ -601,7 +657,8 @@ TEST_F(TempDir, PathWithANewlineStaysOnOneLine) {
 TEST_F(TempDir, TruncatedBinaryStl) {
   const std::string full = binary_stl(unit_cube());
   expect_input_error(write("truncated.stl", full.substr(0, full.size() - 30)), "truncated");
-  expect_input_error(write("truncated_solid.stl", binary_stl(unit_cube(), "solid cube").substr(0, 300)), "truncated");
+  expect_input_error(write("truncated_solid.stl", binary_stl(unit_cube(), "solid cube").substr(0, 300)),
+                     "truncated");
   expect_input_error(write("header_only.stl", full.substr(0, 60)), "84-byte header");
   expect_input_error(write("extra.stl", full + "junk"), "truncated or corrupt");
 }
@@ -692,8 +749,10 @@ TEST_F(TempDir, RandomBytesInEveryFormat) {
       for (char& c : bytes) c = static_cast<char>(random() & 0xff);
       // Half the samples start like the format does, so the checks behind the first are hit.
       if (sample % 2 == 1) {
-        const std::string start = std::string(extension) == ".stl" ? "solid x\n" : std::string(extension) == ".obj" ? "v 0 0 0\n"
-                                  : std::string(extension) == ".off" ? "OFF\n3 1 0\n" : "ply\nformat ascii 1.0\n";
+        const std::string start = std::string(extension) == ".stl"   ? "solid x\n"
+                                  : std::string(extension) == ".obj" ? "v 0 0 0\n"
+                                  : std::string(extension) == ".off" ? "OFF\n3 1 0\n"
+                                                                     : "ply\nformat ascii 1.0\n";
         bytes.replace(0, start.size(), start);
       }
       SCOPED_TRACE(std::string(extension) + " sample " + std::to_string(sample));
@@ -739,7 +798,10 @@ TEST_F(TempDir, AsciiStlStructureErrors) {
   text = cube;
   text.replace(text.find("normal 0 0 0"), 12, "normal");
   expect_input_error(write("no_normal.stl", text), "facet normal needs three numbers");
-  expect_input_error(write("cut.stl", cube.substr(0, cube.find("vertex", cube.size() / 2) + 10)), "the file ends");
+  expect_input_error(write("cut.stl", cube.substr(0, cube.find("vertex", cube.size() / 2) + 10)),
+                     "three coordinates");
+  expect_input_error(write("cut_facet.stl", cube.substr(0, cube.find("outer loop", cube.size() / 2) + 10)),
+                     "the file ends inside a facet");
   text = cube;
   text.replace(text.find("vertex 1 1 1"), 12, "vertex 1 \x10 1");
   expect_input_error(write("control.stl", text), "control character \\x10");
@@ -763,9 +825,14 @@ TEST_F(TempDir, OffStructureErrors) {
   for (int i = 0; i < 12; ++i) text += number(std::cos(i * 0.5)) + " " + number(std::sin(i * 0.5)) + " 0\n";
   text += "12 0 1 2 3 4 5 6 7 8 9 10 11\n";
   expect_input_error(write("dodecagon.off", text), "at most 9");
-  expect_input_error(write("one_line.off", "OFF\n3 1 0\n0 0 0 1 0 0 0 1 0\n3 0 1 2\n"), "ends after 2 of the 3 vertices");
+  expect_input_error(write("one_line.off", "OFF\n3 1 0\n0 0 0 1 0 0 0 1 0\n3 0 1 2\n"),
+                     "ends after 2 of the 3 vertices");
   expect_input_error(write("headerless.off", cube.substr(4)), "OFF header keyword");
   expect_input_error(write("binary.off", "OFF BINARY\n"), "binary OFF is not supported");
+  expect_input_error(write("colour.off", "COFF\n3 1 0\n0 0 0 1 1 1 1\n1 0 0 red\n0 1 0 1 1 1 1\n3 0 1 2\n"),
+                     "line 4: 'red' is not a number");
+  expect_input_error(write("normal.off", "NOFF\n3 1 0\n0 0 0 0 0 1\n1 0 0\n0 1 0 0 0 1\n3 0 1 2\n"),
+                     "asks for 6 values per vertex, found 3");
 }
 
 TEST_F(TempDir, PlyHeaderErrors) {
@@ -783,12 +850,97 @@ TEST_F(TempDir, PlyHeaderErrors) {
   expect_input_error(write("not.ply", "plx\n" + text.substr(4)), "not a PLY file");
   text.replace(text.find("ascii"), 5, "morse");
   expect_input_error(write("morse.ply", text), "unknown PLY format 'morse'");
+  // Assimp 5.2 writes past a buffer on a repeated element.
+  text = binary_ply(cube);
+  text.replace(text.find("element face"), 0,
+               "element vertex 4\nproperty float x\nproperty float y\nproperty float z\n");
+  expect_input_error(write("two_vertex_elements.ply", text), "'vertex' is declared twice");
+  text = ascii_ply(cube);
+  text.replace(text.find("property float y"), 0, "made by hand\n");
+  expect_input_error(write("stray_property.ply", text), "does not follow an element");
+  text = ascii_ply(cube);
+  text.replace(text.find("property float z"), 16, "property float w");
+  expect_input_error(write("no_z.ply", text), "no 'vertex' element with x, y and z");
+  // Assimp 5.2 counts an element it does not know as empty and reads on out of step.
+  text = ascii_ply(cube);
+  text.replace(text.find("end_header"), 0, "element range_grid 1\nproperty list uchar int vertex_indices\n");
+  expect_input_error(write("range_grid.ply", text + "0\n"), "'range_grid' is not supported");
+  text = ascii_ply(cube);
+  text.replace(text.find("element face"), 12, "element tristrips");
+  expect_input_error(write("tristrips.ply", text), "'tristrips' is not supported");
+  text = binary_ply(cube);
+  for (std::size_t at = text.find('\n'); at < text.find("end_header"); at = text.find('\n', at + 1))
+    text[at] = '\r';
+  expect_input_error(write("carriage_returns.ply", text), "bare carriage return");
+}
+
+TEST_F(TempDir, BinaryPlyWhoseDataStartsWithALineFeed) {
+  // Assimp 5.2 alone skips the 0x0a and reads every value one byte out of step.
+  TriangleSurface cube = unit_cube();
+  const uint32_t bits = 0x3f80000au;  // little-endian bytes 0a 00 80 3f: just above 1
+  float x;
+  std::memcpy(&x, &bits, 4);
+  cube.vertices[0].x = x;
+  const std::string plain = binary_ply(cube);
+  std::string with_edges = plain;
+  with_edges.replace(with_edges.find("end_header"), 0,
+                     "element edge 1\nproperty int vertex1\nproperty int vertex2\n");
+  with_edges += le32(0) + le32(1);
+  for (const auto& [name, bytes] :
+       {std::pair{"line_feed.ply", plain}, std::pair{"line_feed_edges.ply", with_edges}}) {
+    SCOPED_TRACE(name);
+    ASSERT_EQ(bytes[bytes.find("end_header\n") + 11], '\n');
+    const TriangleSurface s = read_surface(write(name, bytes));
+    EXPECT_EQ(s.vertices.front().x, double(x));
+    const SurfaceReport r = validate_surface(s);
+    EXPECT_EQ(r.vertices, 8u);
+    EXPECT_EQ(r.triangles, 12u);
+    EXPECT_TRUE(r.consistently_oriented);
+  }
+}
+
+TEST_F(TempDir, PlyAsciiDataErrors) {
+  const std::string cube = ascii_ply(unit_cube());
+  std::string text = cube;
+  text.replace(text.find("1 1 1\n"), 6, "1 1 1 0 1 1\n");
+  expect_input_error(write("merged.ply", text), "one element per line");
+  text = cube;
+  text.replace(text.find("1 1 1\n"), 6, "1 1\n");
+  expect_input_error(write("short.ply", text), "too few values for a 'vertex' element");
+  text = cube;
+  text.replace(text.find("1 1 1\n"), 0, "\n");
+  expect_input_error(write("blank.ply", text), "blank line");
+  text = cube;
+  text.replace(text.find("3 1 6 5"), 7, "3 1 6 5.5");
+  expect_input_error(write("fraction.ply", text), "'5.5' is not an integer");
+  text = cube;
+  text.replace(text.find("1 1 1\n"), 6, "1 one 1\n");
+  expect_input_error(write("word.ply", text), "'one' is not a number");
 }
 
 TEST_F(TempDir, Utf16Obj) {
   std::string text = "\xFE\xFF";
   for (char c : obj(unit_cube())) text += std::string(1, '\0') + c;
   expect_input_error(write("utf16.obj", text), "UTF-16");
+}
+
+TEST_F(TempDir, HugePolygonsAreRefused) {
+  // Ear clipping is quadratic in the corners; a corrupt face must not become an hour-long loop.
+  std::string text;
+  const int corners = 5000;
+  for (int i = 0; i < corners; ++i)
+    text += "v " + number(std::cos(i * 2e-3)) + " " + number(std::sin(i * 2e-3)) + " 0\n";
+  text += "f";
+  for (int i = 1; i <= corners; ++i) text.append(" ").append(std::to_string(i));
+  expect_fast_input_error(write("polygon.obj", text + "\n"), "5000 corners");
+  TriangleSurface fan;
+  for (int i = 0; i < corners; ++i) fan.vertices.push_back({std::cos(i * 2e-3), std::sin(i * 2e-3), 0});
+  std::string ply = ascii_ply(fan);
+  ply.replace(ply.find("element face 0"), 14, "element face 1");
+  ply += std::to_string(corners);
+  for (int i = 0; i < corners; ++i) ply.append(" ").append(std::to_string(i));
+  ply.replace(ply.find("list uchar int"), 14, "list int int");
+  expect_fast_input_error(write("polygon.ply", ply + "\n"), "5000 corners");
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -840,32 +992,34 @@ TEST(SampleFiles, Openscad) {
 
 TEST(SampleFiles, NpmStlModels) {
   REQUIRE_DIR(kNpmStl);
-  check_samples(kNpmStl, {
-                             {"polytopes/cube.ascii.stl", nullptr, 12, true, 8},
-                             {"polytopes/cube.bin.stl", nullptr, 12, true, 8},
-                             {"polytopes/unitCube.ascii.stl", nullptr, 12, true, 1},
-                             {"polytopes/unitCube.binary.stl", nullptr, 12, true, 1},
-                             {"polytopes/tetrahedron.ascii.stl", nullptr, 4, true, 1.0 / 6},
-                             {"polytopes/tetrahedron.min.ascii.stl", nullptr, 4, true, 1.0 / 6},
-                             {"polytopes/tetrahedronMinusZero.bin.stl", nullptr, 4, true, 1.0 / 6},
-                             {"polytopes/triangle.ascii.stl", nullptr, 1, false, 0},
-                             {"objects/gearwheel.bin.stl", nullptr, 2444, true, 0},
-                             {"broken/empty.stl", "empty"},
-                             {"broken/fourVertices.ascii.stl", "line 2: facet has 4 vertices"},
-                             {"broken/quad.ascii.stl", "facet has 4 vertices"},
-                             {"broken/twoVertices.ascii.stl", "facet has 2 vertices"},
-                             {"broken/incorrectFaceCounter.bin.stl", "declares 66 triangles"},
-                             {"broken/missingNormal.ascii.stl", "facet normal needs three numbers"},
-                             {"broken/missingFace.ascii.stl", nullptr, 3, false, 0},  // open: the report says so
-                             {"broken/missingEndsolid.ascii.stl", nullptr, 4, true, 1.0 / 6},
-                             {"broken/notANumberNormal.ascii.stl", nullptr, 4, true, 1.0 / 6},  // normals are not used
-                             {"broken/wrongNormals.ascii.stl", nullptr, 4, true, 1.0 / 6},
-                             {"broken/solidNameMismatch.ascii.stl", nullptr, 4, true, 1.0 / 6},
-                             {"broken/singleFace.ascii.stl", nullptr, 1, false, 0},
-                             {"broken/wrongHeader.bin.stl", nullptr, 12, true, 1e6},
-                             {"misc/faceless.ascii.stl", "no triangles"},
-                             {"misc/multiWordName.bin.stl", "declares 4 triangles, which need 284 bytes, but the file has 333"},
-                         });
+  check_samples(
+      kNpmStl,
+      {
+          {"polytopes/cube.ascii.stl", nullptr, 12, true, 8},
+          {"polytopes/cube.bin.stl", nullptr, 12, true, 8},
+          {"polytopes/unitCube.ascii.stl", nullptr, 12, true, 1},
+          {"polytopes/unitCube.binary.stl", nullptr, 12, true, 1},
+          {"polytopes/tetrahedron.ascii.stl", nullptr, 4, true, 1.0 / 6},
+          {"polytopes/tetrahedron.min.ascii.stl", nullptr, 4, true, 1.0 / 6},
+          {"polytopes/tetrahedronMinusZero.bin.stl", nullptr, 4, true, 1.0 / 6},
+          {"polytopes/triangle.ascii.stl", nullptr, 1, false, 0},
+          {"objects/gearwheel.bin.stl", nullptr, 2444, true, 0},
+          {"broken/empty.stl", "empty"},
+          {"broken/fourVertices.ascii.stl", "line 2: facet has 4 vertices"},
+          {"broken/quad.ascii.stl", "facet has 4 vertices"},
+          {"broken/twoVertices.ascii.stl", "facet has 2 vertices"},
+          {"broken/incorrectFaceCounter.bin.stl", "declares 66 triangles"},
+          {"broken/missingNormal.ascii.stl", "facet normal needs three numbers"},
+          {"broken/missingFace.ascii.stl", nullptr, 3, false, 0},  // open: the report says so
+          {"broken/missingEndsolid.ascii.stl", nullptr, 4, true, 1.0 / 6},
+          {"broken/notANumberNormal.ascii.stl", nullptr, 4, true, 1.0 / 6},  // normals are not used
+          {"broken/wrongNormals.ascii.stl", nullptr, 4, true, 1.0 / 6},
+          {"broken/solidNameMismatch.ascii.stl", nullptr, 4, true, 1.0 / 6},
+          {"broken/singleFace.ascii.stl", nullptr, 1, false, 0},
+          {"broken/wrongHeader.bin.stl", nullptr, 12, true, 1e6},
+          {"misc/faceless.ascii.stl", "no triangles"},
+          {"misc/multiWordName.bin.stl", "declares 4 triangles, which need 284 bytes, but the file has 333"},
+      });
   // -0 and +0 weld: the minus-zero tetrahedron has the same four corners as the plain one.
   EXPECT_EQ(read_surface(kNpmStl / "polytopes/tetrahedronMinusZero.bin.stl").vertices.size(), 4u);
   // The ascii and binary bunny are the same surface.
@@ -879,24 +1033,25 @@ TEST(SampleFiles, NpmStlModels) {
 
 TEST(SampleFiles, AssimpModels) {
   REQUIRE_DIR(kAssimpModels);
-  check_samples(kAssimpModels, {
-                                   {"OFF/Cube.off", nullptr, 12, true, 1},
-                                   {"OFF/invalid.off", "edge count is missing"},
-                                   {"PLY/cube.ply", nullptr, 12, true, 1},
-                                   {"PLY/cube_binary.ply", nullptr, 12, true, 1},
-                                   {"PLY/Wuson.ply", nullptr, 3732, false, 0},
-                                   {"PLY/points.ply", "no triangles"},
-                                   {"PLY/pond.0.ply", "truncated or corrupt"},
-                                   {"OBJ/box.obj", nullptr, 12, true, 1},
-                                   {"OBJ/testmixed.obj", nullptr, 12, true, 1},
-                                   {"OBJ/testline.obj", "only points or lines"},
-                                   {"OBJ/box_UTF16BE.obj", "UTF-16"},
-                                   {"OBJ/number_formats.obj", "'3.1+e2' is not a number"},
-                                   {"STL/triangle_with_two_solids.stl", nullptr, 2, false, 0},
-                                   {"invalid/empty.off", "empty"},
-                                   {"invalid/malformed.obj", "line 23: face refers to vertex 12"},
-                                   {"invalid/malformed2.obj", nullptr, 10, false, 0},  // an empty 'f' and a missing material
-                               });
+  check_samples(kAssimpModels,
+                {
+                    {"OFF/Cube.off", nullptr, 12, true, 1},
+                    {"OFF/invalid.off", "edge count is missing"},
+                    {"PLY/cube.ply", nullptr, 12, true, 1},
+                    {"PLY/cube_binary.ply", nullptr, 12, true, 1},
+                    {"PLY/Wuson.ply", nullptr, 3732, false, 0},
+                    {"PLY/points.ply", "no triangles"},
+                    {"PLY/pond.0.ply", "truncated or corrupt"},
+                    {"OBJ/box.obj", nullptr, 12, true, 1},
+                    {"OBJ/testmixed.obj", nullptr, 12, true, 1},
+                    {"OBJ/testline.obj", "only points or lines"},
+                    {"OBJ/box_UTF16BE.obj", "UTF-16"},
+                    {"OBJ/number_formats.obj", "'3.1+e2' is not a number"},
+                    {"STL/triangle_with_two_solids.stl", nullptr, 2, false, 0},
+                    {"invalid/empty.off", "empty"},
+                    {"invalid/malformed.obj", "line 23: face refers to vertex 12"},
+                    {"invalid/malformed2.obj", nullptr, 10, false, 0},  // an empty 'f' and a missing material
+                });
   expect_fast_input_error(kAssimpModels / "invalid/OutOfMemory.off", "353535235358 vertices");
   const SurfaceReport ascii = validate_surface(read_surface(kAssimpModels / "STL/Spider_ascii.stl"));
   const SurfaceReport binary = validate_surface(read_surface(kAssimpModels / "STL/Spider_binary.stl"));
@@ -908,15 +1063,22 @@ TEST(SampleFiles, AssimpModels) {
 
 // Whatever a sample holds, reading it ends in a surface or an InputError, silently.
 TEST(SampleFiles, EverySampleReadsOrFailsCleanly) {
-  std::vector<fs::path> roots = {kAssimpModels / "STL", kAssimpModels / "OBJ", kAssimpModels / "OFF", kAssimpModels / "PLY",
-                                 kAssimpModels / "invalid", kOpenscadStl, kNpmStl};
+  std::vector<fs::path> roots = {kAssimpModels / "STL",
+                                 kAssimpModels / "OBJ",
+                                 kAssimpModels / "OFF",
+                                 kAssimpModels / "PLY",
+                                 kAssimpModels / "invalid",
+                                 kOpenscadStl,
+                                 kNpmStl};
   std::size_t files = 0;
   for (const fs::path& root : roots) {
     if (!fs::is_directory(root)) continue;
     for (const auto& entry : fs::recursive_directory_iterator(root)) {
       std::string extension = entry.path().extension().string();
       for (char& c : extension) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-      if (!entry.is_regular_file() || (extension != ".stl" && extension != ".obj" && extension != ".off" && extension != ".ply")) continue;
+      if (!entry.is_regular_file() ||
+          (extension != ".stl" && extension != ".obj" && extension != ".off" && extension != ".ply"))
+        continue;
       SCOPED_TRACE(entry.path().string());
       ++files;
       testing::internal::CaptureStdout();
