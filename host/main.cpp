@@ -1,6 +1,7 @@
 // mchex-gpu: the command line. Subcommands:
 //   mesh   surface or analytic shape -> inside and outside all-hex meshes (+ JSON report)
 //   check  validate hex meshes: structure, quality (Bernstein certificate), conformity, fidelity
+//   convert  a hex mesh from one file format to another
 // Every failure is one line on stderr and a non-zero exit: 1 bad input or usage, 2 resource limit.
 #include <unistd.h>
 
@@ -330,6 +331,11 @@ int main(int argc, char** argv) {
   check->add_flag("--json", co.json, "print the results as JSON");
   check->add_option("--lattice", co.lattice, "samples per axis for the IoU")->check(CLI::Range(8, 1024))->capture_default_str();
 
+  std::string convert_in, convert_out;
+  auto* convert = app.add_subcommand("convert", "convert a hex mesh between .mesh, .vtu and .msh");
+  convert->add_option("input", convert_in, "hex mesh to read")->required();
+  convert->add_option("output", convert_out, "hex mesh to write; the format follows the extension")->required();
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -344,6 +350,11 @@ int main(int argc, char** argv) {
     std::optional<tbb::global_control> limit;
     if (threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, threads);
     if (mesh->parsed()) return run_mesh(mo, quiet);
+    if (convert->parsed()) {
+      mesh_format(convert_out);
+      write_hex_mesh(read_hex_mesh(convert_in), convert_out);
+      return 0;
+    }
     return run_check(co, quiet);
   } catch (const InputError& e) {
     std::fprintf(stderr, "mchex-gpu: %s\n", e.what());

@@ -725,24 +725,5 @@ TEST(HexmeshSamples, WriteSamples) {
   }
 }
 
-// Reads every file in $MCHEX_MESHIO_IN and writes it back as NAME.vtu into $MCHEX_MESHIO_OUT, where
-// the python side compares it with what meshio was given. Disabled on its own: it is a step of
-// test_meshio_formats.py, which runs it with its inputs.
-TEST(HexmeshSamples, DISABLED_ConvertSamples) {
-  const char* in = std::getenv("MCHEX_MESHIO_IN");
-  const char* out = std::getenv("MCHEX_MESHIO_OUT");
-  ASSERT_TRUE(in != nullptr && out != nullptr) << "MCHEX_MESHIO_IN/OUT not set (test_meshio_formats.py sets them)";
-  std::vector<fs::path> files;
-  for (const auto& entry : fs::directory_iterator(in))
-    if (entry.is_regular_file()) files.push_back(entry.path());
-  std::sort(files.begin(), files.end());
-  ASSERT_FALSE(files.empty());
-  for (const fs::path& file : files) {
-    SCOPED_TRACE(file.string());
-    const HexMesh mesh = read_hex_mesh(file);
-    write_hex_mesh(mesh, fs::path(out) / (file.filename().string() + ".vtu"));
-  }
-}
-
 }  // namespace
 }  // namespace mchex
