@@ -7,6 +7,7 @@
 #include <memory>
 
 #include "core/hex_faces.h"
+#include "core/quality.h"
 #include "core/parallel.h"
 
 namespace mchex {
@@ -24,13 +25,7 @@ Vec3 trilinear(const std::array<Vec3, 8>& x, Vec3 t) {
 bool invert_trilinear(const std::array<Vec3, 8>& x, Vec3 p, bool* inside) {
   Vec3 t{0.5, 0.5, 0.5};
   for (int it = 0; it < 30; ++it) {
-    const double u = t.x, v = t.y, w = t.z;
-    const Vec3 du = (1 - v) * (1 - w) * (x[1] - x[0]) + v * (1 - w) * (x[2] - x[3]) +
-                    (1 - v) * w * (x[5] - x[4]) + v * w * (x[6] - x[7]);
-    const Vec3 dv = (1 - u) * (1 - w) * (x[3] - x[0]) + u * (1 - w) * (x[2] - x[1]) +
-                    (1 - u) * w * (x[7] - x[4]) + u * w * (x[6] - x[5]);
-    const Vec3 dw = (1 - u) * (1 - v) * (x[4] - x[0]) + u * (1 - v) * (x[5] - x[1]) +
-                    u * v * (x[6] - x[2]) + (1 - u) * v * (x[7] - x[3]);
+    const auto [du, dv, dw] = jacobian(x, t.x, t.y, t.z);
     const double det = triple(du, dv, dw);
     if (!(std::abs(det) > 0)) return false;
     const Vec3 r = p - trilinear(x, t);

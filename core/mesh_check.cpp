@@ -17,6 +17,7 @@
 #include <utility>
 
 #include "core/error.h"
+#include "core/hex_faces.h"
 #include "core/quality.h"
 
 namespace mchex {
@@ -24,11 +25,9 @@ namespace {
 
 constexpr uint32_t kNone = std::numeric_limits<uint32_t>::max();
 
-// The six faces in VTK_HEXAHEDRON face order, each listed so that the right-hand rule gives
-// the outward normal of a positively oriented hex. Two hexes on either side of a conforming
-// face therefore list it in opposite cyclic directions.
-constexpr int kFaces[6][4] = {{0, 4, 7, 3}, {1, 2, 6, 5}, {0, 1, 5, 4},
-                              {3, 7, 6, 2}, {0, 3, 2, 1}, {4, 5, 6, 7}};
+// Faces as in core/hex_faces.h: outward by the right-hand rule, so two hexes on either side of
+// a conforming face list it in opposite cyclic directions.
+constexpr const auto& kFaces = kHexFaces;
 
 // The first `limit` messages by key (element index or face reference), whatever order the
 // parallel leaves produce them in: a bounded max-heap per leaf, merged at joins. The text is

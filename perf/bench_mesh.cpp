@@ -2,7 +2,6 @@
 // second: SDF at the grid vertices, RO, check (quality + conformity), and writing both meshes in
 // each format. Prints a table and one JSON line.
 //   bench_mesh [--depth D] [--shape NAME]
-#include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -10,20 +9,14 @@
 #include <vector>
 
 #include "core/grid.h"
+#include "perf/bench_common.h"
 #include "core/mesh_check.h"
 #include "core/mesh_io.h"
 #include "core/ro.h"
 #include "core/shapes.h"
 
 using namespace mchex;
-
-namespace {
-double seconds_of(auto&& f) {
-  const auto t0 = std::chrono::steady_clock::now();
-  f();
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-}  // namespace
+using bench::seconds_of;
 
 int main(int argc, char** argv) {
   int depth = 5;

@@ -2,7 +2,6 @@
 // for the points of a grid over its box, and the speed-up over the paper's brute-force loop
 // (every point against every triangle) on a small model. Prints a table and one JSON line.
 //   bench_sdf [--grid N] [--segments S]
-#include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <string>
@@ -12,18 +11,14 @@
 #include <tbb/info.h>
 
 #include "core/grid.h"
+#include "perf/bench_common.h"
 #include "core/sdf.h"
 #include "core/shapes.h"
 
 using namespace mchex;
+using bench::seconds_of;
 
 namespace {
-
-double seconds_of(auto&& f) {
-  const auto t0 = std::chrono::steady_clock::now();
-  f();
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 std::vector<Vec3> grid_points(const Box& bounds, int n) {
   const Box cube = padded_cube(bounds, 0.1);
