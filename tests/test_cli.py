@@ -135,6 +135,11 @@ class MeshCommand(unittest.TestCase):
                                    "dir.mesh")
         self.assert_no_output()
 
+    def test_a_grid_beyond_memory_is_refused_up_front_with_exit_2(self):
+        r = run("mesh", "--depth", 6, "-o", os.path.join(self.dir, "big.vtu"))
+        self.assert_one_line_error(r, "depth 6", "GiB", code=2)
+        self.assert_no_output()
+
     def test_check_rejects_a_broken_mesh(self):
         # Two hexes that are the same element: a face shared by... they overlap entirely.
         p = os.path.join(self.dir, "dup.mesh")
