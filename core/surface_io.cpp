@@ -853,6 +853,7 @@ PlyLayout check_ply(const fs::path& path, std::string_view bytes) {
   if (!has_axis("x") || !has_axis("y") || !has_axis("z")) {
     fail(path, "has no 'vertex' element with x, y and z properties, so it holds no positions");
   }
+  if (vertex->count == 0) fail(path, "contains no triangles (the PLY header declares 0 vertices)");
 
   // Every element instance takes at least a byte (or a line), so this bounds the walk below by
   // the file size even when a count is absurd.

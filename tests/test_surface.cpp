@@ -784,6 +784,7 @@ TEST_F(TempDir, ZeroTrianglesInEveryFormat) {
   expect_input_error(write("lines_only.obj", obj(no_faces) + "l 1 2 3\np 4\n"), "only points or lines");
   expect_input_error(write("no_faces.off", off(no_faces)), "no triangles");
   expect_input_error(write("no_faces.ply", ascii_ply(no_faces)), "no triangles");
+  expect_input_error(write("no_vertices.ply", ascii_ply(TriangleSurface{})), "declares 0 vertices");
   expect_input_error(write("comment_only.obj", "# nothing here\n"), "no triangles");
 }
 
