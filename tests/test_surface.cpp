@@ -512,6 +512,23 @@ TEST_F(surface_read, RandomSurfacesRoundTripInEveryFormat) {
   }
 }
 
+TEST_F(surface_read, WeldCountsTheFilesOwnDuplicates) {
+  // Assimp gives every OBJ face corner its own vertex; the count must still be the file's.
+  TriangleSurface cube = unit_cube();
+  cube.vertices.push_back(cube.vertices[6]);  // a second record of corner 6, used once
+  cube.triangles[2][2] = 8;
+  cube.vertices.push_back({5, 5, 5});  // unused: dropped, not welded
+  for (const Writer& writer : writers()) {
+    SCOPED_TRACE(writer.name);
+    std::size_t welded = 99;
+    const TriangleSurface s =
+        read_surface(write(std::string("duplicate_") + writer.name + writer.extension, writer.write(cube)), &welded);
+    EXPECT_EQ(s.vertices.size(), 8u);
+    EXPECT_EQ(welded, writer.cube_welds == 0 ? 1u : writer.cube_welds);
+    EXPECT_TRUE(validate_surface(s).consistently_oriented);
+  }
+}
+
 TEST_F(surface_read, ExtensionIsCaseInsensitive) {
   EXPECT_EQ(read_surface(write("CUBE.STL", binary_stl(unit_cube()))).triangles.size(), 12u);
   EXPECT_EQ(read_surface(write("cube.Obj", obj(unit_cube()))).triangles.size(), 12u);
