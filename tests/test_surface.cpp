@@ -18,6 +18,7 @@
 
 #if defined(__linux__)
 #include <sys/resource.h>
+#include <sys/stat.h>
 #include <unistd.h>
 #endif
 
@@ -707,6 +708,14 @@ TEST_F(surface_bad_input, Directory) {
   fs::create_directory(dir_ / "folder.stl");
   expect_input_error(dir_ / "folder.stl", "is a directory");
 }
+
+#if defined(__linux__)
+TEST_F(surface_bad_input, FifoIsRefusedWithoutBlocking) {
+  const fs::path fifo = dir_ / "pipe.stl";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  expect_fast_input_error(fifo, "not a regular file");
+}
+#endif
 
 TEST_F(surface_bad_input, EmptyFileInEveryFormat) {
   for (const char* name : {"empty.stl", "empty.obj", "empty.off", "empty.ply"})
