@@ -50,8 +50,13 @@ std::size_t weld_vertices(TriangleSurface& surface);
 // refers to a vertex that does not exist.
 SurfaceReport validate_surface(const TriangleSurface& surface, std::size_t welded_vertices = 0);
 
-// Reads STL (ascii and binary), OBJ, OFF or PLY, welds and checks indices and coordinates.
-// Throws InputError("PATH: reason") on anything unreadable, empty, non-finite or out of range.
+// Reads STL (ascii and binary), OBJ, OFF or PLY, chosen by the extension (any case), welds and
+// checks indices and coordinates. Polygons are triangulated; points and lines are ignored;
+// vertices no triangle uses are dropped; the rest keep the order of their first use.
+// Coordinates pass through single precision (the readers' type). *welded receives how many of
+// the file's vertices were duplicates merged by the weld (for STL every facet corner counts).
+// Throws InputError("PATH: reason", one line) on anything unreadable, empty, non-finite, out of
+// range or without triangles.
 TriangleSurface read_surface(const std::filesystem::path& path, std::size_t* welded = nullptr);
 
 }  // namespace mchex

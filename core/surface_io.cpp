@@ -1,30 +1,28 @@
 // Reading STL (ascii and binary), OBJ, OFF and PLY surfaces through Assimp, behind our own checks.
 //
 // Assimp 5.2 is lenient or fragile on exactly the inputs a mesher must refuse. Found by trying
-// it on the Debian sample files and on hand-made bad files:
-//   - OFF: out-of-range indices are clamped to the last vertex, polygons with more than nine
-//     corners are dropped, a comment or a line of spaces among the faces silently drops a face,
-//     the header counts are read into 32 bits and allocated up front (a corrupt count costs
-//     gigabytes and minutes), and a file with all coordinates on one line aborts the process
-//     in aiProcess_Triangulate.
-//   - ASCII STL: a fourth vertex in a facet is dropped, a quad becomes a triangle.
-//   - OBJ and OFF: "blah" or "3.1+e2" read as 0 or 3.1 where a number is expected.
-//   - PLY: an element count in the header is allocated before the data is read (gigabytes for
-//     a corrupt count) and face indices are not range-checked.
-//   - binary STL: the expected size 84 + 50 n is computed in 32 bits, so a crafted count wraps.
-//   - NaN and infinite coordinates pass through every reader.
-// So the file is read into memory once and a cheap format-specific pass rejects these cases
-// with a line number; Assimp then parses the same bytes from memory, with no access to other
-// files. The scene it returns is checked again (indices, finite coordinates) before polygons are
-// triangulated, since aiProcess_Triangulate assumes a well-formed mesh. No Assimp logger is ever
-// created, so Assimp prints nothing.
+// it on the Debian and npm sample files, on hand-made bad files and with libFuzzer:
+//   - it silently misreads: OFF indices out of range are clamped, OFF polygons over nine
+//     corners and extra ascii STL facet vertices are dropped, "blah" or "3.1+e2" read as 0 or
+//     3.1, NaN and infinity pass, a binary PLY whose data starts with 0x0a or holds an element
+//     it does not know is read out of step, an OBJ number written ".5" loses its vertex;
+//   - it allocates what a header claims (OFF and PLY counts, in 32 bits): gigabytes and minutes
+//     for one corrupt number, and a binary STL size check that wraps;
+//   - it crashes: aiProcess_Triangulate aborts on a malformed OFF, a repeated PLY element
+//     writes past a buffer, an OBJ material statement writes through a null pointer.
+// So the file is read into memory once and a cheap format-specific pass rejects what Assimp
+// would get wrong, with a line number where there is one. Assimp then parses those bytes (or a
+// minimal rewrite of them: OBJ geometry only, a padding byte for binary PLY) from memory, with
+// no access to other files. The scene is checked again (indices, finite coordinates, polygon
+// size) before triangulation, since aiProcess_Triangulate assumes a well-formed mesh. No Assimp
+// logger is created, so Assimp prints nothing.
+#include <assimp/IOSystem.hpp>
+#include <assimp/Importer.hpp>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
 #include <algorithm>
 #include <array>
-#include <assimp/IOSystem.hpp>
-#include <assimp/Importer.hpp>
 #include <cctype>
 #include <cfloat>
 #include <charconv>
@@ -855,6 +853,7 @@ PlyLayout check_ply(const fs::path& path, std::string_view bytes) {
   if (!has_axis("x") || !has_axis("y") || !has_axis("z")) {
     fail(path, "has no 'vertex' element with x, y and z properties, so it holds no positions");
   }
+  if (vertex->count == 0) fail(path, "contains no triangles (the PLY header declares 0 vertices)");
 
   // Every element instance takes at least a byte (or a line), so this bounds the walk below by
   // the file size even when a count is absurd.
