@@ -6,7 +6,7 @@
 #include <limits>
 #include <memory>
 
-#include "core/hex_faces.h"
+#include "core/mesh_check.h"
 #include "core/quality.h"
 #include "core/parallel.h"
 
@@ -48,30 +48,6 @@ bool invert_trilinear(const std::array<Vec3, 8>& x, Vec3 p, bool* inside) {
 }
 
 }  // namespace
-
-std::vector<std::array<uint32_t, 4>> boundary_quads(const HexMesh& mesh) {
-  struct Face {
-    std::array<uint32_t, 4> key, quad;
-  };
-  std::vector<Face> faces(6 * mesh.hexes.size());
-  parallel_for(mesh.hexes.size(), [&](std::size_t h) {
-    for (int f = 0; f < 6; ++f) {
-      Face& face = faces[6 * h + f];
-      for (int c = 0; c < 4; ++c) face.quad[c] = mesh.hexes[h][kHexFaces[f][c]];
-      face.key = face.quad;
-      std::sort(face.key.begin(), face.key.end());
-    }
-  });
-  std::sort(faces.begin(), faces.end(), [](const Face& a, const Face& b) { return a.key < b.key; });
-  std::vector<std::array<uint32_t, 4>> out;
-  for (std::size_t i = 0; i < faces.size();) {
-    std::size_t j = i + 1;
-    while (j < faces.size() && faces[j].key == faces[i].key) ++j;
-    if (j == i + 1) out.push_back(faces[i].quad);
-    i = j;
-  }
-  return out;
-}
 
 std::vector<Vec3> sample_surface(const TriangleSurface& surface, double spacing) {
   std::vector<Vec3> out;

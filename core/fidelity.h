@@ -29,9 +29,6 @@ struct Fidelity {
   std::size_t unresolved = 0;                // samples where the inverse map did not converge
 };
 
-// Quads that belong to exactly one hex, oriented outward.
-std::vector<std::array<uint32_t, 4>> boundary_quads(const HexMesh& mesh);
-
 // Points on the reference surface at about the given spacing.
 std::vector<Vec3> sample_surface(const TriangleSurface& surface, double spacing);
 std::vector<Vec3> sample_surface(const SignedDistance& solid, const Box& box, double spacing);

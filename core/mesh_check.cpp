@@ -743,6 +743,13 @@ nlohmann::json number(double x) {
 
 }  // namespace
 
+std::vector<std::array<uint32_t, 4>> boundary_quads(const HexMesh& mesh) {
+  const std::vector<uint8_t> valid(mesh.hexes.size(), 1);
+  std::vector<std::array<uint32_t, 4>> quads = check_faces(mesh, "", valid, 0).boundary;
+  std::sort(quads.begin(), quads.end());  // the parallel pass leaves them in no fixed order
+  return quads;
+}
+
 MeshCheck check_mesh(const HexMesh& inside, const HexMesh* outside, const Box* box,
                      const CheckOptions& options) {
   // Face references and union vertex ids are 32-bit: 4 bytes per face keeps 5M hexes in about

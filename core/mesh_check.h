@@ -20,6 +20,7 @@
 // three ids, in parallel with TBB. Memory is O(faces + vertices); results are deterministic.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <limits>
@@ -116,6 +117,10 @@ struct MeshCheck {
 // 2^32 / 6 hexes (face references are 32-bit).
 MeshCheck check_mesh(const HexMesh& inside, const HexMesh* outside, const Box* box,
                      const CheckOptions& options = {});
+
+// The quads that belong to exactly one hex, each as its hex lists it (outward), sorted. The
+// mesh's indices must be in range (as check_mesh or the mesh reader ensure).
+std::vector<std::array<uint32_t, 4>> boundary_quads(const HexMesh& mesh);
 
 nlohmann::json to_json(const QualityStats& q);
 nlohmann::json to_json(const BoundaryStats& b);
