@@ -124,7 +124,7 @@ double signed_value(Vec3 p, const ClosestPoint& cp, Vec3 pseudonormal) {
 }
 
 // The search tree of the reference SDF: the topology of the Embree-built TriangleBvh, with each
-// node's triangles bounded by a box in a frame of its own, one cache line per node.
+// node's triangles bounded by a box in a frame of its own, collapsed to four children per node.
 //
 // Why oriented boxes: a point far from a smooth surface is at nearly the same distance from a
 // whole patch of it (distance grows only quadratically sideways), so a search must rule out
