@@ -200,6 +200,20 @@ TEST(polyhedra, TunnelSubcasesAreRefused) {
   EXPECT_THROW(cut_cell(unit_cube(), c), TunnelSubcaseError);
 }
 
+// The known failure of the sweep below, pinned: a case-11 cell (positive corners {0,1,5,6}, the
+// canonical pattern) whose crossings are s3 = s7 = 0.048, s9 = 0.952, s2 = s4 = s12 = 0.5 (paper
+// Table 1 numbering). Plain midpoint subdivision gives a hex with a negative Bernstein coefficient
+// (min about -1.6e-3 on the unit cube); a scan of corner magnitudes in {1, t} finds failures from
+// t = 0.05 (s ~ 0.05) on and none at t >= 0.1. If this starts to pass, the subdivision changed.
+TEST(polyhedra, Case11CounterexampleToPlainMidpointSubdivision) {
+  const CellClass c = classify({0.05, 0.05, -0.05, -0.05, -1, 0.05, 1, -1});
+  ASSERT_EQ(c.subcase, Subcase::k11);
+  double worst = 1e300;
+  for (const Polyhedron& p : cut_cell(unit_cube(), c))
+    for (const auto& h : midpoint_subdivide(p)) worst = std::min(worst, min_bernstein(h.corners));
+  EXPECT_LT(worst, 0);
+}
+
 TEST(polyhedra, AllSignPatternsCutSubdivideAndCertify) {
   const auto facts = notes_facts();
   std::mt19937_64 rng(20250917);
@@ -299,7 +313,7 @@ TEST(polyhedra, AllSignPatternsCutSubdivideAndCertify) {
       // hexes with a negative Bernstein coefficient (about 1.4% of them, min scaled coefficient
       // about -0.15), although Figure 6 lists case 11 as proved. Its random-magnitude draws are
       // still asserted; the near-degenerate ones are printed above and left for the offset /
-      // refinement work (see the report of this branch).
+      // refinement work (Case11CounterexampleToPlainMidpointSubdivision pins one such cell).
       if (s == Subcase::k11 && extreme) continue;
       EXPECT_EQ(st.certified, st.hexes) << "subcase " << subcase_name(s)
                                           << ": the paper proves plain midpoint subdivision "
