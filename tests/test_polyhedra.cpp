@@ -1,0 +1,326 @@
+// Cutting cells into 3-regular polyhedra (core/polyhedra.h) and midpoint subdivision
+// (core/subdivide.h), checked on every sign pattern against the facts of notes/mc33-topology.md
+// (regions, corner counts, polyhedron V/F, hexes = 8 + 2 * cut edges) and against geometry that
+// does not share their code (volumes by the divergence theorem and by the exact trilinear hex
+// volume). Then the Bernstein certificate of every hex, per subcase: the paper (Section 5,
+// Figure 6) proves plain midpoint subdivision positive for 14 cases, of which 12 and 14 need a
+// volume-centre offset that is not implemented yet; those and the subcases the paper refines
+// (Figure 7) are measured and printed, not asserted.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <random>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "core/mc33.h"
+#include "core/polyhedra.h"
+#include "core/quality.h"
+#include "core/subdivide.h"
+
+namespace mchex {
+namespace {
+
+// ---- notes/mc33-topology.md: per subcase, each region's (corners, V, F), sorted ---------------
+
+struct RegionFact {
+  int corners, v, f;
+  friend auto operator<=>(const RegionFact&, const RegionFact&) = default;
+};
+
+std::map<Subcase, std::vector<RegionFact>> notes_facts() {
+  using S = Subcase;
+  std::map<Subcase, std::vector<RegionFact>> m = {
+      {S::kEmpty, {{8, 8, 6}}},
+      {S::k1, {{1, 4, 4}, {7, 10, 7}}},
+      {S::k2, {{2, 6, 5}, {6, 10, 7}}},
+      {S::k3_1, {{1, 4, 4}, {1, 4, 4}, {6, 12, 8}}},
+      {S::k3_2, {{2, 8, 6}, {6, 12, 8}}},
+      {S::k4_1_1, {{1, 4, 4}, {1, 4, 4}, {6, 12, 8}}},
+      {S::k5, {{3, 8, 6}, {5, 10, 7}}},
+      {S::k6_1_1, {{1, 4, 4}, {2, 6, 5}, {5, 12, 8}}},
+      {S::k6_2, {{3, 10, 7}, {5, 12, 8}}},
+      {S::k7_1, {{1, 4, 4}, {1, 4, 4}, {1, 4, 4}, {5, 14, 9}}},
+      {S::k7_2, {{1, 4, 4}, {2, 8, 6}, {5, 14, 9}}},
+      {S::k7_3, {{3, 12, 8}, {5, 14, 9}}},
+      {S::k7_4_1, {{1, 4, 4}, {3, 12, 8}, {4, 10, 7}}},
+      {S::k8, {{4, 8, 6}, {4, 8, 6}}},
+      {S::k9, {{4, 10, 7}, {4, 10, 7}}},
+      {S::k10_1_1, {{2, 6, 5}, {2, 6, 5}, {4, 12, 8}}},
+      {S::k10_2, {{4, 12, 8}, {4, 12, 8}}},
+      {S::k11, {{4, 10, 7}, {4, 10, 7}}},
+      {S::k12_1_1, {{1, 4, 4}, {3, 8, 6}, {4, 12, 8}}},
+      {S::k12_2, {{4, 12, 8}, {4, 12, 8}}},
+      {S::k13_1, {{1, 4, 4}, {1, 4, 4}, {1, 4, 4}, {1, 4, 4}, {4, 16, 10}}},
+      {S::k13_2, {{1, 4, 4}, {1, 4, 4}, {2, 8, 6}, {4, 16, 10}}},
+      {S::k13_3, {{1, 4, 4}, {3, 12, 8}, {4, 16, 10}}},
+      {S::k13_4, {{4, 16, 10}, {4, 16, 10}}},
+      {S::k13_5_1, {{1, 4, 4}, {1, 4, 4}, {3, 12, 8}, {3, 12, 8}}},
+      {S::k14, {{4, 10, 7}, {4, 10, 7}}},
+  };
+  for (auto& [s, v] : m) std::sort(v.begin(), v.end());
+  return m;
+}
+
+// Figure 6 cases the paper proves under plain midpoint subdivision (no offset): asserted.
+bool asserted_direct(Subcase s) {
+  using S = Subcase;
+  switch (s) {
+    case S::kEmpty: case S::k1: case S::k2: case S::k3_1: case S::k4_1_1: case S::k5:
+    case S::k6_1_1: case S::k7_1: case S::k8: case S::k9: case S::k10_1_1: case S::k11:
+    case S::k13_1:
+      return true;
+    default:
+      return false;
+  }
+}
+
+// ---- Samples ---------------------------------------------------------------------------------
+
+using Cell = std::array<double, 8>;
+using Corners = std::array<Vec3, 8>;
+
+Corners unit_cube() {
+  Corners c;
+  for (int i = 0; i < 8; ++i)
+    c[i] = {double(kCubeCorners[i][0]), double(kCubeCorners[i][1]), double(kCubeCorners[i][2])};
+  return c;
+}
+
+// Random affine images of the unit cube with det > 0 (the paper's Theorem 5.2: the certificate
+// is invariant under them, so their fractions must match the unit cube's).
+std::vector<Corners> geometries(std::mt19937_64& rng) {
+  std::vector<Corners> out = {unit_cube()};
+  std::uniform_real_distribution<double> u(-0.4, 0.4);
+  while (out.size() < 4) {
+    double a[3][3];
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) a[i][j] = (i == j ? 1.0 : 0.0) + u(rng);
+    const double det = a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) -
+                       a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
+                       a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
+    if (det < 0.3) continue;
+    const Vec3 t{10 * u(rng), -7 * u(rng), 3 * u(rng)};
+    Corners c;
+    for (int i = 0; i < 8; ++i) {
+      const Vec3 p = unit_cube()[i];
+      c[i] = Vec3{a[0][0] * p.x + a[0][1] * p.y + a[0][2] * p.z,
+                  a[1][0] * p.x + a[1][1] * p.y + a[1][2] * p.z,
+                  a[2][0] * p.x + a[2][1] * p.y + a[2][2] * p.z} + t;
+    }
+    out.push_back(c);
+  }
+  return out;
+}
+
+// Corner values of one sign pattern: `extreme` draws make each magnitude 1 or 1e-3 so that the
+// crossings sit near 0 or 1 (s ~ 1e-3); the others are uniform in [0.05, 1].
+Cell draw(std::uint8_t mask, bool extreme, std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> u(0.05, 1.0);
+  std::bernoulli_distribution coin(0.5);
+  Cell f;
+  for (int c = 0; c < 8; ++c) {
+    const double m = extreme ? (coin(rng) ? 1.0 : 1e-3 * u(rng)) : u(rng);
+    f[c] = (mask >> c & 1) ? m : -m;
+  }
+  return f;
+}
+
+// ---- Checks of one polyhedron ----------------------------------------------------------------
+
+struct Shape {
+  int v = 0, e = 0, f = 0;
+};
+
+// 3-regular, closed and consistently oriented (each directed edge once, its reverse once),
+// Euler characteristic 2.
+Shape check_polyhedron(const Polyhedron& p, const std::string& where) {
+  std::map<std::pair<std::uint32_t, std::uint32_t>, int> directed;
+  for (const auto& face : p.faces) {
+    EXPECT_GE(face.size(), 3u) << where;
+    for (std::size_t i = 0; i < face.size(); ++i)
+      ++directed[{face[i], face[(i + 1) % face.size()]}];
+  }
+  std::vector<std::set<std::uint32_t>> nbrs(p.points.size());
+  for (const auto& [uv, n] : directed) {
+    EXPECT_EQ(n, 1) << where << ": directed edge used twice";
+    EXPECT_EQ(directed.count({uv.second, uv.first}), 1u) << where << ": open or misoriented edge";
+    nbrs[uv.first].insert(uv.second);
+  }
+  for (std::size_t i = 0; i < nbrs.size(); ++i)
+    EXPECT_EQ(nbrs[i].size(), 3u) << where << ": vertex " << i << " not of degree 3";
+  Shape s{int(p.points.size()), int(directed.size() / 2), int(p.faces.size())};
+  EXPECT_EQ(s.v - s.e + s.f, 2) << where;
+  return s;
+}
+
+// The isosurface loops as cyclic key sequences starting at their smallest key.
+std::vector<int> canonical_loop(const Polyhedron& p, const std::vector<std::uint32_t>& f,
+                                bool reversed) {
+  std::vector<int> k;
+  for (std::uint32_t i : f) k.push_back(p.keys[i]);
+  if (reversed) std::reverse(k.begin(), k.end());
+  std::rotate(k.begin(), std::min_element(k.begin(), k.end()), k.end());
+  return k;
+}
+
+struct Stats {
+  long cells = 0, hexes = 0, certified = 0, cells_all_certified = 0;
+  double min_scaled = 1e300;
+};
+
+bool is_unit(const Corners& c) { return c == unit_cube(); }
+
+TEST(polyhedra, EmptyCellIsTheCubeAndGivesTheEightOctants) {
+  CellClass c = classify({1, 1, 1, 1, 1, 1, 1, 1});
+  const auto polys = cut_cell(unit_cube(), c);
+  ASSERT_EQ(polys.size(), 1u);
+  EXPECT_EQ(polys[0].points.size(), 8u);
+  EXPECT_EQ(polys[0].faces.size(), 6u);
+  EXPECT_EQ(polys[0].region_sign, 1);
+  const auto hexes = midpoint_subdivide(polys[0]);
+  ASSERT_EQ(hexes.size(), 8u);
+  for (const auto& h : hexes) {
+    // Each octant is a right-handed cube of side 1/2 at one corner of the cell.
+    EXPECT_NEAR(hex_volume(h.corners), 0.125, 1e-14);
+    EXPECT_NEAR(scaled_jacobian(h.corners), 1.0, 1e-12);
+  }
+}
+
+TEST(polyhedra, TunnelSubcasesAreRefused) {
+  // 4.1.2: corners 0 and 6 joined inside: a large value at both makes the interior positive.
+  CellClass c = classify({10, -1, -1, -1, -1, -1, 10, -1});
+  ASSERT_EQ(c.subcase, Subcase::k4_1_2);
+  EXPECT_THROW(cut_cell(unit_cube(), c), TunnelSubcaseError);
+}
+
+// The known failure of the sweep below, pinned: a case-11 cell (positive corners {0,1,5,6}, the
+// canonical pattern) whose crossings are s3 = s7 = 0.048, s9 = 0.952, s2 = s4 = s12 = 0.5 (paper
+// Table 1 numbering). Plain midpoint subdivision gives a hex with a negative Bernstein coefficient
+// (min about -1.6e-3 on the unit cube); a scan of corner magnitudes in {1, t} finds failures from
+// t = 0.05 (s ~ 0.05) on and none at t >= 0.1. If this starts to pass, the subdivision changed.
+TEST(polyhedra, Case11CounterexampleToPlainMidpointSubdivision) {
+  const CellClass c = classify({0.05, 0.05, -0.05, -0.05, -1, 0.05, 1, -1});
+  ASSERT_EQ(c.subcase, Subcase::k11);
+  double worst = 1e300;
+  for (const Polyhedron& p : cut_cell(unit_cube(), c))
+    for (const auto& h : midpoint_subdivide(p)) worst = std::min(worst, min_bernstein(h.corners));
+  EXPECT_LT(worst, 0);
+}
+
+TEST(polyhedra, AllSignPatternsCutSubdivideAndCertify) {
+  const auto facts = notes_facts();
+  std::mt19937_64 rng(20250917);
+  const auto geoms = geometries(rng);
+  constexpr int kDraws = 24;  // per pattern, geometry and kind (random / extreme)
+  std::map<Subcase, std::array<Stats, 2>> stats;  // [0] random magnitudes, [1] extreme
+  std::set<Subcase> tunnels_seen;
+  for (int mask = 0; mask < 256; ++mask) {
+    for (int extreme = 0; extreme < 2; ++extreme) {
+      for (int d = 0; d < kDraws; ++d) {
+        const Cell f = draw(static_cast<std::uint8_t>(mask), extreme != 0, rng);
+        const CellClass c = classify(f);
+        if (subcase_has_tunnel(c.subcase)) {
+          tunnels_seen.insert(c.subcase);
+          EXPECT_THROW(cut_cell(geoms[0], c), TunnelSubcaseError);
+          continue;
+        }
+        for (const Corners& g : geoms) {
+          const std::string where = "mask " + std::to_string(mask) + " subcase " +
+                                    std::string(subcase_name(c.subcase)) +
+                                    (is_unit(g) ? " unit" : " affine");
+          const auto polys = cut_cell(g, c);
+          ASSERT_EQ(polys.size(), c.num_regions) << where;
+          // Topology against the notes.
+          std::vector<RegionFact> got;
+          for (std::size_t r = 0; r < polys.size(); ++r) {
+            const Polyhedron& p = polys[r];
+            EXPECT_EQ(p.corners, c.regions[r].corners) << where;
+            EXPECT_EQ(p.region_sign, c.regions[r].sign) << where;
+            const Shape s = check_polyhedron(p, where);
+            got.push_back({std::popcount(p.corners), s.v, s.f});
+          }
+          std::sort(got.begin(), got.end());
+          ASSERT_TRUE(facts.count(c.subcase)) << where;
+          EXPECT_EQ(got, facts.at(c.subcase)) << where;
+          // Each isosurface loop bounds one inside and one outside polyhedron, oppositely.
+          std::multiset<std::vector<int>> pos, neg;
+          for (const Polyhedron& p : polys)
+            for (std::size_t i = p.num_cell_face_pieces; i < p.faces.size(); ++i)
+              (p.region_sign > 0 ? pos : neg).insert(canonical_loop(p, p.faces[i], p.region_sign < 0));
+          EXPECT_EQ(pos, neg) << where;
+          // Volumes: polyhedra and hexes each fill the cell.
+          const double cell_volume = hex_volume(g);
+          double poly_volume = 0, hex_sum = 0;
+          std::size_t num_hexes = 0;
+          Stats& st = stats[c.subcase][extreme];
+          bool all = true;
+          for (const Polyhedron& p : polys) {
+            const double v = polyhedron_volume(p);
+            EXPECT_GT(v, 0) << where;
+            poly_volume += v;
+            const auto hexes = midpoint_subdivide(p);
+            EXPECT_EQ(hexes.size(), p.points.size()) << where;
+            num_hexes += hexes.size();
+            for (const auto& h : hexes) {
+              hex_sum += hex_volume(h.corners);
+              const bool ok = bernstein_certified(h.corners);
+              all = all && ok;
+              ++st.hexes;
+              st.certified += ok;
+              st.min_scaled = std::min(st.min_scaled, min_bernstein_scaled(h.corners));
+            }
+          }
+          ++st.cells;
+          st.cells_all_certified += all;
+          EXPECT_NEAR(poly_volume, cell_volume, 1e-12 * cell_volume) << where;
+          EXPECT_NEAR(hex_sum, cell_volume, 1e-12 * cell_volume) << where;
+          const int cut = std::popcount(c.cut_edges);
+          EXPECT_EQ(num_hexes, std::size_t(8 + 2 * cut)) << where;
+        }
+      }
+    }
+  }
+  // Every non-tunnel subcase must have been reached, else the checks above say nothing about it.
+  for (const auto& [s, v] : facts) EXPECT_TRUE(stats.count(s)) << subcase_name(s) << " never drawn";
+
+  std::printf("\nBernstein certificate of plain midpoint subdivision (all 27 coefficients > 0),\n"
+              "per subcase: certified hexes / hexes, cells with every hex certified / cells, min\n"
+              "scaled coefficient; random magnitudes | crossings near 0 and 1\n");
+  for (const auto& [s, pair] : stats) {
+    std::printf("%-7s %s", std::string(subcase_name(s)).c_str(),
+                asserted_direct(s) ? "asserted" : "measured");
+    for (const Stats& st : pair)
+      std::printf(" | %6ld/%6ld (%5.1f%%) cells %5ld/%5ld min %.2e", st.certified, st.hexes,
+                  st.hexes ? 100.0 * st.certified / st.hexes : 0.0, st.cells_all_certified,
+                  st.cells, st.min_scaled);
+    std::printf("\n");
+  }
+  std::printf("tunnel subcases refused:");
+  for (Subcase s : tunnels_seen) std::printf(" %s", std::string(subcase_name(s)).c_str());
+  std::printf("\n");
+  for (const auto& [s, pair] : stats) {
+    if (!asserted_direct(s)) continue;
+    for (int extreme = 0; extreme < 2; ++extreme) {
+      const Stats& st = pair[extreme];
+      // KNOWN FAILURE, not a tolerance: case 11 with crossings near 0 and 1 (s ~ 1e-3) gives
+      // hexes with a negative Bernstein coefficient (about 1.4% of them, min scaled coefficient
+      // about -0.15), although Figure 6 lists case 11 as proved. Its random-magnitude draws are
+      // still asserted; the near-degenerate ones are printed above and left for the offset /
+      // refinement work (Case11CounterexampleToPlainMidpointSubdivision pins one such cell).
+      if (s == Subcase::k11 && extreme) continue;
+      EXPECT_EQ(st.certified, st.hexes) << "subcase " << subcase_name(s)
+                                          << ": the paper proves plain midpoint subdivision "
+                                             "positive here (Figure 6)";
+    }
+  }
+}
+
+}  // namespace
+}  // namespace mchex
