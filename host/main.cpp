@@ -21,6 +21,7 @@
 #include "core/error.h"
 #include "core/fidelity.h"
 #include "core/grid.h"
+#include "core/mchex_mesher.h"
 #include "core/mesh_check.h"
 #include "core/mesh_io.h"
 #include "core/report.h"
@@ -169,6 +170,7 @@ struct MeshCommand {
   std::string input, shape, inside = "inside.mesh", outside, report, method = "ro", backend = "auto";
   int depth = 3;
   double pad = 0.1;
+  double eps = 1e-3;  // --method mchex: crossings clamped to [eps, 1 - eps]
   bool fidelity = false;
   std::size_t lattice = 128;
 };
@@ -198,7 +200,12 @@ int run_mesh(const MeshCommand& o, bool quiet) {
     solid.sdf->evaluate(points, v);
     return v;
   });
-  const MeshPair meshes = clock.run("ro", [&] { return mesh_remove_outside(grid, values); });
+  // ro stays the default until every MCHex hex is certified (tunnel refinement, the case 12/14
+  // volume-centre offset: see core/mchex_mesher.h).
+  MchexStats mchex_stats;
+  const MeshPair meshes = o.method == "mchex"
+                              ? clock.run("mchex", [&] { return mesh_mchex(grid, values, o.eps, &mchex_stats); })
+                              : clock.run("ro", [&] { return mesh_remove_outside(grid, values); });
   const MeshCheck check = clock.run("check", [&] { return check_mesh(meshes.inside, &meshes.outside, &cube); });
   std::optional<Fidelity> fid;
   if (o.fidelity) fid = clock.run("fidelity", [&] { return measure(meshes.inside, solid, cube, o.lattice); });
@@ -227,6 +234,17 @@ int run_mesh(const MeshCommand& o, bool quiet) {
       {"check", to_json(check)},
       {"outputs", {{"inside", inside_path.string()}, {"outside", outside_path.string()}}},
   };
+  if (o.method == "mchex") {
+    // Cells per MC33 subcase (paper Section 5: 31 subcases), and the tunnel cells meshed with
+    // their partner's topology instead of the paper's local refinement (a known gap).
+    json cases = json::object();
+    for (int i = 0; i < kMchexCaseSlots; ++i)
+      cases[std::string(mchex_case_name(i))] = mchex_stats.cases[i];
+    report["cases"] = cases;
+    report["mchex"] = {{"eps", o.eps},
+                       {"tunnel_cells_partner_topology", mchex_stats.tunnel_cells},
+                       {"perturbed_zero_values", mchex_stats.perturbed_values}};
+  }
   if (fid) report["fidelity"] = fidelity_json(*fid);
   report["times"] = clock.to_json();
   report["peak_memory_bytes"] = peak_memory_bytes();
@@ -310,8 +328,12 @@ int main(int argc, char** argv) {
   mesh->add_option("--shape", mo.shape, "built-in analytic shape: sphere, torus, rounded-box, two-holed");
   mesh->add_option("-o,--output", mo.inside, "inside mesh (.mesh, .vtu or .msh)")->capture_default_str();
   mesh->add_option("--outside", mo.outside, "outside mesh (default: outside.EXT beside the inside mesh)");
-  mesh->add_option("--method", mo.method, "ro: keep the cells whose 8 corner values sum above 0")
-      ->check(CLI::IsMember({"ro"}))->capture_default_str();
+  mesh->add_option("--method", mo.method,
+                   "ro: keep the cells whose 8 corner values sum above 0; mchex: cut every cell by the "
+                   "isosurface (MC33) and split the pieces into hexes")
+      ->check(CLI::IsMember({"ro", "mchex"}))->capture_default_str();
+  mesh->add_option("--eps", mo.eps, "--method mchex: clamp edge crossings to [eps, 1 - eps], eps in (0, 0.5)")
+      ->check(CLI::Range(0.0, 0.5))->capture_default_str();
   mesh->add_option("--depth", mo.depth, "uniform 3-refinement depth: 3^depth cells per axis")
       ->check(CLI::Range(0, kMaxUniformDepth))->capture_default_str();
   mesh->add_option("--pad", mo.pad, "padding around the input, as a fraction of its largest extent")
