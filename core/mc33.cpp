@@ -162,7 +162,7 @@ void label_regions(const std::array<std::uint8_t, 8>& adj, std::uint8_t sign_mas
       comp |= next;
       frontier = next;
     }
-    Region& r = out.regions[n];
+    CellRegion& r = out.regions[n];
     r.sign = (sign_mask >> c & 1) ? 1 : -1;
     r.corners = comp;
     r.count = static_cast<std::uint8_t>(std::popcount(comp));
@@ -172,7 +172,7 @@ void label_regions(const std::array<std::uint8_t, 8>& adj, std::uint8_t sign_mas
     ++n;
   }
   out.num_regions = static_cast<std::uint8_t>(n);
-  for (int i = n; i < 8; ++i) out.regions[i] = Region{};
+  for (int i = n; i < 8; ++i) out.regions[i] = CellRegion{};
 }
 
 // The interior test: Chernyaev's slice test [C] along z, in the cell's own frame.

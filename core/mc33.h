@@ -230,7 +230,7 @@ constexpr Subcase mirror_subcase(Subcase s) {
 
 // A connected component of same-sign corners: joined along cell edges, across faces whose test
 // joins them, and through the interior where the interior test joins them (tunnel subcases).
-struct Region {
+struct CellRegion {
   std::int8_t sign = 0;          // +1 inside (f > 0), -1 outside
   std::uint8_t corners = 0;      // bit c <=> corner c belongs to the region
   std::uint8_t count = 0;        // number of corners
@@ -258,7 +258,7 @@ struct CellClass {
   std::uint16_t cut_edges = 0;       // bit e <=> edge e (Table 1, 0-based) has a sign change
   std::array<double, 12> crossing{}; // s on cut edges (f_a / (f_a - f_b)), NaN elsewhere
   std::uint8_t num_regions = 0;
-  std::array<Region, 8> regions{};   // the first num_regions entries, ordered by lowest corner
+  std::array<CellRegion, 8> regions{};   // the first num_regions entries, ordered by lowest corner
   std::array<std::uint8_t, 8> corner_region{};  // index into regions of each corner
 };
 

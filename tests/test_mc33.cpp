@@ -548,7 +548,7 @@ void expect_matches_notes(const CellClass& cc) {
   // Regions partition the corners, each of one sign, listed by lowest corner.
   std::uint8_t all = 0;
   for (int r = 0; r < cc.num_regions; ++r) {
-    const Region& g = cc.regions[r];
+    const CellRegion& g = cc.regions[r];
     EXPECT_EQ(all & g.corners, 0);
     all |= g.corners;
     EXPECT_EQ(g.count, std::popcount(g.corners));
