@@ -37,7 +37,6 @@
 
 namespace mchex {
 
-
 // One slot per core/mc33.h Subcase (kEmpty and the 31); static_assert'ed in mchex_mesher.cpp.
 inline constexpr int kMchexCaseSlots = 32;
 // The subcase name of a slot ("empty", "1", ..., "13.5.2", "14").
