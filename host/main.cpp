@@ -94,11 +94,15 @@ fs::path default_outside(const fs::path& inside) {
 
 // Memory the mesher will need for a uniform grid, against what the machine has: refuse early
 // (exit 2) rather than die half-way.
-void check_memory_budget(const UniformGrid& grid) {
-  const double bytes = double(grid.vertex_count()) * (3 * 24 + 8) + double(grid.cell_count()) * (2 * 36 + 8);
+// Per output hex: the hex and its label, about one point, and the checker's face records; MCHex
+// makes at least 8 hexes per cell (midpoint subdivision of the uncut cube) plus a key map entry
+// per point, RO one hex per cell.
+void check_memory_budget(const UniformGrid& grid, const std::string& method) {
+  const double hexes_per_cell = method == "mchex" ? 8 : 1, bytes_per_hex = method == "mchex" ? 200 : 80;
+  const double bytes = double(grid.vertex_count()) * (3 * 24 + 8) + double(grid.cell_count()) * hexes_per_cell * bytes_per_hex;
   const double physical = double(sysconf(_SC_PHYS_PAGES)) * double(sysconf(_SC_PAGE_SIZE));
   if (physical > 0 && bytes > 0.8 * physical)
-    throw ResourceError(fmt::format("depth {} needs about {:.1f} GiB, more than this machine's {:.1f} GiB; use a smaller --depth",
+    throw ResourceError(fmt::format("depth {} needs about {:.1f} GiB, more than 80% of this machine's {:.1f} GiB; use a smaller --depth",
                                     grid.depth(), bytes / (1 << 30), physical / (1 << 30)));
 }
 
@@ -192,7 +196,7 @@ int run_mesh(const MeshCommand& o, bool quiet) {
   const Solid solid = load_solid(o.input, o.shape, clock, quiet);
   const Box cube = padded_cube(solid.sdf->bounds(), o.pad);
   const UniformGrid grid(cube, o.depth);
-  check_memory_budget(grid);
+  check_memory_budget(grid, o.method);
 
   const std::vector<double> values = clock.run("sdf", [&] {
     const std::vector<Vec3> points = grid.vertices();
