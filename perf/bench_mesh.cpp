@@ -1,7 +1,8 @@
 // The mesher's stages on a uniform grid, as time shares of one run and as output hexes per
-// second: SDF at the grid vertices, RO, check (quality + conformity), and writing both meshes in
-// each format. Prints a table and one JSON line.
-//   bench_mesh [--depth D] [--shape NAME]
+// second: SDF at the grid vertices, the method (RO, or MCHex cutting + midpoint subdivision),
+// check (quality + conformity), and writing both meshes in each format. Prints a table and one
+// JSON line.
+//   bench_mesh [--depth D] [--shape NAME] [--method ro|mchex]
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -11,6 +12,7 @@
 #include "core/grid.h"
 #include "perf/bench_common.h"
 #include "core/mesh_check.h"
+#include "core/mchex_mesher.h"
 #include "core/mesh_io.h"
 #include "core/ro.h"
 #include "core/shapes.h"
@@ -20,10 +22,11 @@ using bench::seconds_of;
 
 int main(int argc, char** argv) {
   int depth = 5;
-  std::string shape = "torus";
+  std::string shape = "torus", method = "ro";
   for (int i = 1; i + 1 < argc; i += 2) {
     if (!std::strcmp(argv[i], "--depth")) depth = std::stoi(argv[i + 1]);
     if (!std::strcmp(argv[i], "--shape")) shape = argv[i + 1];
+    if (!std::strcmp(argv[i], "--method")) method = argv[i + 1];
   }
   const ShapeSdf sdf(parse_shape(shape));
   const UniformGrid grid(padded_cube(sdf.bounds(), 0.1), depth);
@@ -34,7 +37,7 @@ int main(int argc, char** argv) {
     sdf.evaluate(pts, f);
   });
   MeshPair m;
-  const double t_ro = seconds_of([&] { m = mesh_remove_outside(grid, f); });
+  const double t_ro = seconds_of([&] { m = method == "mchex" ? mesh_mchex(grid, f, 1e-3) : mesh_remove_outside(grid, f); });
   MeshCheck c;
   const Box box = grid.box();
   const double t_check = seconds_of([&] { c = check_mesh(m.inside, &m.outside, &box); });
@@ -50,21 +53,22 @@ int main(int argc, char** argv) {
   std::filesystem::remove_all(dir);
   const double hexes = double(m.inside.hexes.size() + m.outside.hexes.size());
   const double total = t_sdf + t_ro + t_check + t_write[1];
-  std::printf("RO mesher, %s at depth %d: %.0f hexes (%zu inside), check ok: %s\n", shape.c_str(), depth, hexes,
+  std::printf("%s mesher, %s at depth %d: %.0f hexes (%zu inside), check ok: %s\n", method.c_str(), shape.c_str(), depth, hexes,
               m.inside.hexes.size(), c.ok ? "yes" : "NO");
-  std::printf("  stage          share of sdf+ro+check+vtu   hexes/s\n");
+  std::printf("  stage          share of sdf+method+check+vtu   hexes/s\n");
   auto row = [&](const char* name, double t) {
     std::printf("  %-14s %6.1f%%                    %10.3g\n", name, 100 * t / total, hexes / t);
   };
   row("sdf (analytic)", t_sdf);
-  row("ro", t_ro);
+  row(method.c_str(), t_ro);
   row("check", t_check);
   for (int i = 0; i < 3; ++i) row((std::string("write ") + ext[i]).c_str(), t_write[i]);
-  std::printf("  end to end (sdf+ro+check+write .vtu): %.3g hexes/s\n", hexes / total);
-  std::printf("{\"bench\":\"mesh\",\"method\":\"ro\",\"shape\":\"%s\",\"depth\":%d,\"hexes\":%.0f,\"ok\":%s,"
-              "\"share\":{\"sdf\":%.4f,\"ro\":%.4f,\"check\":%.4f,\"write_vtu\":%.4f},"
-              "\"hexes_per_s_end_to_end\":%.0f,\"write_ratio_mesh_vtu_msh\":[%.3f,1,%.3f]}\n",
-              shape.c_str(), depth, hexes, c.ok ? "true" : "false", t_sdf / total, t_ro / total, t_check / total,
-              t_write[1] / total, hexes / total, t_write[0] / t_write[1], t_write[2] / t_write[1]);
+  std::printf("  %s alone: %.3g output hexes/s (serial)\n", method.c_str(), hexes / t_ro);
+  std::printf("  end to end (sdf+method+check+write .vtu): %.3g hexes/s\n", hexes / total);
+  std::printf("{\"bench\":\"mesh\",\"method\":\"%s\",\"shape\":\"%s\",\"depth\":%d,\"hexes\":%.0f,\"ok\":%s,"
+              "\"share\":{\"sdf\":%.4f,\"method\":%.4f,\"check\":%.4f,\"write_vtu\":%.4f},"
+              "\"method_hexes_per_s\":%.0f,\"hexes_per_s_end_to_end\":%.0f,\"write_ratio_mesh_vtu_msh\":[%.3f,1,%.3f]}\n",
+              method.c_str(), shape.c_str(), depth, hexes, c.ok ? "true" : "false", t_sdf / total, t_ro / total, t_check / total,
+              t_write[1] / total, hexes / t_ro, hexes / total, t_write[0] / t_write[1], t_write[2] / t_write[1]);
   return c.ok ? 0 : 1;
 }
