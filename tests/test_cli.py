@@ -3,20 +3,15 @@ no partial output. Run by ctest with MCHEX_GPU pointing at the binary."""
 import json
 import os
 import struct
-import subprocess
-import tempfile
 import unittest
 
 import meshio
 import numpy as np
 
-EXE = os.environ["MCHEX_GPU"]
-DATA = os.environ.get("MCHEX_TEST_DATA", os.path.join(os.path.dirname(__file__), "data"))
+from harness import ScratchTestCase, run
 
 
-def run(*args, cwd=None):
-    return subprocess.run([EXE, *map(str, args)], capture_output=True, text=True, cwd=cwd,
-                          stdin=subprocess.DEVNULL, timeout=600)
+
 
 
 def write_cube_stl(path, size=1.0):
@@ -34,13 +29,7 @@ def write_cube_stl(path, size=1.0):
         f.write("endsolid cube\n")
 
 
-class MeshCommand(unittest.TestCase):
-    def setUp(self):
-        self.tmp = tempfile.TemporaryDirectory()
-        self.dir = self.tmp.name
-
-    def tearDown(self):
-        self.tmp.cleanup()
+class MeshCommand(ScratchTestCase):
 
     def test_default_input_writes_both_meshes_and_a_summary(self):
         r = run("mesh", cwd=self.dir)

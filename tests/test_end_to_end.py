@@ -3,32 +3,19 @@ test models (closed, open, broken), each meshed and then checked by `mchex-gpu c
 import glob
 import json
 import os
-import subprocess
-import tempfile
 import unittest
 
 import meshio
 import numpy as np
 
 import models
-
-EXE = os.environ["MCHEX_GPU"]
-DATA = os.environ.get("MCHEX_TEST_DATA", os.path.join(os.path.dirname(__file__), "data"))
-STL_MODELS = os.path.join(DATA, "npm", "node_modules", "stl-models")
+from harness import STL_MODELS, ScratchTestCase, run
 
 
-def run(*args):
-    return subprocess.run([EXE, *map(str, args)], capture_output=True, text=True,
-                          stdin=subprocess.DEVNULL, timeout=900)
 
 
-class EndToEnd(unittest.TestCase):
-    def setUp(self):
-        self.tmp = tempfile.TemporaryDirectory()
-        self.dir = self.tmp.name
 
-    def tearDown(self):
-        self.tmp.cleanup()
+class EndToEnd(ScratchTestCase):
 
     def mesh_and_check(self, model, depth, *extra):
         inside = os.path.join(self.dir, "in.vtu")

@@ -3,27 +3,17 @@
 binary."""
 import json
 import os
-import subprocess
-import tempfile
 import unittest
 
 import meshio
 
-EXE = os.environ["MCHEX_GPU"]
+from harness import ScratchTestCase, run
 
 
-def run(*args):
-    return subprocess.run([EXE, *map(str, args)], capture_output=True, text=True,
-                          stdin=subprocess.DEVNULL, timeout=600)
 
 
-class MchexMethod(unittest.TestCase):
-    def setUp(self):
-        self.tmp = tempfile.TemporaryDirectory()
-        self.dir = self.tmp.name
 
-    def tearDown(self):
-        self.tmp.cleanup()
+class MchexMethod(ScratchTestCase):
 
     def test_torus_depth3_conforms_and_has_the_torus_topology(self):
         inside, outside, report = (os.path.join(self.dir, n) for n in ("in.vtu", "out.vtu", "r.json"))
