@@ -3,9 +3,15 @@
 // (regions, corner counts, polyhedron V/F, hexes = 8 + 2 * cut edges) and against geometry that
 // does not share their code (volumes by the divergence theorem and by the exact trilinear hex
 // volume). Then the Bernstein certificate of every hex, per subcase: the paper (Section 5,
-// Figure 6) proves plain midpoint subdivision positive for 14 cases, of which 12 and 14 need a
-// volume-centre offset that is not implemented yet; those and the subcases the paper refines
-// (Figure 7) are measured and printed, not asserted.
+// Figure 6) proves plain midpoint subdivision positive for 14 cases, of which its "Case 12" and
+// "Case 14" need a volume-centre offset that is not implemented yet; those and the subcases the
+// paper refines (Figure 7) are measured and printed, not asserted.
+//
+// Figure 6 numbers its templates in its own order, not Chernyaev's. The volume centres the paper
+// gives identify them: "Case 12", ((5+s1+s6)/10, (3+s10+s11)/10, (4+s3+s7)/10), is the 10-vertex
+// polyhedron of corners {0,1,5,6} cut on Table-1 edges 1, 3, 6, 7, 10, 11: MC33 case 11 here
+// (its canonical pattern); "Case 14", ((5+s1+s6+s9+s12)/12, (6+s10+s11)/12, (6+s7+s8)/12), is a
+// 12-vertex polyhedron of corners {1,2,5,7} with 8 cut edges: MC33 12.2 here.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -68,7 +74,9 @@ std::map<Subcase, std::vector<RegionFact>> notes_facts() {
   return m;
 }
 
-// Figure 6 cases the paper proves under plain midpoint subdivision (no offset): asserted.
+// Subcases certified under plain midpoint subdivision in every sample, asserted (case 11 only away
+// from crossings near 0 and 1, see below). Which of them are the paper's Figure 6 templates is only
+// partly established (see the top of this file).
 bool asserted_direct(Subcase s) {
   using S = Subcase;
   switch (s) {
@@ -201,10 +209,12 @@ TEST(polyhedra, TunnelSubcasesAreRefused) {
 }
 
 // The known failure of the sweep below, pinned: a case-11 cell (positive corners {0,1,5,6}, the
-// canonical pattern) whose crossings are s3 = s7 = 0.048, s9 = 0.952, s2 = s4 = s12 = 0.5 (paper
-// Table 1 numbering). Plain midpoint subdivision gives a hex with a negative Bernstein coefficient
-// (min about -1.6e-3 on the unit cube); a scan of corner magnitudes in {1, t} finds failures from
-// t = 0.05 (s ~ 0.05) on and none at t >= 0.1. If this starts to pass, the subdivision changed.
+// canonical pattern: the paper's Figure 6 "Case 12", which the paper says needs its volume-centre
+// offset, Eq. 14) whose crossings are s3 = s7 = 0.048, s9 = 0.952, s2 = s4 = s12 = 0.5 (paper
+// Table 1 numbering). Plain midpoint subdivision gives a hex with det J < 0 at a corner (min
+// Bernstein coefficient about -1.6e-3 on the unit cube); a scan of corner magnitudes in {1, t}
+// finds failures from t = 0.05 (s ~ 0.05) on and none at t >= 0.1. When the offset lands, this
+// test turns into the offset's test.
 TEST(polyhedra, Case11CounterexampleToPlainMidpointSubdivision) {
   const CellClass c = classify({0.05, 0.05, -0.05, -0.05, -1, 0.05, 1, -1});
   ASSERT_EQ(c.subcase, Subcase::k11);
@@ -309,11 +319,12 @@ TEST(polyhedra, AllSignPatternsCutSubdivideAndCertify) {
     if (!asserted_direct(s)) continue;
     for (int extreme = 0; extreme < 2; ++extreme) {
       const Stats& st = pair[extreme];
-      // KNOWN FAILURE, not a tolerance: case 11 with crossings near 0 and 1 (s ~ 1e-3) gives
-      // hexes with a negative Bernstein coefficient (about 1.4% of them, min scaled coefficient
-      // about -0.15), although Figure 6 lists case 11 as proved. Its random-magnitude draws are
-      // still asserted; the near-degenerate ones are printed above and left for the offset /
-      // refinement work (Case11CounterexampleToPlainMidpointSubdivision pins one such cell).
+      // KNOWN FAILURE, not a tolerance: case 11 (the paper's "Case 12", see the top of this
+      // file) with crossings near 0 and 1 (s ~ 1e-3) gives hexes with a negative Bernstein
+      // coefficient (about 1.4% of them, min scaled coefficient about -0.15): the paper needs
+      // its volume-centre offset there. Its random-magnitude draws are still asserted; the
+      // near-degenerate ones are printed above and left for the offset
+      // (Case11CounterexampleToPlainMidpointSubdivision pins one such cell).
       if (s == Subcase::k11 && extreme) continue;
       EXPECT_EQ(st.certified, st.hexes) << "subcase " << subcase_name(s)
                                           << ": the paper proves plain midpoint subdivision "
