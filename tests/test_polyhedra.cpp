@@ -11,7 +11,9 @@
 // gives identify them: "Case 12", ((5+s1+s6)/10, (3+s10+s11)/10, (4+s3+s7)/10), is the 10-vertex
 // polyhedron of corners {0,1,5,6} cut on Table-1 edges 1, 3, 6, 7, 10, 11: MC33 case 11 here
 // (its canonical pattern); "Case 14", ((5+s1+s6+s9+s12)/12, (6+s10+s11)/12, (6+s7+s8)/12), is a
-// 12-vertex polyhedron of corners {1,2,5,7} with 8 cut edges: MC33 12.2 here.
+// 12-vertex polyhedron of corners {1,2,5,7} with 8 cut edges: the 4-corner region of MC33 12.1.1
+// (or of 12.2, which has two such regions; the paper's Table 3 offsets are for the transition
+// cells 2, 5 and 6 only, and 12.1.1 certifies fully on cubes here, so 12.1.1 is the likelier).
 #include <gtest/gtest.h>
 
 #include <algorithm>
