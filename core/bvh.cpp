@@ -72,6 +72,16 @@ void flatten(const BuildNode* n, const float lo[3], const float hi[3], TriangleB
 
 }  // namespace
 
+std::vector<std::pair<uint32_t, uint32_t>> TriangleBvh::subtree_slots() const {
+  std::vector<std::pair<uint32_t, uint32_t>> slots(nodes.size());
+  for (std::size_t n = nodes.size(); n-- > 0;) {
+    const BvhNode& node = nodes[n];
+    slots[n] = node.count ? std::pair{node.index, node.index + node.count}
+                          : std::pair{slots[n + 1].first, slots[node.index].second};
+  }
+  return slots;
+}
+
 TriangleBvh TriangleBvh::build(const TriangleSurface& s) {
   TriangleBvh out;
   if (s.triangles.empty()) return out;

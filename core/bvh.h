@@ -9,6 +9,7 @@
 #pragma once
 
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "core/surface.h"
@@ -29,6 +30,10 @@ struct TriangleBvh {
 
   // Empty surfaces give an empty hierarchy.
   static TriangleBvh build(const TriangleSurface& surface);
+
+  // For every node, the range [first, last) of leaf slots under it: one contiguous range, since
+  // the layout is depth-first.
+  std::vector<std::pair<uint32_t, uint32_t>> subtree_slots() const;
 
 };
 

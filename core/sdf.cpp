@@ -179,13 +179,7 @@ struct alignas(64) WideNode {
 };
 
 std::vector<OrientedBox> oriented_boxes(const TriangleSurface& s, const TriangleBvh& bvh) {
-  // Depth-first layout: the leaf slots under a node are one contiguous range.
-  std::vector<std::pair<uint32_t, uint32_t>> slots(bvh.nodes.size());
-  for (std::size_t n = bvh.nodes.size(); n-- > 0;) {
-    const BvhNode& node = bvh.nodes[n];
-    slots[n] = node.count ? std::pair{node.index, node.index + node.count}
-                          : std::pair{slots[n + 1].first, slots[node.index].second};
-  }
+  const auto slots = bvh.subtree_slots();
   std::vector<OrientedBox> nodes(bvh.nodes.size());
   parallel_for(bvh.nodes.size(), [&](std::size_t n) {
     const auto [first, last] = slots[n];
@@ -228,17 +222,14 @@ std::vector<OrientedBox> oriented_boxes(const TriangleSurface& s, const Triangle
 // children and keeps opening the inner one holding the most triangles until it has four. Half
 // the depth, so a search takes half the steps, each measuring four boxes together.
 std::vector<WideNode> collapse(const TriangleBvh& bvh, const std::vector<OrientedBox>& boxes) {
-  std::vector<uint32_t> size(bvh.nodes.size());
-  for (std::size_t n = bvh.nodes.size(); n-- > 0;) {
-    const BvhNode& node = bvh.nodes[n];
-    size[n] = node.count ? node.count : size[n + 1] + size[node.index];
-  }
+  const auto slots = bvh.subtree_slots();
+  auto size = [&](uint32_t n) { return slots[n].second - slots[n].first; };
   std::vector<WideNode> wide;
   auto build = [&](auto&& self, std::vector<uint32_t> kids) -> uint32_t {
     while (kids.size() < 4) {
       int open = -1;
       for (int k = 0; k < int(kids.size()); ++k)
-        if (bvh.nodes[kids[k]].count == 0 && (open < 0 || size[kids[k]] > size[kids[open]])) open = k;
+        if (bvh.nodes[kids[k]].count == 0 && (open < 0 || size(kids[k]) > size(kids[open]))) open = k;
       if (open < 0) break;
       const uint32_t n = kids[open];
       kids[open] = n + 1;
