@@ -1,0 +1,86 @@
+// The narrow interface between the mesher and the compute devices (DESIGN.md, Backends): the
+// data-parallel stages of the pipeline, each a batch in and a batch out. `cpu` is the reference
+// (core/, double precision, Embree + TBB); `opencl` (kernels/) and `vulkan` (shaders/) must give
+// the same answers: equal classifications, SDF values equal wherever they decide a sign or a
+// case (the host re-decides guard-band values in double), coordinates that follow from them
+// equal to 1e-9 of the box diagonal.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "core/geometry.h"
+#include "core/hex_complex.h"
+#include "core/mc33.h"
+#include "core/refinement_error.h"
+#include "core/shapes.h"
+#include "core/surface.h"
+
+namespace mchex {
+
+// What the SDF is of: a triangle surface (closed or not, the sign rule of core/sdf.h) or a
+// built-in analytic shape. Backends build their device-side structures once per source.
+struct SdfSource {
+  const TriangleSurface* surface = nullptr;  // set for a surface ...
+  ShapeKind shape = ShapeKind::kSphere;      // ... otherwise this shape
+};
+
+// The per-cell result of MC classification, compact enough to come back from a device: the
+// fields of core/mc33.h CellClass that are not derived from the values again on the host.
+struct CellCode {
+  Subcase subcase = Subcase::kEmpty;
+  std::uint8_t sign_mask = 0;
+  std::uint8_t face_joins = 0;
+  std::int8_t tunnel = 0;
+  std::uint8_t symmetry = 0;
+  std::uint8_t inverted = 0;
+  std::uint16_t cut_edges = 0;
+  friend bool operator==(const CellCode&, const CellCode&) = default;
+};
+CellCode encode_cell(const CellClass& c);
+
+struct DeviceInfo {
+  std::string backend;   // "cpu" | "opencl" | "vulkan"
+  std::string platform;  // OpenCL platform / Vulkan driver name
+  std::string name;
+  std::string type;      // "cpu" | "gpu" | "other"
+  bool fp64 = false;
+  std::uint64_t max_buffer_bytes = 0;  // largest single allocation / storage buffer range
+  std::uint64_t global_memory_bytes = 0;
+  std::uint32_t compute_units = 0;
+};
+
+class Backend {
+ public:
+  virtual ~Backend() = default;
+  virtual const DeviceInfo& device() const = 0;
+
+  // Signed distance (f > 0 inside) at every point; values.size() == points.size().
+  virtual void signed_distance(const SdfSource& source, std::span<const Vec3> points,
+                               std::span<double> values) = 0;
+
+  // The refinement error of core/refinement_error.h for cells.size() cells: lattice[i] holds the
+  // 64 child-lattice values of cell i, sizes[i] its edge length.
+  virtual void refinement_error(std::span<const std::array<double, kChildLatticePoints>> lattice,
+                                std::span<const double> sizes, std::span<double> errors) = 0;
+
+  // MC33 classification of every cell of the complex from the values at its points (already
+  // through the mesher's zero rule), and the exclusive prefix sum of the hexes a directly cut
+  // cell gives (8 + 2 * cut edges): offsets.size() == cells + 1, offsets.back() the total.
+  virtual void classify_cells(const HexComplex& complex, std::span<const double> values,
+                              std::span<CellCode> codes, std::span<std::uint64_t> offsets) = 0;
+};
+
+// "cpu", "opencl", "vulkan" or "auto" (the first GPU device found by OpenCL or Vulkan, else
+// cpu). Throws InputError (exit 1, one line) for an unknown name or a backend asked for by name
+// that has no device here.
+std::unique_ptr<Backend> make_backend(const std::string& name);
+
+// Every platform and device each backend finds (for `mchex-gpu devices`).
+std::vector<DeviceInfo> list_devices();
+
+}  // namespace mchex
