@@ -2,6 +2,7 @@
 #include "core/mchex_mesher.h"
 
 #include <algorithm>
+#include <chrono>
 #include <bit>
 #include <cmath>
 #include <cstdint>
@@ -318,11 +319,16 @@ MeshPair mesh_mchex(const HexComplex& cx, std::span<const double> values, double
     }
   }
 
+  using Clock = std::chrono::steady_clock;
+  auto since = [](Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); };
+  auto t0 = Clock::now();
   const ComplexTopology topo = build_topology(cx);
   const SlotLayout slots = lay_out_slots(cx, topo, f);
   if (slots.end >= kLocal) throw ResourceError("mesh_mchex: more than 2^31 points");
   std::vector<Vec3> points(slots.end);
   std::copy(cx.points.begin(), cx.points.end(), points.begin());
+  stats.seconds_topology = since(t0);
+  t0 = Clock::now();
 
   // Fixed chunks (never the thread count) so that the output order is the same on any machine.
   constexpr std::size_t kChunk = 1024;
@@ -335,6 +341,9 @@ MeshPair mesh_mchex(const HexComplex& cx, std::span<const double> values, double
       for (std::size_t c = ch * kChunk; c < end; ++c) mesher.mesh_cell(static_cast<std::uint32_t>(c), chunks[ch]);
     }
   });
+
+  stats.seconds_cells = since(t0);
+  t0 = Clock::now();
 
   // Chunk-local points go after the shared ones; hexes keep the cells' order.
   std::size_t num_in = 0, num_out = 0;
@@ -371,6 +380,7 @@ MeshPair mesh_mchex(const HexComplex& cx, std::span<const double> values, double
         for (std::uint32_t v : h) used[v] = true;
     stats.points = static_cast<std::size_t>(std::count(used.begin(), used.end(), true));
   }
+  stats.seconds_assembly = since(t0);
   if (stats_out) *stats_out = stats;
   return out;
 }

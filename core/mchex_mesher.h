@@ -51,6 +51,9 @@ struct MchexStats {
   std::size_t perturbed_values = 0; // grid values moved off zero by the zero rule
   std::size_t expected_hexes = 0;   // sum over cells of 8 + 2 * cut edges
   std::size_t points = 0;           // distinct global points (both meshes together)
+  // Wall time of the stages: numbering the complex's edges and faces, cutting + subdividing the
+  // cells (parallel), and assembling the two meshes from the chunks.
+  double seconds_topology = 0, seconds_cells = 0, seconds_assembly = 0;
 };
 
 // Zero rule: a grid value with |f| < zero_tolerance(h) = 1e-10 * h (h the smallest cell size of
