@@ -143,6 +143,25 @@ struct ChunkOutput {
   MchexStats stats;
 };
 
+// A cell to cut, as the mesher names its parts: the cell of the complex itself, or one child of
+// a cell refined locally (paper Section 5, Figure 7), whose corners, edges and faces are either
+// the parent's (then named globally) or inside the parent (then named by the indices of their
+// points in the parent's refinement, cell-local).
+struct PieceFrame {
+  std::array<std::uint32_t, 8> global;  // corner's point id in the complex, or kNone
+  std::array<std::uint8_t, 8> local;    // corner's index among the refinement's points
+  std::array<std::uint32_t, 12> edge;   // global edge id, or kNone (an edge inside the parent)
+  std::array<std::uint32_t, 6> face;    // global face id, or kNone
+  std::uint32_t piece = 0;              // child index (0 for an unrefined cell)
+};
+constexpr std::uint32_t kNone = 0xFFFFFFFFu;
+
+// Cell-local names: kind, then small fields (indices of refinement points, slots, children).
+enum LocalKind : std::uint64_t { kLoopCentroid = 1, kVolumeCentre, kInnerPoint, kInnerEdge, kInnerFace };
+constexpr std::uint64_t local_key(LocalKind kind, std::uint64_t a, std::uint64_t b = 0, std::uint64_t c = 0) {
+  return kind << 56 | a << 40 | b << 8 | c;
+}
+
 struct Mesher {
   const HexComplex& cx;
   const ComplexTopology& topo;
@@ -150,6 +169,20 @@ struct Mesher {
   std::span<const double> f;
   double eps;
   std::vector<Vec3>& shared;  // [0, slots.end): written by owners only
+
+  // The points one cell makes for itself (loop centroids, volume centres, everything inside a
+  // refined cell), by local name.
+  struct LocalPoints {
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> ids;
+    std::uint32_t get(std::uint64_t key, const Vec3& x, ChunkOutput& out) {
+      for (const auto& [k, id] : ids)
+        if (k == key) return id;
+      const std::uint32_t id = kLocal | static_cast<std::uint32_t>(out.locals.size());
+      out.locals.push_back(x);
+      ids.emplace_back(key, id);
+      return id;
+    }
+  };
 
   void mesh_cell(std::uint32_t cell, ChunkOutput& out) const {
     const CellCorners& gv = cx.cells[cell];
@@ -161,10 +194,6 @@ struct Mesher {
     }
     CellClass cls = classify(fc);
     out.stats.cases[static_cast<int>(cls.subcase)] += 1;
-    // Crossings clamped away from the corners (the eps of the paper's cutting): the value depends
-    // on the edge's two values only, so all cells around the edge agree.
-    for (int e = 0; e < 12; ++e)
-      if (cls.cut_edges >> e & 1) cls.crossing[e] = std::clamp(cls.crossing[e], eps, 1 - eps);
     if (subcase_has_tunnel(cls.subcase)) {
       // KNOWN GAP: the paper refines a tunnel cell locally (Section 5, Figure 7). Until that
       // exists the cell is cut with its partner's topology: the same face chords (so the
@@ -175,36 +204,79 @@ struct Mesher {
       ++out.stats.tunnel_cells;
     }
     out.stats.expected_hexes += 8 + 2 * static_cast<std::size_t>(std::popcount(cls.cut_edges));
+    PieceFrame frame;
+    frame.global = gv;
+    for (int c = 0; c < 8; ++c) frame.local[c] = static_cast<std::uint8_t>(c);
+    frame.edge = topo.cell_edges[cell];
+    frame.face = topo.cell_faces[cell];
+    LocalPoints locals;
+    mesh_piece(cell, frame, xc, cls, locals, out);
+  }
 
-    const auto& cell_edges = topo.cell_edges[cell];
-    const auto& cell_faces = topo.cell_faces[cell];
-    // Canonical order of each cell face's points (as build_topology lists them).
-    std::array<std::array<std::uint32_t, 4>, 6> face_order;
-    for (int q = 0; q < 6; ++q) face_order[q] = topo.face_points[cell_faces[q]];
-    auto rank_in_face = [&](int q, std::uint32_t p) {
+  // Cuts one (sub)cell and subdivides its polyhedra; `cls` already classified, tunnels resolved.
+  void mesh_piece(std::uint32_t cell, const PieceFrame& fr, const std::array<Vec3, 8>& xc, CellClass cls,
+                  LocalPoints& locals, ChunkOutput& out) const {
+    // Crossings clamped away from the corners (the eps of the paper's cutting): the value depends
+    // on the edge's two values only, so all cells around the edge agree.
+    for (int e = 0; e < 12; ++e)
+      if (cls.cut_edges >> e & 1) cls.crossing[e] = std::clamp(cls.crossing[e], eps, 1 - eps);
+
+    // Each face's corners in canonical order, as comparable names: global point ids on a face of
+    // the complex (build_topology's order), refinement indices on a face inside the parent.
+    std::array<std::array<std::uint32_t, 4>, 6> order;
+    for (int q = 0; q < 6; ++q) {
+      if (fr.face[q] != kNone) {
+        order[q] = topo.face_points[fr.face[q]];
+      } else {
+        std::array<std::uint32_t, 4> o;
+        for (int i = 0; i < 4; ++i) o[i] = fr.local[kHexFaces[q][i]];
+        std::rotate(o.begin(), std::min_element(o.begin(), o.end()), o.end());
+        if (o[3] < o[1]) std::swap(o[1], o[3]);
+        order[q] = o;
+      }
+    }
+    auto name_in_face = [&](int q, int corner) { return fr.face[q] != kNone ? fr.global[corner] : fr.local[corner]; };
+    auto rank_in_face = [&](int q, int corner) {
+      const std::uint32_t name = name_in_face(q, corner);
       for (int r = 0; r < 4; ++r)
-        if (face_order[q][r] == p) return r;
+        if (order[q][r] == name) return r;
       return 4;  // unreachable for a consistent topology
     };
     // Rank of cell edge e in face q: r such that the edge joins face points r and r + 1.
     auto edge_rank_in_face = [&](int q, int e) {
-      const int ra = rank_in_face(q, gv[kCubeEdges[e][0]]), rb = rank_in_face(q, gv[kCubeEdges[e][1]]);
+      const int ra = rank_in_face(q, kCubeEdges[e][0]), rb = rank_in_face(q, kCubeEdges[e][1]);
       return ((ra + 1) & 3) == rb ? ra : rb;
     };
-    auto put_shared = [&](std::uint32_t id, bool owner, const Vec3& x) {
-      if (owner) shared[id] = x;
-      return id;
+    // Slot `slot` of edge e / face q (mchex_mesher.h), with the point x.
+    auto edge_point = [&](int e, std::uint32_t slot, const Vec3& x) {
+      const std::uint32_t g = fr.edge[e];
+      if (g != kNone) {
+        const std::uint32_t id = slots.edge_base[g] + slot;
+        if (topo.edge_owner[g] == cell) shared[id] = x;
+        return id;
+      }
+      const std::uint64_t a = fr.local[kCubeEdges[e][0]], b = fr.local[kCubeEdges[e][1]];
+      return locals.get(local_key(kInnerEdge, std::min(a, b) << 8 | std::max(a, b), 0, slot), x, out);
     };
-    // Cell-local points: the loop centroids and volume centres, by a small key.
-    std::array<std::pair<std::uint32_t, std::uint32_t>, 32> local_ids;
-    int num_local = 0;
-    auto put_local = [&](std::uint32_t key, const Vec3& x) {
-      for (int i = 0; i < num_local; ++i)
-        if (local_ids[i].first == key) return local_ids[i].second;
-      const std::uint32_t id = kLocal | static_cast<std::uint32_t>(out.locals.size());
-      out.locals.push_back(x);
-      local_ids[num_local++] = {key, id};
-      return id;
+    auto face_point = [&](int q, std::uint32_t slot, const Vec3& x) {
+      const std::uint32_t g = fr.face[q];
+      if (g != kNone) {
+        const std::uint32_t id = slots.face_base[g] + slot;
+        if (topo.face_owner[g] == cell) shared[id] = x;
+        return id;
+      }
+      const std::uint64_t name = std::uint64_t(order[q][0]) << 24 | order[q][1] << 16 | order[q][2] << 8 | order[q][3];
+      return locals.get(local_key(kInnerFace, name >> 16, name & 0xFFFF, slot), x, out);
+    };
+    // Whether corner c is the lower end of edge e (the end slot 0 starts from).
+    auto is_lower_end = [&](int e, int c) {
+      const int other = kCubeEdges[e][0] == c ? kCubeEdges[e][1] : kCubeEdges[e][0];
+      if (fr.edge[e] != kNone) return fr.global[c] == topo.edge_points[fr.edge[e]][0];
+      return fr.local[c] < fr.local[other];
+    };
+    auto corner_point = [&](int c, const Vec3& x) {
+      if (fr.global[c] != kNone) return fr.global[c];
+      return locals.get(local_key(kInnerPoint, fr.local[c]), x, out);
     };
 
     const std::vector<Polyhedron> polys = cut_cell(xc, cls);
@@ -223,7 +295,7 @@ struct Mesher {
           while ((mask & ~kFaceKeyMasks[q]) != 0) ++q;  // cut_cell's pieces lie on a face
           int rank = 4;
           for (std::uint32_t v : face)
-            if (is_corner_key(p.keys[v])) rank = std::min(rank, rank_in_face(q, gv[p.keys[v]]));
+            if (is_corner_key(p.keys[v])) rank = std::min(rank, rank_in_face(q, p.keys[v]));
           face_cell_face[fi] = static_cast<std::int8_t>(q);
           face_slot[fi] = rank;
         } else {
@@ -241,42 +313,30 @@ struct Mesher {
           std::uint32_t id = 0;
           switch (sk.kind) {
             case SubdivisionPointKey::Kind::kVertex:
-              if (is_corner_key(sk.a)) {
-                id = gv[sk.a];
-              } else {
-                const std::uint32_t e = cell_edges[key_edge(sk.a)];
-                id = put_shared(slots.edge_base[e] + 1, topo.edge_owner[e] == cell, x);
-              }
+              id = is_corner_key(sk.a) ? corner_point(sk.a, x) : edge_point(key_edge(sk.a), 1, x);
               break;
             case SubdivisionPointKey::Kind::kEdge: {
               const bool ca = is_corner_key(sk.a), cb = is_corner_key(sk.b);
               if (ca && cb) {  // an uncut cell edge
-                const std::uint32_t e = cell_edges[cube_edge_of(sk.a, sk.b)];
-                id = put_shared(slots.edge_base[e], topo.edge_owner[e] == cell, x);
+                id = edge_point(cube_edge_of(sk.a, sk.b), 0, x);
               } else if (ca || cb) {  // corner to the crossing on its edge
-                const int corner = ca ? sk.a : sk.b, edge = key_edge(ca ? sk.b : sk.a);
-                const std::uint32_t e = cell_edges[edge];
-                const std::uint32_t slot = gv[corner] == topo.edge_points[e][0] ? 0 : 2;
-                id = put_shared(slots.edge_base[e] + slot, topo.edge_owner[e] == cell, x);
+                const int corner = ca ? sk.a : sk.b, e = key_edge(ca ? sk.b : sk.a);
+                id = edge_point(e, is_lower_end(e, corner) ? 0 : 2, x);
               } else {  // an isosurface chord across a cell face
                 const int ea = key_edge(sk.a), eb = key_edge(sk.b);
                 const int q = kEdgePairFace[ea][eb];
-                const std::uint32_t face = cell_faces[q];
-                const int r = std::min(edge_rank_in_face(q, ea), edge_rank_in_face(q, eb));
-                id = put_shared(slots.face_base[face] + 4 + r, topo.face_owner[face] == cell, x);
+                id = face_point(q, 4 + std::min(edge_rank_in_face(q, ea), edge_rank_in_face(q, eb)), x);
               }
               break;
             }
             case SubdivisionPointKey::Kind::kFace:
-              if (face_cell_face[sk.a] >= 0) {
-                const std::uint32_t face = cell_faces[face_cell_face[sk.a]];
-                id = put_shared(slots.face_base[face] + face_slot[sk.a], topo.face_owner[face] == cell, x);
-              } else {
-                id = put_local(static_cast<std::uint32_t>(face_slot[sk.a]), x);  // keys 8..19
-              }
+              if (face_cell_face[sk.a] >= 0)
+                id = face_point(face_cell_face[sk.a], static_cast<std::uint32_t>(face_slot[sk.a]), x);
+              else
+                id = locals.get(local_key(kLoopCentroid, fr.piece, static_cast<std::uint64_t>(face_slot[sk.a])), x, out);
               break;
             case SubdivisionPointKey::Kind::kCentre:
-              id = put_local(32 + static_cast<std::uint32_t>(pi), x);
+              id = locals.get(local_key(kVolumeCentre, fr.piece, pi), x, out);
               break;
           }
           hex[c] = id;
