@@ -559,11 +559,19 @@ TEST(local_refinement, EveryCellCertifiesWithItsTopology) {
   std::map<Subcase, Row> rows;
   std::map<std::string, std::pair<long, long>> measured_cells;  // ok / all per geometry
   std::set<std::pair<Subcase, int>> hex_counts;
+  // Every sign pattern with each kind of magnitudes, then every subcase evenly (the tunnel
+  // subcases are rare in random draws) moved by random symmetries and inversions.
   constexpr int kDraws = 8;
+  std::vector<Cell> cells;
   for (int mask = 0; mask < 256; ++mask)
     for (int kind = 0; kind < 3; ++kind)
-      for (int d = 0; d < kDraws; ++d) {
-        const Cell f = draw(static_cast<std::uint8_t>(mask), kind, rng);
+      for (int d = 0; d < kDraws; ++d) cells.push_back(draw(static_cast<std::uint8_t>(mask), kind, rng));
+  std::uniform_int_distribution<int> sym(0, kNumCubeSymmetries - 1);
+  for (const auto& [s, pool] : pools(24, 99))
+    for (const Cell& f : pool)
+      for (int k = 0; k < 4; ++k) cells.push_back(transform_cell(f, sym(rng), k % 2 == 1));
+  for (const Cell& f : cells) {
+        const std::uint8_t mask = classify(f).sign_mask;
         const CellClass c = classify(f);
         for (const Geometry& g : asserted) {
           const Outcome o = run_cell(g.corners, f, local_refinement_table());
