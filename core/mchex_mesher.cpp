@@ -7,12 +7,14 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "core/complex_topology.h"
 #include "core/error.h"
 #include "core/hex_faces.h"
+#include "core/local_refinement.h"
 #include "core/mc33.h"
 #include "core/parallel.h"
 #include "core/polyhedra.h"
@@ -50,58 +52,20 @@ constexpr std::array<std::array<std::int8_t, 12>, 12> make_edge_pair_face() {
 }
 constexpr auto kEdgePairFace = make_edge_pair_face();
 
+// The corners of each cell face, as a bit mask.
+constexpr std::array<std::uint8_t, 6> make_cell_face_corners() {
+  std::array<std::uint8_t, 6> m{};
+  for (int q = 0; q < 6; ++q)
+    for (int c : kHexFaces[q]) m[q] = static_cast<std::uint8_t>(m[q] | 1u << c);
+  return m;
+}
+constexpr auto kCellFaceCorners = make_cell_face_corners();
+
 constexpr int cube_edge_of(int a, int b) {
   for (int e = 0; e < 12; ++e)
     if ((kCubeEdges[e][0] == a && kCubeEdges[e][1] == b) || (kCubeEdges[e][0] == b && kCubeEdges[e][1] == a))
       return e;
   return -1;
-}
-
-// Regions of a cell without any interior join: same-sign corners linked along cell edges and
-// across the diagonal each ambiguous face joins (CellClass::face_joins), numbered by lowest
-// corner as classify() numbers them. This is the partner topology of a tunnel subcase.
-void regions_without_interior(CellClass& c) {
-  std::array<std::uint8_t, 8> adj{};
-  for (const auto& e : kCubeEdges) {
-    const bool pa = c.sign_mask >> e[0] & 1, pb = c.sign_mask >> e[1] & 1;
-    if (pa == pb) {
-      adj[e[0]] |= std::uint8_t(1u << e[1]);
-      adj[e[1]] |= std::uint8_t(1u << e[0]);
-    }
-  }
-  for (int f = 0; f < 6; ++f) {
-    if (!(c.ambiguous_faces >> f & 1)) continue;
-    const auto& q = kHexFaces[f];
-    const bool want = c.face_joins >> f & 1;
-    // The diagonal (q0, q2) or (q1, q3) whose corners have the joined sign.
-    const bool first = ((c.sign_mask >> q[0] & 1) != 0) == want;
-    const int u = first ? q[0] : q[1], v = first ? q[2] : q[3];
-    adj[u] |= std::uint8_t(1u << v);
-    adj[v] |= std::uint8_t(1u << u);
-  }
-  std::uint8_t left = 0xFF;
-  int n = 0;
-  while (left) {
-    const int c0 = std::countr_zero(left);
-    std::uint8_t comp = std::uint8_t(1u << c0), frontier = comp;
-    while (frontier) {
-      std::uint8_t next = 0;
-      for (std::uint8_t m = frontier; m; m &= std::uint8_t(m - 1)) next |= adj[std::countr_zero(m)];
-      next &= std::uint8_t(~comp);
-      comp |= next;
-      frontier = next;
-    }
-    auto& r = c.regions[n];
-    r.sign = (c.sign_mask >> c0 & 1) ? 1 : -1;
-    r.corners = comp;
-    r.count = static_cast<std::uint8_t>(std::popcount(comp));
-    for (std::uint8_t m = comp; m; m &= std::uint8_t(m - 1))
-      c.corner_region[std::countr_zero(m)] = static_cast<std::uint8_t>(n);
-    left &= std::uint8_t(~comp);
-    ++n;
-  }
-  c.num_regions = static_cast<std::uint8_t>(n);
-  for (int i = n; i < 8; ++i) c.regions[i] = {};
 }
 
 // A point of the output while the cells run: a global id below kLocal, or kLocal | the index of
@@ -168,6 +132,7 @@ struct Mesher {
   const SlotLayout& slots;
   std::span<const double> f;
   double eps;
+  double tiny;                // the zero rule's tolerance: virtual values are at least this
   std::vector<Vec3>& shared;  // [0, slots.end): written by owners only
 
   // The points one cell makes for itself (loop centroids, volume centres, everything inside a
@@ -192,25 +157,69 @@ struct Mesher {
       fc[c] = f[gv[c]];
       xc[c] = cx.points[gv[c]];
     }
-    CellClass cls = classify(fc);
+    const CellClass cls = classify(fc);
     out.stats.cases[static_cast<int>(cls.subcase)] += 1;
-    if (subcase_has_tunnel(cls.subcase)) {
-      // KNOWN GAP: the paper refines a tunnel cell locally (Section 5, Figure 7). Until that
-      // exists the cell is cut with its partner's topology: the same face chords (so the
-      // neighbours still conform) and regions joined only along edges and faces.
-      cls.subcase = subcase_info(cls.subcase).tunnel_partner;
-      cls.tunnel = 0;
-      regions_without_interior(cls);
-      ++out.stats.tunnel_cells;
-    }
-    out.stats.expected_hexes += 8 + 2 * static_cast<std::size_t>(std::popcount(cls.cut_edges));
-    PieceFrame frame;
-    frame.global = gv;
-    for (int c = 0; c < 8; ++c) frame.local[c] = static_cast<std::uint8_t>(c);
-    frame.edge = topo.cell_edges[cell];
-    frame.face = topo.cell_faces[cell];
+    out.stats.expected_hexes += static_cast<std::size_t>(local_refinement_hexes(cls.subcase));
+    const auto& cell_edges = topo.cell_edges[cell];
+    const auto& cell_faces = topo.cell_faces[cell];
     LocalPoints locals;
-    mesh_piece(cell, frame, xc, cls, locals, out);
+    if (!needs_local_refinement(cls)) {
+      PieceFrame frame;
+      frame.global = gv;
+      for (int c = 0; c < 8; ++c) frame.local[c] = static_cast<std::uint8_t>(c);
+      frame.edge = cell_edges;
+      frame.face = cell_faces;
+      mesh_piece(cell, frame, xc, cls, locals, out);
+      return;
+    }
+    // Paper Section 5, Figure 7: the cell is cut as its local refinement's leaves. A leaf's edge
+    // or face made of cell corners only is an edge or face of the cell (local_refinement.h:
+    // the cell's faces are never split), named globally; everything else is inside the cell.
+    const LocalRefinement lr = refine_locally(xc, fc, cls, tiny);
+    ++out.stats.refined_cells;
+    out.stats.refined_cells_two_levels += lr.levels == 2;
+    for (std::size_t li = 0; li < lr.cells.size(); ++li) {
+      const auto& leaf = lr.cells[li];
+      PieceFrame frame;
+      std::array<double, 8> fl;
+      std::array<Vec3, 8> xl;
+      for (int c = 0; c < 8; ++c) {
+        const std::uint32_t idx = leaf[c];
+        frame.global[c] = idx < 8 ? gv[idx] : kNone;
+        frame.local[c] = static_cast<std::uint8_t>(idx);
+        fl[c] = lr.values[idx];
+        xl[c] = lr.points[idx];
+      }
+      for (int e = 0; e < 12; ++e) {
+        const std::uint32_t a = leaf[kCubeEdges[e][0]], b = leaf[kCubeEdges[e][1]];
+        frame.edge[e] = kNone;
+        if (a < 8 && b < 8) {
+          const int pe = cube_edge_of(static_cast<int>(a), static_cast<int>(b));
+          if (pe < 0) throw std::logic_error("local refinement: a child edge joins two cell corners off a cell edge");
+          frame.edge[e] = cell_edges[pe];
+        }
+      }
+      for (int q = 0; q < 6; ++q) {
+        std::uint8_t mask = 0;
+        bool on_cell = true;
+        for (int c : kHexFaces[q]) {
+          on_cell = on_cell && leaf[c] < 8;
+          if (leaf[c] < 8) mask |= static_cast<std::uint8_t>(1u << leaf[c]);
+        }
+        frame.face[q] = kNone;
+        if (on_cell) {
+          int pq = 0;
+          while (pq < 6 && mask != kCellFaceCorners[pq]) ++pq;
+          if (pq == 6) throw std::logic_error("local refinement: a child face has 4 cell corners off a cell face");
+          frame.face[q] = cell_faces[pq];
+        }
+      }
+      frame.piece = static_cast<std::uint32_t>(li + 1);
+      const CellClass leaf_class = classify(fl);
+      if (needs_local_refinement(leaf_class))
+        throw std::logic_error("local refinement left a leaf of subcase " + std::string(subcase_name(leaf_class.subcase)));
+      mesh_piece(cell, frame, xl, leaf_class, locals, out);
+    }
   }
 
   // Cuts one (sub)cell and subdivides its polyhedra; `cls` already classified, tunnels resolved.
@@ -394,7 +403,7 @@ MeshPair mesh_mchex(const HexComplex& cx, std::span<const double> values, double
   constexpr std::size_t kChunk = 1024;
   const std::size_t num_chunks = (cx.cells.size() + kChunk - 1) / kChunk;
   std::vector<ChunkOutput> chunks(num_chunks);
-  const Mesher mesher{cx, topo, slots, f, eps, points};
+  const Mesher mesher{cx, topo, slots, f, eps, tiny, points};
   parallel_chunks(num_chunks, 1, [&](std::size_t b, std::size_t e) {
     for (std::size_t ch = b; ch < e; ++ch) {
       const std::size_t end = std::min(cx.cells.size(), (ch + 1) * kChunk);
@@ -411,7 +420,8 @@ MeshPair mesh_mchex(const HexComplex& cx, std::span<const double> values, double
     num_in += ch.inside.size();
     num_out += ch.outside.size();
     for (int s = 0; s < kNumSubcases; ++s) stats.cases[s] += ch.stats.cases[s];
-    stats.tunnel_cells += ch.stats.tunnel_cells;
+    stats.refined_cells += ch.stats.refined_cells;
+    stats.refined_cells_two_levels += ch.stats.refined_cells_two_levels;
     stats.expected_hexes += ch.stats.expected_hexes;
   }
   std::vector<Hex> inside, outside;

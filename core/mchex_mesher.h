@@ -21,12 +21,9 @@
 // written by its owner (the lowest cell around its edge or face) only, so the output is the same
 // byte for byte whatever the thread count.
 //
-// Known gaps (counted in MchexStats, not hidden):
-//  - the six tunnel subcases (4.1.2, 6.1.2, 7.4.2, 10.1.2, 12.1.2, 13.5.2) are meshed with
-//    their non-tunnel partner's topology (same face chords, the interior not joined); the paper
-//    refines those cells locally instead (Section 5, Figure 7), which is not implemented yet;
-//  - plain midpoint subdivision without the volume-centre offset the paper uses for cases 12
-//    and 14 (Section 5, Figure 6), so some hexes there are not Bernstein-certified.
+// The subcases whose polyhedra midpoint subdivision cannot certify, the six tunnel subcases among
+// them, are cut as their local refinement's leaves (core/local_refinement.h, paper Figure 7):
+// their inner points and everything on the faces between the leaves are the cell's own points.
 #pragma once
 
 #include <array>
@@ -47,9 +44,10 @@ std::string_view mchex_case_name(int slot);
 
 struct MchexStats {
   std::array<std::size_t, kMchexCaseSlots> cases{};  // cells per subcase (index: mc33 Subcase)
-  std::size_t tunnel_cells = 0;     // tunnel subcases meshed with the partner's topology
+  std::size_t refined_cells = 0;    // cells cut as their local refinement (paper Figure 7)
+  std::size_t refined_cells_two_levels = 0;
   std::size_t perturbed_values = 0; // grid values moved off zero by the zero rule
-  std::size_t expected_hexes = 0;   // sum over cells of 8 + 2 * cut edges
+  std::size_t expected_hexes = 0;   // sum over cells of local_refinement_hexes(subcase)
   std::size_t points = 0;           // distinct global points (both meshes together)
   // Wall time of the stages: numbering the complex's edges and faces, cutting + subdividing the
   // cells (parallel), and assembling the two meshes from the chunks.

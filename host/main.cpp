@@ -248,7 +248,8 @@ int run_mesh(const MeshCommand& o, bool quiet) {
       cases[std::string(mchex_case_name(i))] = mchex_stats.cases[i];
     report["cases"] = cases;
     report["mchex"] = {{"eps", o.eps},
-                       {"tunnel_cells_partner_topology", mchex_stats.tunnel_cells},
+                       {"refined_cells", mchex_stats.refined_cells},
+                       {"refined_cells_two_levels", mchex_stats.refined_cells_two_levels},
                        {"perturbed_zero_values", mchex_stats.perturbed_values},
                        {"points", mchex_stats.points},
                        {"seconds", {{"topology", mchex_stats.seconds_topology},

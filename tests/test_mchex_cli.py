@@ -25,7 +25,7 @@ class MchexMethod(ScratchTestCase):
         # The subcase histogram covers every cell (27^3), and names the 31 subcases and "empty".
         self.assertEqual(len(rep["cases"]), 32)
         self.assertEqual(sum(rep["cases"].values()), 27 ** 3)
-        self.assertIn("tunnel_cells_partner_topology", rep["mchex"])
+        self.assertIn("refined_cells", rep["mchex"])
 
         c = run("check", inside, "--outside", outside, "--json")
         self.assertEqual(c.returncode, 0, c.stderr)

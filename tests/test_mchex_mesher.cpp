@@ -2,10 +2,9 @@
 // two-holed solid at depths 2-4. Asserted: the inside/outside pair passes check_mesh (no
 // structural error, gap or overlap; volumes add up to the box: the conformity the global keys
 // are for), the inside boundary is a closed 2-manifold with the shape's Euler characteristic,
-// the hex count is the sum over cells of 8 + 2 * cut edges (Theorem 4.1: one hex per polyhedron
-// vertex), and the output is deterministic. Printed, not asserted: the Bernstein-certified
-// fraction and the min scaled Jacobian (cases 11/14 near s = 0 or 1, the volume-centre offset
-// of cases 12/14 and the subcases the paper refines are known gaps, paper Section 5).
+// the hex count is the sum over cells of local_refinement_hexes (Theorem 4.1: one hex per
+// polyhedron vertex), every hex is Bernstein-certified (paper Section 5: plain subdivision where
+// it is proven, local refinement where it is not), and the output is deterministic.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -63,15 +62,17 @@ TEST_P(MchexShapes, ConformingClosedAndCounted) {
   const std::size_t hexes = r.mesh.inside.hexes.size() + r.mesh.outside.hexes.size();
   const QualityStats& qi = check.inside.quality;
   const QualityStats& qo = check.outside->quality;
-  std::printf("[mchex] %-9s depth %d: %zu cells, %zu tunnel cells, %zu+%zu hexes, %zu points, "
+  std::printf("[mchex] %-9s depth %d: %zu cells, %zu refined cells, %zu+%zu hexes, %zu points, "
               "certified inside %.2f%% outside %.2f%%, min scaled Jacobian inside %.4f outside %.4f, "
               "mesh %.3f s\n",
-              std::string(shape_name(kind)).c_str(), depth, r.grid.cell_count(), r.stats.tunnel_cells,
+              std::string(shape_name(kind)).c_str(), depth, r.grid.cell_count(), r.stats.refined_cells,
               r.mesh.inside.hexes.size(), r.mesh.outside.hexes.size(), r.stats.points,
               qi.count ? 100.0 * qi.certified / qi.count : 100.0,
               qo.count ? 100.0 * qo.certified / qo.count : 100.0, qi.min_scaled_jacobian,
               qo.min_scaled_jacobian, r.seconds);
   EXPECT_TRUE(check.ok) << (check.errors.empty() ? "" : check.errors.front());
+  EXPECT_EQ(qi.certified, qi.count);
+  EXPECT_EQ(qo.certified, qo.count);
   EXPECT_EQ(check.combined->gap_faces, 0u);
   EXPECT_EQ(check.combined->overlap_faces, 0u);
   EXPECT_TRUE(check.combined->volume_ok) << check.combined->volume_relative_error;
@@ -149,24 +150,23 @@ TEST(Mchex, ZeroValuesCountAsOutside) {
   EXPECT_NEAR(check.inside.quality.volume, 9.0 * (1 - 1e-3), 1e-9);
 }
 
-// Random values on a small grid: every MC33 subcase turns up, tunnel subcases included (meshed
-// with the partner topology, a known gap: the paper refines them). Hexes may invert here (random
-// data has crossings near s = 0 or 1 on several edges at once), so only what the keys decide is
-// asserted: no gap, overlap, non-manifold or misoriented face, interface faces matched exactly,
-// volumes adding up to the box, and the hex count.
-TEST(Mchex, RandomFieldsConformIncludingTunnelCells) {
+// Random values on a small grid: every MC33 subcase turns up, the refined ones (tunnels included)
+// by the thousand, with crossings anywhere in [eps, 1 - eps]. Asserted: no gap, overlap,
+// non-manifold or misoriented face, interface faces matched exactly, volumes adding up to the
+// box, the hex count, and every hex of both meshes Bernstein-certified.
+TEST(Mchex, RandomFieldsConformAndCertifyIncludingRefinedCells) {
   std::mt19937_64 rng(20250601);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   const Box box{{0, 0, 0}, {1, 1, 1}};
   const UniformGrid grid(box, 2);
-  std::size_t tunnels = 0;
+  std::size_t refined = 0;
   std::array<std::size_t, kMchexCaseSlots> seen{};
   for (int trial = 0; trial < 20; ++trial) {
     std::vector<double> values(grid.vertex_count());
     for (double& v : values) v = u(rng);
     MchexStats stats;
     const MeshPair m = mesh_mchex(grid, values, 1e-3, &stats);
-    tunnels += stats.tunnel_cells;
+    refined += stats.refined_cells;
     for (int i = 0; i < kMchexCaseSlots; ++i) seen[i] += stats.cases[i];
     const MeshCheck c = check_mesh(m.inside, &m.outside, &box);
     for (const MeshStats* ms : {&c.inside, &*c.outside}) {
@@ -180,12 +180,15 @@ TEST(Mchex, RandomFieldsConformIncludingTunnelCells) {
     EXPECT_EQ(c.combined->interface_errors, 0u);
     EXPECT_TRUE(c.combined->volume_ok) << c.combined->volume_relative_error;
     EXPECT_EQ(m.inside.hexes.size() + m.outside.hexes.size(), stats.expected_hexes);
+    EXPECT_EQ(c.inside.quality.certified, c.inside.quality.count);
+    EXPECT_EQ(c.outside->quality.certified, c.outside->quality.count);
   }
   std::size_t subcases_seen = 0;
   for (std::size_t n : seen) subcases_seen += n > 0;
-  std::printf("[mchex] random fields: %zu tunnel cells, %zu of 32 subcase slots seen\n", tunnels,
+  std::printf("[mchex] random fields: %zu refined cells, %zu of 32 subcase slots seen\n", refined,
               subcases_seen);
-  EXPECT_GT(tunnels, 0u);
+  EXPECT_EQ(subcases_seen, std::size_t(kMchexCaseSlots));
+  EXPECT_GT(refined, 1000u);
 }
 
 TEST(Mchex, SameBytesOnOneAndTwoThreads) {
