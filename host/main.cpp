@@ -171,7 +171,7 @@ void write_json(const fs::path& path, const json& j) {
 }
 
 struct MeshCommand {
-  std::string input, shape, inside = "inside.mesh", outside, report, method = "ro", backend = "auto";
+  std::string input, shape, inside = "inside.mesh", outside, report, method = "mchex", backend = "auto";
   int depth = 3;
   double pad = 0.1;
   double eps = 1e-3;  // --method mchex: crossings clamped to [eps, 1 - eps]
@@ -204,8 +204,6 @@ int run_mesh(const MeshCommand& o, bool quiet) {
     solid.sdf->evaluate(points, v);
     return v;
   });
-  // ro stays the default until every MCHex hex is certified (tunnel refinement, the case 12/14
-  // volume-centre offset: see core/mchex_mesher.h).
   MchexStats mchex_stats;
   const MeshPair meshes = o.method == "mchex"
                               ? clock.run("mchex", [&] { return mesh_mchex(grid, values, o.eps, &mchex_stats); })
@@ -276,9 +274,7 @@ int run_mesh(const MeshCommand& o, bool quiet) {
   }
   if (!check.ok)
     throw std::runtime_error(
-        "the mesh fails its own check, so nothing was written: " + first_error(check) +
-        (o.method == "mchex" ? " (--method mchex does not yet refine the subcases the paper refines; see --report's cases)"
-                             : ""));
+        "the mesh fails its own check, so nothing was written: " + first_error(check));
   return 0;
 }
 
@@ -344,8 +340,9 @@ int main(int argc, char** argv) {
   mesh->add_option("-o,--output", mo.inside, "inside mesh (.mesh, .vtu or .msh)")->capture_default_str();
   mesh->add_option("--outside", mo.outside, "outside mesh (default: outside.EXT beside the inside mesh)");
   mesh->add_option("--method", mo.method,
-                   "ro: keep the cells whose 8 corner values sum above 0; mchex: cut every cell by the "
-                   "isosurface (MC33) and split the pieces into hexes")
+                   "mchex: cut every cell by the isosurface (MC33, local refinement where the paper "
+                   "needs it) and split the pieces into hexes; ro: keep the cells whose 8 corner "
+                   "values sum above 0 (the paper's baseline)")
       ->check(CLI::IsMember({"ro", "mchex"}))->capture_default_str();
   mesh->add_option("--eps", mo.eps, "--method mchex: clamp edge crossings to [eps, 1 - eps], eps in (0, 0.5)")
       ->check(CLI::Range(0.0, 0.5))->capture_default_str();

@@ -41,7 +41,7 @@ class MeshCommand(ScratchTestCase):
 
     def test_ro_meshes_of_a_shape_fill_the_box_and_pass_check(self):
         inside, outside, report = (os.path.join(self.dir, n) for n in ("in.vtu", "out.msh", "r.json"))
-        r = run("mesh", "--shape", "sphere", "--depth", 3, "-o", inside, "--outside", outside,
+        r = run("mesh", "--shape", "sphere", "--depth", 3, "--method", "ro", "-o", inside, "--outside", outside,
                 "--report", report, "--fidelity", "--quiet")
         self.assertEqual(r.returncode, 0, r.stderr)
         self.assertEqual(r.stdout, "")
