@@ -264,9 +264,13 @@ struct OpenclBackend::Impl {
     queue.enqueueReadBuffer(b, CL_TRUE, 0, count * sizeof(T), data, nullptr, &e);
     record("read", e);
   }
-  void run(const char* name, cl::Kernel& k, std::size_t global) {
+  // A fixed work-group size, the global size rounded up to it (the kernels skip the surplus
+  // items): PoCL compiles a work-group function per local size, so letting the driver pick one
+  // per global size would recompile for every new batch size.
+  void run(const char* name, cl::Kernel& k, std::size_t global, std::size_t local = 64) {
     cl::Event e;
-    queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(global), cl::NullRange, nullptr, &e);
+    global = (global + local - 1) / local * local;
+    queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(global), cl::NDRange(local), nullptr, &e);
     record(name, e);
   }
 
@@ -349,7 +353,7 @@ void OpenclBackend::signed_distance(const SdfSource& source, std::span<const Vec
         k.setArg(arg++, cl_uint(count));
         k.setArg(arg++, per_item);
         k.setArg(arg++, m.scene_scale);
-        m.run("sdf_surface", k, (count + per_item - 1) / per_item);
+        m.run("sdf_surface", k, (count + per_item - 1) / per_item, 8);
       } else {
         k.setArg(arg++, cl_int(source.shape));
         k.setArg(arg++, in);
@@ -407,7 +411,8 @@ void OpenclBackend::classify_cells(const HexComplex& complex, std::span<const do
   try {
     const std::size_t n = std::min(m.chunk(8 * sizeof(std::uint32_t)), cells);
     const std::size_t max_blocks = (n + kBlock - 1) / kBlock;
-    const std::size_t window_limit = m.chunk(sizeof(double));
+    // The value window is limited by the allocation size only (max_chunk counts cells).
+    const std::size_t window_limit = std::min<std::size_t>(m.max_alloc() / sizeof(double), std::size_t(1) << 31);
     cl::Buffer cell_buf(m.context, CL_MEM_READ_ONLY, 8 * sizeof(std::uint32_t) * n);
     cl::Buffer code_buf(m.context, CL_MEM_READ_WRITE, 2 * sizeof(std::uint32_t) * n);
     cl::Buffer sums(m.context, CL_MEM_READ_WRITE, sizeof(cl_ulong) * (max_blocks + 1));
@@ -450,17 +455,17 @@ void OpenclBackend::classify_cells(const HexComplex& complex, std::span<const do
       block_sums.setArg(1, cl_uint(count));
       block_sums.setArg(2, kBlock);
       block_sums.setArg(3, sums);
-      m.run("hex_block_sums", block_sums, blocks);
+      m.run("hex_block_sums", block_sums, blocks, 8);
       scan.setArg(0, sums);
       scan.setArg(1, blocks);
       scan.setArg(2, cl_ulong(total));
-      m.run("hex_scan_sums", scan, 1);
+      m.run("hex_scan_sums", scan, 1, 1);
       block_offsets.setArg(0, code_buf);
       block_offsets.setArg(1, cl_uint(count));
       block_offsets.setArg(2, kBlock);
       block_offsets.setArg(3, sums);
       block_offsets.setArg(4, offset_buf);
-      m.run("hex_block_offsets", block_offsets, blocks);
+      m.run("hex_block_offsets", block_offsets, blocks, 8);
 
       m.read(code_buf, words.data(), 2 * count);
       static_assert(sizeof(cl_ulong) == sizeof(std::uint64_t));
