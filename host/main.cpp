@@ -2,6 +2,7 @@
 //   mesh   surface or analytic shape -> inside and outside all-hex meshes (+ JSON report)
 //   check  validate hex meshes: structure, quality (Bernstein certificate), conformity, fidelity
 //   convert  a hex mesh from one file format to another
+//   devices  the compute backends and devices found (host/backend.h)
 // Every failure is one line on stderr and a non-zero exit: 1 bad input or usage, 2 resource limit.
 #include <unistd.h>
 
@@ -29,6 +30,7 @@
 #include "core/sdf.h"
 #include "core/shapes.h"
 #include "core/surface.h"
+#include "host/backend.h"
 
 namespace fs = std::filesystem;
 using nlohmann::json;
@@ -198,10 +200,17 @@ int run_mesh(const MeshCommand& o, bool quiet) {
   const UniformGrid grid(cube, o.depth);
   check_memory_budget(grid, o.method);
 
+  // The SDF batch runs on the chosen backend; every backend gives the cpu reference's values bit
+  // for bit (tests/test_opencl.cpp), so the mesh does not depend on the choice.
+  const std::unique_ptr<Backend> backend = make_backend(o.backend);
+  SdfSource source;
+  source.reference = solid.sdf.get();
+  if (solid.surface) source.surface = &*solid.surface;
+  else source.shape = static_cast<const ShapeSdf&>(*solid.sdf).kind();
   const std::vector<double> values = clock.run("sdf", [&] {
     const std::vector<Vec3> points = grid.vertices();
     std::vector<double> v(points.size());
-    solid.sdf->evaluate(points, v);
+    backend->signed_distance(source, points, v);
     return v;
   });
   MchexStats mchex_stats;
@@ -221,7 +230,11 @@ int run_mesh(const MeshCommand& o, bool quiet) {
   json report = {
       {"input", solid.to_json()},
       {"method", o.method},
-      {"backend", {{"name", "cpu"}, {"device", "reference (Embree + TBB)"}, {"threads", tbb::info::default_concurrency()}}},
+      {"backend",
+       {{"name", backend->device().backend},
+        {"platform", backend->device().platform},
+        {"device", backend->device().name},
+        {"threads", tbb::info::default_concurrency()}}},
       {"grid",
        {{"kind", "uniform"},
         {"levels", grid.depth()},
@@ -322,6 +335,37 @@ int run_check(const CheckCommand& o, bool quiet) {
   return 0;
 }
 
+int run_devices(bool as_json) {
+  const std::vector<DeviceInfo> list = list_devices();
+  if (as_json) {
+    json j = json::array();
+    for (const DeviceInfo& d : list)
+      j.push_back({{"backend", d.backend},
+                   {"platform", d.platform},
+                   {"device", d.name},
+                   {"type", d.type},
+                   {"fp64", d.fp64},
+                   {"max_buffer_bytes", d.max_buffer_bytes},
+                   {"global_memory_bytes", d.global_memory_bytes},
+                   {"compute_units", d.compute_units},
+                   {"version", d.version},
+                   {"usable", d.note.empty()},
+                   {"note", d.note}});
+    fmt::print("{}\n", j.dump(2));
+    return 0;
+  }
+  fmt::print("{:<8} {:<30} {:<36} {:<5} {:<4} {:>5} {:>12} {:>12}\n", "backend", "platform", "device", "type", "fp64",
+             "units", "max buffer", "memory");
+  for (const DeviceInfo& d : list) {
+    auto mib = [](std::uint64_t b) { return b ? fmt::format("{} MiB", b >> 20) : std::string("-"); };
+    fmt::print("{:<8} {:<30} {:<36} {:<5} {:<4} {:>5} {:>12} {:>12}\n", d.backend, d.platform, d.name, d.type,
+               d.fp64 ? "yes" : "no", d.compute_units, mib(d.max_buffer_bytes), mib(d.global_memory_bytes));
+    if (!d.version.empty()) fmt::print("         {}\n", d.version);
+    if (!d.note.empty()) fmt::print("         not usable: {}\n", d.note);
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -350,8 +394,10 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, kMaxUniformDepth))->capture_default_str();
   mesh->add_option("--pad", mo.pad, "padding around the input, as a fraction of its largest extent")
       ->check(CLI::Range(0.0, 10.0))->capture_default_str();
-  mesh->add_option("--backend", mo.backend, "where the SDF runs: auto or cpu (the reference)")
-      ->check(CLI::IsMember({"auto", "cpu"}))->capture_default_str();
+  mesh->add_option("--backend", mo.backend,
+                   "where the SDF runs: cpu (the reference), opencl, vulkan, or auto (a GPU with fp64 if "
+                   "one is found, else cpu); every backend gives the same mesh")
+      ->check(CLI::IsMember({"auto", "cpu", "opencl", "vulkan"}))->capture_default_str();
   mesh->add_option("--report", mo.report, "write a JSON report to this file");
   mesh->add_flag("--fidelity", mo.fidelity, "measure IoU and Hausdorff distance against the input");
   mesh->add_option("--lattice", mo.lattice, "samples per axis for the IoU")->check(CLI::Range(8, 1024))->capture_default_str();
@@ -370,6 +416,10 @@ int main(int argc, char** argv) {
   convert->add_option("input", convert_in, "hex mesh to read")->required();
   convert->add_option("output", convert_out, "hex mesh to write; the format follows the extension")->required();
 
+  bool devices_json = false;
+  auto* devices = app.add_subcommand("devices", "list the compute backends, platforms and devices found");
+  devices->add_flag("--json", devices_json, "print the list as JSON");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -384,6 +434,7 @@ int main(int argc, char** argv) {
     std::optional<tbb::global_control> limit;
     if (threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, threads);
     if (mesh->parsed()) return run_mesh(mo, quiet);
+    if (devices->parsed()) return run_devices(devices_json);
     if (convert->parsed()) {
       mesh_format(convert_out);
       write_hex_mesh(read_hex_mesh(convert_in), convert_out);

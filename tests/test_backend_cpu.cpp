@@ -1,0 +1,155 @@
+// The backend interface (host/backend.h) and its cpu reference: make_backend's names, the device
+// list, the CellCode word layout the kernels write, and the cpu backend against core/ called
+// directly (it must be exactly core's answers, since every other backend is tested against it).
+#include <gtest/gtest.h>
+
+#include <bit>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <random>
+
+#include "core/device_scene.h"
+#include "core/error.h"
+#include "core/grid.h"
+#include "core/mc33.h"
+#include "core/refinement_error.h"
+#include "core/sdf.h"
+#include "core/shapes.h"
+#include "host/backend.h"
+#include "host/backend_cpu.h"
+
+using namespace mchex;
+
+TEST(Backend, NamesAndErrors) {
+  EXPECT_EQ(make_backend("cpu")->device().backend, "cpu");
+  EXPECT_THROW(make_backend("cuda"), InputError);
+  EXPECT_THROW(make_backend(""), InputError);
+  EXPECT_THROW(make_backend("vulkan"), InputError);  // until the vulkan backend lands
+  // No GPU here: auto is the reference (a CPU driver is not faster than it on the same cores).
+  bool gpu = false;
+  for (const DeviceInfo& d : list_devices()) gpu = gpu || (d.type == "gpu" && d.fp64);
+  if (!gpu) {
+    EXPECT_EQ(make_backend("auto")->device().backend, "cpu");
+  }
+  // The program cache goes to $XDG_CACHE_HOME/mchex-gpu: keep it out of the user's home.
+  setenv("XDG_CACHE_HOME", (std::filesystem::temp_directory_path() / "mchex_test_backend_cache").c_str(), 1);
+  EXPECT_EQ(make_backend("opencl")->device().backend, "opencl");
+}
+
+TEST(Backend, DeviceListStartsWithTheReference) {
+  const auto list = list_devices();
+  ASSERT_FALSE(list.empty());
+  EXPECT_EQ(list[0].backend, "cpu");
+  EXPECT_TRUE(list[0].fp64);
+  for (const DeviceInfo& d : list) {
+    EXPECT_FALSE(d.name.empty());
+    EXPECT_TRUE(d.type == "cpu" || d.type == "gpu" || d.type == "other");
+    EXPECT_EQ(d.note.empty(), d.fp64 || d.backend == "cpu") << d.name;
+  }
+}
+
+// The word layout of core/device_scene.h, packed here by hand from its comment, decodes to the
+// same CellCode, for every subcase, sign mask, face mask, tunnel, inversion, symmetry and cut-edge
+// bit.
+TEST(Backend, CellCodeWordsRoundTrip) {
+  std::mt19937 rng(1);
+  for (int s = 0; s < kNumSubcases; ++s)
+    for (int mask = 0; mask < 256; ++mask)
+      for (int tunnel = -1; tunnel <= 1; ++tunnel) {
+        CellCode c;
+        c.subcase = Subcase(s);
+        c.sign_mask = uint8_t(mask);
+        c.face_joins = uint8_t(rng() % 64);
+        c.tunnel = int8_t(tunnel);
+        c.inverted = uint8_t(rng() % 2);
+        c.symmetry = uint8_t(rng() % 49 == 48 ? 255 : rng() % 48);
+        c.cut_edges = uint16_t(rng() % 4096);
+        const uint32_t w0 = uint32_t(s) | uint32_t(mask) << 8 | uint32_t(c.face_joins) << 16 |
+                            uint32_t(tunnel + 1) << 24 | uint32_t(c.inverted) << 26;
+        const uint32_t w1 = uint32_t(c.symmetry) | uint32_t(c.cut_edges) << 16;
+        ASSERT_EQ(decode_cell_words(w0, w1), c);
+      }
+}
+
+TEST(Backend, PackedConfigsAreCoreTable) {
+  const auto words = packed_mc33_configs();
+  ASSERT_EQ(words.size(), std::size_t(kConfigWords));
+  for (int mask = 0; mask < 256; ++mask)
+    for (int faces = 0; faces < 64; ++faces) {
+      const Mc33Config& c = mc33_config(uint8_t(mask), uint8_t(faces));
+      const uint32_t w = words[mask * 64 + faces];
+      ASSERT_EQ(w & 0xFF, uint32_t(c.subcase));
+      ASSERT_EQ(w >> 8 & 0xFF, c.map[0]);
+      ASSERT_EQ(w >> 16 & 0xFF, c.map[1]);
+      ASSERT_EQ(w >> 24, c.preferred);
+    }
+}
+
+TEST(BackendCpu, SignedDistanceIsCoreSdf) {
+  auto cpu = make_cpu_backend();
+  const TriangleSurface torus = tessellate(ShapeKind::kTorus, 32);
+  const UniformGrid grid(padded_cube(torus.bounds(), 0.1), 3);
+  const std::vector<Vec3> pts = grid.vertices();
+  std::vector<double> ref(pts.size()), got(pts.size()), again(pts.size());
+  SurfaceSdf(torus).evaluate(pts, ref);
+  SdfSource src;
+  src.surface = &torus;
+  cpu->signed_distance(src, pts, got);
+  cpu->signed_distance(src, pts, again);  // the cached BVH
+  EXPECT_EQ(std::memcmp(ref.data(), got.data(), 8 * ref.size()), 0);
+  EXPECT_EQ(std::memcmp(ref.data(), again.data(), 8 * ref.size()), 0);
+  // A caller's own reference is used as is.
+  const ShapeSdf sphere(ShapeKind::kSphere);
+  src.reference = &sphere;
+  cpu->signed_distance(src, pts, got);
+  sphere.evaluate(pts, ref);
+  EXPECT_EQ(std::memcmp(ref.data(), got.data(), 8 * ref.size()), 0);
+  SdfSource shape;
+  shape.shape = ShapeKind::kRoundedBox;
+  cpu->signed_distance(shape, pts, got);
+  ShapeSdf(ShapeKind::kRoundedBox).evaluate(pts, ref);
+  EXPECT_EQ(std::memcmp(ref.data(), got.data(), 8 * ref.size()), 0);
+  std::vector<double> wrong(3);
+  EXPECT_THROW(cpu->signed_distance(shape, pts, wrong), std::invalid_argument);
+}
+
+TEST(BackendCpu, ClassifyCellsIsCoreClassify) {
+  auto cpu = make_cpu_backend();
+  const UniformGrid grid(padded_cube(ShapeSdf(ShapeKind::kTorus).bounds(), 0.1), 3);
+  const HexComplex complex = uniform_complex(grid);
+  std::vector<double> values(complex.points.size());
+  ShapeSdf(ShapeKind::kTorus).evaluate(complex.points, values);
+  std::vector<CellCode> codes(complex.cells.size());
+  std::vector<std::uint64_t> offsets(complex.cells.size() + 1);
+  cpu->classify_cells(complex, values, codes, offsets);
+  std::uint64_t run = 0;
+  std::size_t cut = 0;
+  for (std::size_t i = 0; i < complex.cells.size(); ++i) {
+    std::array<double, 8> f;
+    for (int c = 0; c < 8; ++c) f[c] = values[complex.cells[i][c]];
+    const CellClass k = classify(f);
+    ASSERT_EQ(codes[i], encode_cell(k));
+    ASSERT_EQ(offsets[i], run);
+    run += 8 + 2 * std::popcount(unsigned(k.cut_edges));
+    cut += k.cut_edges != 0;
+  }
+  EXPECT_EQ(offsets.back(), run);
+  EXPECT_GT(cut, 100u);
+}
+
+TEST(BackendCpu, RefinementErrorIsCore) {
+  auto cpu = make_cpu_backend();
+  std::mt19937_64 rng(2);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::vector<std::array<double, kChildLatticePoints>> lattice(500);
+  std::vector<double> sizes(500), errors(500);
+  for (auto& f : lattice)
+    for (double& x : f) x = u(rng);
+  for (double& s : sizes) s = 0.1 + std::abs(u(rng));
+  cpu->refinement_error(lattice, sizes, errors);
+  for (std::size_t i = 0; i < lattice.size(); ++i) {
+    const double e = refinement_error(lattice[i], sizes[i]);
+    ASSERT_EQ(std::memcmp(&e, &errors[i], 8), 0);
+  }
+}
