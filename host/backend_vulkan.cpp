@@ -79,6 +79,14 @@ CellCode decode_cell(std::uint32_t w0, std::uint32_t w1) {
   return c;
 }
 
+// Adds the seconds f takes to `total`.
+template <class F>
+void timed(double& total, F&& f) {
+  const auto start = std::chrono::steady_clock::now();
+  f();
+  total += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
 template <class T>
 T* mapped(const vk::Buffer& b) {
   return static_cast<T*>(b.data());
@@ -93,6 +101,7 @@ struct VulkanBackend::Impl {
   std::size_t max_chunk = 0;
   double pipeline_seconds = 0;
   std::size_t dispatches = 0;
+  VulkanBackend::Profile profile;
 
   vk::Pipeline refinement, classify, scan_blocks, scan_totals, scan_add, surface_sdf, shape_sdf;
   vk::Buffer tables;
@@ -162,8 +171,10 @@ struct VulkanBackend::Impl {
   void run(const vk::Pipeline& p, std::initializer_list<vk::BufferRange> buffers, const void* push,
            std::size_t invocations, std::uint32_t group) {
     const std::size_t groups = (invocations + group - 1) / group;
+    const auto start = std::chrono::steady_clock::now();
     device->dispatch(p, std::span<const vk::BufferRange>(buffers.begin(), buffers.size()), push,
                      static_cast<std::uint32_t>(groups));
+    profile.device += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     ++dispatches;
   }
 };
@@ -181,6 +192,7 @@ std::array<std::uint8_t, 16> VulkanBackend::pipeline_cache_uuid() const {
   return out;
 }
 std::size_t VulkanBackend::dispatches() const { return impl_->dispatches; }
+VulkanBackend::Profile VulkanBackend::profile() const { return impl_->profile; }
 
 void VulkanBackend::signed_distance(const SdfSource& source, std::span<const Vec3> points,
                                     std::span<double> values) {
@@ -203,11 +215,13 @@ void VulkanBackend::refinement_error(std::span<const std::array<double, kChildLa
   vk::Buffer out = m.device->make_buffer(chunk * sizeof(double));
   for (std::size_t begin = 0; begin < n; begin += chunk) {
     const std::size_t count = std::min(chunk, n - begin);
-    std::memcpy(in.data(), lattice.data() + begin, count * sizeof(lattice[0]));
-    std::memcpy(size.data(), sizes.data() + begin, count * sizeof(double));
+    timed(m.profile.upload, [&] {
+      std::memcpy(in.data(), lattice.data() + begin, count * sizeof(lattice[0]));
+      std::memcpy(size.data(), sizes.data() + begin, count * sizeof(double));
+    });
     const std::uint32_t push = static_cast<std::uint32_t>(count);
     m.run(m.refinement, {{&in}, {&size}, {&out}}, &push, count, kGroup);
-    std::memcpy(errors.data() + begin, out.data(), count * sizeof(double));
+    timed(m.profile.download, [&] { std::memcpy(errors.data() + begin, out.data(), count * sizeof(double)); });
   }
 }
 
@@ -234,7 +248,8 @@ void VulkanBackend::classify_cells(const HexComplex& complex, std::span<const do
   const std::size_t chunk =
       std::min(cells, m.chunk_for(gathered ? 8 * sizeof(double) : sizeof(CellCorners), kGroup));
   vk::Buffer value_buf = m.device->make_buffer((gathered ? 8 * chunk : values.size()) * sizeof(double));
-  if (!gathered) std::memcpy(value_buf.data(), values.data(), values.size() * sizeof(double));
+  if (!gathered)
+    timed(m.profile.upload, [&] { std::memcpy(value_buf.data(), values.data(), values.size() * sizeof(double)); });
   vk::Buffer cell_buf = m.device->make_buffer(chunk * sizeof(CellCorners));
   vk::Buffer code_buf = m.device->make_buffer(chunk * 2 * sizeof(std::uint32_t));
   vk::Buffer count_buf = m.device->make_buffer(chunk * sizeof(std::uint32_t));
@@ -245,13 +260,15 @@ void VulkanBackend::classify_cells(const HexComplex& complex, std::span<const do
   std::uint64_t carry = 0;
   for (std::size_t begin = 0; begin < cells; begin += chunk) {
     const std::size_t count = std::min(chunk, cells - begin);
-    if (gathered) {
-      double* v = mapped<double>(value_buf);
-      for (std::size_t i = 0; i < count; ++i)
-        for (int c = 0; c < 8; ++c) v[8 * i + c] = values[complex.cells[begin + i][c]];
-    } else {
-      std::memcpy(cell_buf.data(), complex.cells.data() + begin, count * sizeof(CellCorners));
-    }
+    timed(m.profile.upload, [&] {
+      if (gathered) {
+        double* v = mapped<double>(value_buf);
+        for (std::size_t i = 0; i < count; ++i)
+          for (int c = 0; c < 8; ++c) v[8 * i + c] = values[complex.cells[begin + i][c]];
+      } else {
+        std::memcpy(cell_buf.data(), complex.cells.data() + begin, count * sizeof(CellCorners));
+      }
+    });
     const std::uint32_t push[2] = {static_cast<std::uint32_t>(count), gathered ? 1u : 0u};
     m.run(m.classify, {{&value_buf}, {&cell_buf}, {&m.tables}, {&code_buf}, {&count_buf}}, push, count, kGroup);
 
@@ -266,9 +283,11 @@ void VulkanBackend::classify_cells(const HexComplex& complex, std::span<const do
     m.run(m.scan_totals, {{&total_buf}}, &totals_push, kScanGroup, kScanGroup);
     m.run(m.scan_add, {{&offset_buf}, {&total_buf}}, &n32, count, kScanGroup);
 
-    const std::uint32_t* w = mapped<std::uint32_t>(code_buf);
-    for (std::size_t i = 0; i < count; ++i) codes[begin + i] = decode_cell(w[2 * i], w[2 * i + 1]);
-    std::memcpy(offsets.data() + begin, offset_buf.data(), count * sizeof(std::uint64_t));
+    timed(m.profile.download, [&] {
+      const std::uint32_t* w = mapped<std::uint32_t>(code_buf);
+      for (std::size_t i = 0; i < count; ++i) codes[begin + i] = decode_cell(w[2 * i], w[2 * i + 1]);
+      std::memcpy(offsets.data() + begin, offset_buf.data(), count * sizeof(std::uint64_t));
+    });
     carry = offsets[begin + count - 1] + mapped<std::uint32_t>(count_buf)[count - 1];
   }
   offsets[cells] = carry;

@@ -59,6 +59,13 @@ class VulkanBackend : public Backend {
   std::array<std::uint8_t, 16> pipeline_cache_uuid() const;
   // Dispatches issued so far (each within the device's limits): tests check the chunking.
   std::size_t dispatches() const;
+  // Where the time went since creation (seconds): host copies into mapped buffers (and gathers),
+  // dispatches (submit to fence: the device's work, JIT compilation on first use included), and
+  // copies back out (and decoding).
+  struct Profile {
+    double upload = 0, device = 0, download = 0;
+  };
+  Profile profile() const;
 
   struct Impl;
 
