@@ -12,6 +12,7 @@
 #endif
 
 #include "core/bvh.h"
+#include "core/device_scene.h"
 #include "core/parallel.h"
 
 namespace mchex {
@@ -65,62 +66,9 @@ ClosestPoint closest_point_on_triangle(Vec3 p, Vec3 a, Vec3 b, Vec3 c) {
 
 namespace {
 
-// Angle-weighted pseudonormals: one per face, per edge and per vertex. For a closed, consistently
-// oriented manifold, the sign of dot(p - q, N) with q the closest point and N the pseudonormal of
-// the feature q lies on is the side of p (Baerentzen & Aanaes, IEEE TVCG 2005, Theorem 1).
-struct Pseudonormals {
-  std::vector<Vec3> face, vertex, edge;
-  std::vector<std::array<uint32_t, 3>> triangle_edges;  // edge ids of (ab, bc, ca)
-
-  explicit Pseudonormals(const TriangleSurface& s) {
-    const std::size_t nt = s.triangles.size();
-    face.resize(nt);
-    vertex.assign(s.vertices.size(), Vec3{});
-    for (std::size_t t = 0; t < nt; ++t) {
-      const auto& tri = s.triangles[t];
-      const Vec3 p[3] = {s.vertices[tri[0]], s.vertices[tri[1]], s.vertices[tri[2]]};
-      face[t] = normalized(cross(p[1] - p[0], p[2] - p[0]));
-      for (int k = 0; k < 3; ++k) {
-        const Vec3 u = p[(k + 1) % 3] - p[k], v = p[(k + 2) % 3] - p[k];
-        const double angle = std::atan2(norm(cross(u, v)), dot(u, v));
-        vertex[tri[k]] += angle * face[t];
-      }
-    }
-    // Edges by sorting the 3T directed half-edges on their unordered vertex pair.
-    std::vector<std::pair<uint64_t, uint32_t>> half(3 * nt);
-    for (std::size_t t = 0; t < nt; ++t)
-      for (int k = 0; k < 3; ++k) {
-        uint64_t u = s.triangles[t][k], v = s.triangles[t][(k + 1) % 3];
-        if (u > v) std::swap(u, v);
-        half[3 * t + k] = {(u << 32) | v, uint32_t(3 * t + k)};
-      }
-    std::sort(half.begin(), half.end());
-    triangle_edges.resize(nt);
-    for (std::size_t i = 0; i < half.size();) {
-      std::size_t j = i;
-      Vec3 sum{};
-      while (j < half.size() && half[j].first == half[i].first) sum += face[half[j++].second / 3];
-      for (std::size_t k = i; k < j; ++k)
-        triangle_edges[half[k].second / 3][half[k].second % 3] = uint32_t(edge.size());
-      edge.push_back(sum);
-      i = j;
-    }
-  }
-
-  Vec3 of(uint32_t t, int region, const TriangleSurface& s) const {
-    if (region < 3) return vertex[s.triangles[t][region]];
-    if (region < 6) return edge[triangle_edges[t][region - 3]];
-    return face[t];
-  }
-};
-
-// The sign rule in one place (both the BVH path and brute force use it). A point exactly on the
-// surface gets 0; a point whose offset is orthogonal to the pseudonormal (possible only on
-// non-manifold or inconsistent input) is called outside.
+// The sign rule (core/device_scene.h) applied to a closest-point answer.
 double signed_value(Vec3 p, const ClosestPoint& cp, Vec3 pseudonormal) {
-  const double d = std::sqrt(cp.squared_distance);
-  if (d == 0) return 0;
-  return dot(p - cp.point, pseudonormal) > 0 ? -d : d;
+  return pseudonormal_signed_value(p, cp.point, cp.squared_distance, pseudonormal);
 }
 
 // The search tree of the reference SDF: the topology of the Embree-built TriangleBvh, with each

@@ -9,20 +9,17 @@
 namespace mchex {
 namespace {
 
-// Dimensions, chosen so that every shape fits in [-1.5, 1.5]^3 and its thinnest part spans a
-// few cells of a depth-3 grid over its padded box.
-constexpr double kSphereRadius = 1.0;
-constexpr double kTorusMajor = 1.0, kTorusMinor = 0.4;
-constexpr Vec3 kBoxHalf{1.0, 0.75, 0.5};
-constexpr double kBoxRounding = 0.2;
-// Two-holed solid: a tube of radius kEightTube around a figure eight made of two circles of
-// radius kEightRing in the plane z = 0, touching at the origin. Its core curve is a wedge of two
-// circles (first Betti number 2), so its boundary has genus 2.
-constexpr double kEightRing = 0.6, kEightTube = 0.25;
+using namespace shape_dimensions;
+
+// sqrt(a^2 + b^2) with exactly these roundings, not std::hypot: the OpenCL and Vulkan kernels
+// (kernels/sdf.h) reproduce the shapes bit for bit, and hypot's last bit is libm's choice (C and
+// OpenCL allow it several ulps), while *, + and sqrt are correctly rounded everywhere. Shape
+// coordinates are O(1), so hypot's guard against overflow is not needed.
+double planar_norm(double a, double b) { return std::sqrt(a * a + b * b); }
 
 double circle_distance(Vec3 p, double cx, double radius) {
-  const double r = std::hypot(p.x - cx, p.y) - radius;
-  return std::hypot(r, p.z);
+  const double r = planar_norm(p.x - cx, p.y) - radius;
+  return planar_norm(r, p.z);
 }
 
 }  // namespace
@@ -63,7 +60,7 @@ double ShapeSdf::operator()(Vec3 p) const {
     case ShapeKind::kSphere:
       return kSphereRadius - norm(p);
     case ShapeKind::kTorus:
-      return kTorusMinor - std::hypot(std::hypot(p.x, p.y) - kTorusMajor, p.z);
+      return kTorusMinor - planar_norm(planar_norm(p.x, p.y) - kTorusMajor, p.z);
     case ShapeKind::kRoundedBox: {
       // Distance to the inner box shrunk by the rounding radius, minus that radius: exact for a
       // box whose edges and corners are rounded with it.

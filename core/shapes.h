@@ -12,6 +12,20 @@
 
 namespace mchex {
 
+// Dimensions, chosen so that every shape fits in [-1.5, 1.5]^3 and its thinnest part spans a
+// few cells of a depth-3 grid over its padded box. Public so that the device kernels' generated
+// tables (host/gen_device_tables.cpp) take them from here.
+namespace shape_dimensions {
+inline constexpr double kSphereRadius = 1.0;
+inline constexpr double kTorusMajor = 1.0, kTorusMinor = 0.4;
+inline constexpr Vec3 kBoxHalf{1.0, 0.75, 0.5};
+inline constexpr double kBoxRounding = 0.2;
+// Two-holed solid: a tube of radius kEightTube around a figure eight made of two circles of
+// radius kEightRing in the plane z = 0, touching at the origin. Its core curve is a wedge of two
+// circles (first Betti number 2), so its boundary has genus 2.
+inline constexpr double kEightRing = 0.6, kEightTube = 0.25;
+}  // namespace shape_dimensions
+
 enum class ShapeKind { kSphere, kTorus, kRoundedBox, kTwoHoled };
 
 struct ShapeInfo {

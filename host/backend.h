@@ -24,9 +24,14 @@ namespace mchex {
 
 // What the SDF is of: a triangle surface (closed or not, the sign rule of core/sdf.h) or a
 // built-in analytic shape. Backends build their device-side structures once per source.
+// A backend keeps the device structures of the last surface it saw (keyed by the surface's
+// address and array addresses and sizes), so the same surface must not change between calls.
 struct SdfSource {
   const TriangleSurface* surface = nullptr;  // set for a surface ...
   ShapeKind shape = ShapeKind::kSphere;      // ... otherwise this shape
+  // Optional: the caller's own reference SDF of the same source (core/sdf.h SurfaceSdf or
+  // ShapeSdf); the cpu backend evaluates it instead of building a second BVH.
+  const SignedDistance* reference = nullptr;
 };
 
 // The per-cell result of MC classification, compact enough to come back from a device: the
@@ -42,6 +47,8 @@ struct CellCode {
   friend bool operator==(const CellCode&, const CellCode&) = default;
 };
 CellCode encode_cell(const CellClass& c);
+// The two 32-bit words a kernel writes per cell (layout in core/device_scene.h) as a CellCode.
+CellCode decode_cell_words(std::uint32_t w0, std::uint32_t w1);
 
 struct DeviceInfo {
   std::string backend;   // "cpu" | "opencl" | "vulkan"
@@ -52,6 +59,8 @@ struct DeviceInfo {
   std::uint64_t max_buffer_bytes = 0;  // largest single allocation / storage buffer range
   std::uint64_t global_memory_bytes = 0;
   std::uint32_t compute_units = 0;
+  std::string version;   // API version and driver version, as the driver states them
+  std::string note;      // why the backend cannot use this device, if it cannot (e.g. no fp64)
 };
 
 class Backend {
@@ -75,8 +84,8 @@ class Backend {
                               std::span<CellCode> codes, std::span<std::uint64_t> offsets) = 0;
 };
 
-// "cpu", "opencl", "vulkan" or "auto" (the first GPU device found by OpenCL or Vulkan, else
-// cpu). Throws InputError (exit 1, one line) for an unknown name or a backend asked for by name
+// "cpu", "opencl", "vulkan" or "auto" (the first GPU device with fp64 found by OpenCL or Vulkan,
+// else cpu). Throws InputError (exit 1, one line) for an unknown name or a backend asked for by name
 // that has no device here.
 std::unique_ptr<Backend> make_backend(const std::string& name);
 

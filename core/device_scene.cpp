@@ -1,0 +1,100 @@
+#include "core/device_scene.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "core/mc33.h"
+
+namespace mchex {
+
+Pseudonormals::Pseudonormals(const TriangleSurface& s) {
+  const std::size_t nt = s.triangles.size();
+  face.resize(nt);
+  vertex.assign(s.vertices.size(), Vec3{});
+  for (std::size_t t = 0; t < nt; ++t) {
+    const auto& tri = s.triangles[t];
+    const Vec3 p[3] = {s.vertices[tri[0]], s.vertices[tri[1]], s.vertices[tri[2]]};
+    face[t] = normalized(cross(p[1] - p[0], p[2] - p[0]));
+    for (int k = 0; k < 3; ++k) {
+      const Vec3 u = p[(k + 1) % 3] - p[k], v = p[(k + 2) % 3] - p[k];
+      const double angle = std::atan2(norm(cross(u, v)), dot(u, v));
+      vertex[tri[k]] += angle * face[t];
+    }
+  }
+  // Edges by sorting the 3T directed half-edges on their unordered vertex pair.
+  std::vector<std::pair<uint64_t, uint32_t>> half(3 * nt);
+  for (std::size_t t = 0; t < nt; ++t)
+    for (int k = 0; k < 3; ++k) {
+      uint64_t u = s.triangles[t][k], v = s.triangles[t][(k + 1) % 3];
+      if (u > v) std::swap(u, v);
+      half[3 * t + k] = {(u << 32) | v, uint32_t(3 * t + k)};
+    }
+  std::sort(half.begin(), half.end());
+  triangle_edges.resize(nt);
+  for (std::size_t i = 0; i < half.size();) {
+    std::size_t j = i;
+    Vec3 sum{};
+    while (j < half.size() && half[j].first == half[i].first) sum += face[half[j++].second / 3];
+    for (std::size_t k = i; k < j; ++k) triangle_edges[half[k].second / 3][half[k].second % 3] = uint32_t(edge.size());
+    edge.push_back(sum);
+    i = j;
+  }
+}
+
+double pseudonormal_signed_value(Vec3 p, Vec3 closest, double squared_distance, Vec3 pseudonormal) {
+  const double d = std::sqrt(squared_distance);
+  if (d == 0) return 0;
+  return dot(p - closest, pseudonormal) > 0 ? -d : d;
+}
+
+DeviceScene DeviceScene::build(const TriangleSurface& s) {
+  DeviceScene out;
+  const TriangleBvh bvh = TriangleBvh::build(s);
+  const Pseudonormals normals(s);
+  out.nodes = bvh.nodes;
+  out.slot_triangle = bvh.leaf_triangles;
+  const std::size_t n = out.slot_triangle.size();
+  out.slot_corners.resize(9 * n);
+  out.slot_features.resize(6 * n);
+  out.face_normals.resize(3 * n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const uint32_t t = out.slot_triangle[k];
+    for (int c = 0; c < 3; ++c) {
+      const Vec3 v = s.vertices[s.triangles[t][c]];
+      for (int i = 0; i < 3; ++i) out.slot_corners[9 * k + 3 * c + i] = v[i];
+      out.slot_features[6 * k + c] = s.triangles[t][c];
+      out.slot_features[6 * k + 3 + c] = normals.triangle_edges[t][c];
+      out.face_normals[3 * k + c] = normals.face[t][c];
+    }
+  }
+  out.edge_normals.resize(3 * normals.edge.size());
+  for (std::size_t e = 0; e < normals.edge.size(); ++e)
+    for (int i = 0; i < 3; ++i) out.edge_normals[3 * e + i] = normals.edge[e][i];
+  out.vertex_normals.resize(3 * normals.vertex.size());
+  for (std::size_t v = 0; v < normals.vertex.size(); ++v)
+    for (int i = 0; i < 3; ++i) out.vertex_normals[3 * v + i] = normals.vertex[v][i];
+  const Box box = s.bounds();
+  if (!s.triangles.empty())
+    out.scale = std::max({std::abs(box.lo.x), std::abs(box.lo.y), std::abs(box.lo.z), std::abs(box.hi.x),
+                          std::abs(box.hi.y), std::abs(box.hi.z)});
+  return out;
+}
+
+std::size_t DeviceScene::bytes() const {
+  return nodes.size() * sizeof(BvhNode) + slot_triangle.size() * 4 + slot_features.size() * 4 +
+         8 * (slot_corners.size() + face_normals.size() + edge_normals.size() + vertex_normals.size());
+}
+
+std::vector<uint32_t> packed_mc33_configs() {
+  std::vector<uint32_t> words(kConfigWords);
+  for (int mask = 0; mask < 256; ++mask)
+    for (int faces = 0; faces < 64; ++faces) {
+      const Mc33Config& c = mc33_config(uint8_t(mask), uint8_t(faces));
+      words[mask * 64 + faces] = uint32_t(c.subcase) | uint32_t(c.map[0]) << kConfigMap0Shift |
+                                 uint32_t(c.map[1]) << kConfigMap1Shift | uint32_t(c.preferred) << kConfigPreferredShift;
+    }
+  return words;
+}
+
+}  // namespace mchex

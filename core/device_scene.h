@@ -1,0 +1,82 @@
+// The triangle surface flattened for device kernels (kernels/*.cl, shaders/*.comp): every array
+// is a flat buffer of 4- or 8-byte scalars, so one upload serves OpenCL (packed C structs) and
+// Vulkan (std430 storage buffers: a float/uint array has stride 4, a double array stride 8, and
+// BvhNode's two float[3] + uint pairs are 32 bytes in both).
+//
+// What a device needs to reproduce core/sdf.h's SurfaceSdf bit for bit:
+//   - the BVH of core/bvh.h (depth-first nodes, float bounds rounded outward from the double
+//     triangles, so pruning against them is conservative);
+//   - each leaf slot's triangle: its id (ties between equal squared distances go to the lowest
+//     id, as in SurfaceSdf::Impl::closest) and its corners in the triangle's own order, in double,
+//     because closest_point_on_triangle's rounding depends on which corner is `a`;
+//   - the angle-weighted pseudonormals (Baerentzen & Aanaes 2005) of every face, edge and vertex,
+//     and each slot's vertex and edge ids to find them: the sign of the closest feature.
+// Pseudonormals is the single implementation of those normals: SurfaceSdf and brute_force_sdf
+// (core/sdf.cpp) use it too.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "core/bvh.h"
+#include "core/geometry.h"
+#include "core/surface.h"
+
+namespace mchex {
+
+// Angle-weighted pseudonormals: one per face, per edge and per vertex. For a closed, consistently
+// oriented manifold, the sign of dot(p - q, N) with q the closest point and N the pseudonormal of
+// the feature q lies on is the side of p (Baerentzen & Aanaes, IEEE TVCG 2005, Theorem 1).
+// Edges are the unordered vertex pairs of the triangles, numbered in sorted (min, max) order.
+struct Pseudonormals {
+  std::vector<Vec3> face, vertex, edge;
+  std::vector<std::array<uint32_t, 3>> triangle_edges;  // edge ids of (ab, bc, ca)
+
+  explicit Pseudonormals(const TriangleSurface& s);
+
+  // The pseudonormal of closest_point_on_triangle's region (0..2 vertex, 3..5 edge, 6 face) of
+  // triangle t.
+  Vec3 of(uint32_t t, int region, const TriangleSurface& s) const {
+    if (region < 3) return vertex[s.triangles[t][region]];
+    if (region < 6) return edge[triangle_edges[t][region - 3]];
+    return face[t];
+  }
+};
+
+// Sign of a closest-point answer, in one place for every CPU path (the kernels implement the same
+// rule in kernels/sdf.h): a point exactly on the surface gets 0; a point whose offset is
+// orthogonal to the pseudonormal (possible only on non-manifold or inconsistent input) is called
+// outside.
+double pseudonormal_signed_value(Vec3 p, Vec3 closest, double squared_distance, Vec3 pseudonormal);
+
+struct DeviceScene {
+  std::vector<BvhNode> nodes;                 // core/bvh.h layout
+  std::vector<uint32_t> slot_triangle;        // leaf slot -> triangle id
+  std::vector<double> slot_corners;           // 9 per slot: a.xyz b.xyz c.xyz
+  std::vector<uint32_t> slot_features;        // 6 per slot: vertex ids of a, b, c; edge ids of ab, bc, ca
+  std::vector<double> face_normals;           // 3 per slot (the slot's triangle's face pseudonormal)
+  std::vector<double> edge_normals;           // 3 per edge
+  std::vector<double> vertex_normals;         // 3 per vertex
+  double scale = 0;                           // largest coordinate magnitude of the surface
+
+  static DeviceScene build(const TriangleSurface& surface);
+  std::size_t slots() const { return slot_triangle.size(); }
+  std::size_t bytes() const;
+};
+
+// ---- Packed layouts shared with device code (emitted into the generated kernel headers) ------
+
+// MC33 lookup of core/mc33.h mc33_config(mask, face_joins) as one 32-bit word per index
+// mask * 64 + face_joins: subcase | map[0] << 8 | map[1] << 16 | preferred << 24.
+inline constexpr int kConfigWords = 256 * 64;
+inline constexpr int kConfigMap0Shift = 8, kConfigMap1Shift = 16, kConfigPreferredShift = 24;
+std::vector<uint32_t> packed_mc33_configs();
+
+// A CellCode (host/backend.h) as two 32-bit words, the form a kernel writes:
+//   word 0: subcase | sign_mask << 8 | face_joins << 16 | (tunnel + 1) << 24 | inverted << 26
+//   word 1: symmetry | cut_edges << 16
+inline constexpr int kCodeSignShift = 8, kCodeFaceShift = 16, kCodeTunnelShift = 24, kCodeInvertedShift = 26;
+inline constexpr int kCodeCutShift = 16;
+
+}  // namespace mchex

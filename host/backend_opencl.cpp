@@ -1,0 +1,498 @@
+#include "host/backend_opencl.h"
+
+#define CL_HPP_ENABLE_EXCEPTIONS
+#include <CL/opencl.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+#include <unistd.h>
+
+#include <fmt/format.h>
+
+#include "core/device_scene.h"
+#include "core/error.h"
+#include "core/parallel.h"
+
+namespace mchex::embedded {
+extern const char* const kOpenclSources[];
+extern const std::size_t kOpenclSources_count;
+}  // namespace mchex::embedded
+
+namespace mchex {
+namespace {
+
+namespace fs = std::filesystem;
+
+// One line for any OpenCL failure: the call and its error code.
+[[noreturn]] void fail(const cl::Error& e, const std::string& what) {
+  throw std::runtime_error(fmt::format("OpenCL: {} failed in {} (error {})", what, e.what(), e.err()));
+}
+
+std::string trim(std::string s) {
+  while (!s.empty() && (s.back() == '\0' || s.back() == ' ' || s.back() == '\n')) s.pop_back();
+  return s;
+}
+
+bool has_fp64(const cl::Device& d) {
+  return d.getInfo<CL_DEVICE_EXTENSIONS>().find("cl_khr_fp64") != std::string::npos &&
+         d.getInfo<CL_DEVICE_DOUBLE_FP_CONFIG>() != 0;
+}
+
+DeviceInfo describe(const cl::Platform& p, const cl::Device& d) {
+  DeviceInfo info;
+  info.backend = "opencl";
+  info.platform = trim(p.getInfo<CL_PLATFORM_NAME>());
+  info.name = trim(d.getInfo<CL_DEVICE_NAME>());
+  const cl_device_type t = d.getInfo<CL_DEVICE_TYPE>();
+  info.type = (t & CL_DEVICE_TYPE_GPU) ? "gpu" : (t & CL_DEVICE_TYPE_CPU) ? "cpu" : "other";
+  info.fp64 = has_fp64(d);
+  info.max_buffer_bytes = d.getInfo<CL_DEVICE_MAX_MEM_ALLOC_SIZE>();
+  info.global_memory_bytes = d.getInfo<CL_DEVICE_GLOBAL_MEM_SIZE>();
+  info.compute_units = d.getInfo<CL_DEVICE_MAX_COMPUTE_UNITS>();
+  info.version = trim(d.getInfo<CL_DEVICE_VERSION>()) + ", driver " + trim(d.getInfo<CL_DRIVER_VERSION>());
+  if (!info.fp64) info.note = "no fp64 (cl_khr_fp64): the opencl backend needs it and does not use this device";
+  return info;
+}
+
+std::vector<cl::Platform> platforms() {
+  std::vector<cl::Platform> out;
+  // The ICD loader reports "no platform" as an error (CL_PLATFORM_NOT_FOUND_KHR): that is an
+  // empty list here, not a failure.
+  cl_uint n = 0;
+  if (clGetPlatformIDs(0, nullptr, &n) != CL_SUCCESS || n == 0) return out;
+  try {
+    cl::Platform::get(&out);
+  } catch (const cl::Error& e) {
+    fail(e, "listing platforms");
+  }
+  return out;
+}
+
+std::vector<cl::Device> devices_of(const cl::Platform& p) {
+  std::vector<cl::Device> out;
+  cl_uint n = 0;
+  if (clGetDeviceIDs(p(), CL_DEVICE_TYPE_ALL, 0, nullptr, &n) != CL_SUCCESS || n == 0) return out;
+  p.getDevices(CL_DEVICE_TYPE_ALL, &out);
+  return out;
+}
+
+// FNV-1a, 64 bits: the cache key only has to change when any of its inputs does.
+std::uint64_t fnv1a(const std::string& s, std::uint64_t h = 1469598103934665603ull) {
+  for (unsigned char c : s) h = (h ^ c) * 1099511628211ull;
+  return h;
+}
+
+fs::path default_cache_dir() {
+  if (const char* x = std::getenv("XDG_CACHE_HOME"); x && *x) return fs::path(x) / "mchex-gpu";
+  if (const char* h = std::getenv("HOME"); h && *h) return fs::path(h) / ".cache" / "mchex-gpu";
+  return {};
+}
+
+std::string read_file(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  if (!in) return {};
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+// Identity of a surface for the scene cache (see SdfSource).
+struct SurfaceKey {
+  const TriangleSurface* surface = nullptr;
+  const void* vertices = nullptr;
+  const void* triangles = nullptr;
+  std::size_t nv = 0, nt = 0;
+  friend bool operator==(const SurfaceKey&, const SurfaceKey&) = default;
+};
+
+SurfaceKey key_of(const TriangleSurface* s) {
+  return {s, s->vertices.data(), s->triangles.data(), s->vertices.size(), s->triangles.size()};
+}
+
+}  // namespace
+
+struct OpenclBackend::Impl {
+  OpenclOptions options;
+  DeviceInfo info;
+  cl::Platform platform;
+  cl::Device device;
+  cl::Context context;
+  cl::CommandQueue queue;
+  cl::Program program;
+  bool from_cache = false;
+  std::string cache_path;
+  OpenclProfile profile;
+  cl::Buffer configs;
+
+  // The device scene of the last surface.
+  SurfaceKey scene_key;
+  std::vector<cl::Buffer> scene;  // nodes, slot_triangle, slot_corners, slot_features, face, edge, vertex normals
+  double scene_scale = 0;
+
+  std::size_t max_alloc() const { return std::size_t(info.max_buffer_bytes); }
+
+  // Items per chunk when each item needs `bytes` bytes in its largest buffer.
+  std::size_t chunk(std::size_t bytes) const {
+    std::size_t n = std::max<std::size_t>(1, max_alloc() / bytes);
+    n = std::min<std::size_t>(n, std::size_t(1) << 30);  // 32-bit indices in the kernels
+    if (options.max_chunk) n = std::min(n, options.max_chunk);
+    return n;
+  }
+
+  void pick_device() {
+    bool any_platform = false;
+    std::vector<std::pair<cl::Platform, cl::Device>> usable;
+    std::string seen;
+    for (const cl::Platform& p : platforms()) {
+      const std::string name = trim(p.getInfo<CL_PLATFORM_NAME>());
+      if (!options.platform.empty() && name.find(options.platform) == std::string::npos) continue;
+      any_platform = true;
+      for (const cl::Device& d : devices_of(p)) {
+        seen += (seen.empty() ? "" : ", ") + trim(d.getInfo<CL_DEVICE_NAME>());
+        if (has_fp64(d)) usable.emplace_back(p, d);
+      }
+    }
+    if (!any_platform)
+      throw InputError(options.platform.empty() ? "opencl backend: no OpenCL platform found (is an ICD such as PoCL installed?)"
+                                                : "opencl backend: no OpenCL platform named '" + options.platform + "'");
+    if (usable.empty())
+      throw InputError("opencl backend: no OpenCL device with fp64 (cl_khr_fp64) among: " +
+                       (seen.empty() ? std::string("no devices") : seen));
+    auto it = usable.begin();
+    if (options.prefer_gpu)
+      for (auto u = usable.begin(); u != usable.end(); ++u)
+        if (u->second.getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_GPU) {
+          it = u;
+          break;
+        }
+    platform = it->first;
+    device = it->second;
+    info = describe(platform, device);
+  }
+
+  std::string source_text() const {
+    std::string s;
+    for (std::size_t i = 0; i < embedded::kOpenclSources_count; ++i) s += embedded::kOpenclSources[i], s += "\n";
+    return s;
+  }
+
+  std::string build_log() const {
+    std::string log = program.getBuildInfo<CL_PROGRAM_BUILD_LOG>(device);
+    for (char& c : log)
+      if (c == '\n') c = ' ';
+    return trim(log.substr(0, 600));
+  }
+
+  void build_program() {
+    // -cl-std=CL1.2; no fast-math flags: the kernels must round like the CPU reference.
+    const std::string build = "-cl-std=CL1.2 " + options.build_options;
+    const std::string source = source_text();
+    const fs::path dir = options.cache_dir.empty() ? default_cache_dir() : fs::path(options.cache_dir);
+    std::uint64_t key = fnv1a(source);
+    for (const std::string& part :
+         {build, info.platform, trim(platform.getInfo<CL_PLATFORM_VERSION>()), info.name, info.version})
+      key = fnv1a(part + '\x1f', key);
+    if (!dir.empty()) cache_path = (dir / fmt::format("opencl-{:016x}.bin", key)).string();
+
+    if (!cache_path.empty()) {
+      const std::string binary = read_file(cache_path);
+      if (!binary.empty()) {
+        try {
+          cl::Program::Binaries bins{std::vector<unsigned char>(binary.begin(), binary.end())};
+          program = cl::Program(context, {device}, bins);
+          program.build({device}, build.c_str());
+          from_cache = true;
+          return;
+        } catch (const cl::Error&) {
+          // A stale or corrupt cache file: rebuild from source below and overwrite it.
+        }
+      }
+    }
+    program = cl::Program(context, source);
+    try {
+      program.build({device}, build.c_str());
+    } catch (const cl::Error&) {
+      throw std::runtime_error("OpenCL: building the kernels failed on " + info.name + ": " + build_log());
+    }
+    if (cache_path.empty()) return;
+    // Saved through a temporary name and a rename, so a concurrent run never reads half a file.
+    std::error_code ec;
+    fs::create_directories(dir, ec);
+    if (ec) return;
+    const auto binaries = program.getInfo<CL_PROGRAM_BINARIES>();
+    if (binaries.empty() || binaries[0].empty()) return;
+    const fs::path tmp = cache_path + fmt::format(".{}.tmp", ::getpid());
+    {
+      std::ofstream out(tmp, std::ios::binary);
+      out.write(reinterpret_cast<const char*>(binaries[0].data()), std::streamsize(binaries[0].size()));
+      if (!out) {
+        fs::remove(tmp, ec);
+        return;
+      }
+    }
+    fs::rename(tmp, cache_path, ec);
+    if (ec) fs::remove(tmp, ec);
+  }
+
+  void record(const std::string& name, const cl::Event& e) {
+    e.wait();
+    const double s = double(e.getProfilingInfo<CL_PROFILING_COMMAND_END>() -
+                            e.getProfilingInfo<CL_PROFILING_COMMAND_START>()) * 1e-9;
+    auto& entry = profile.kernels[name];
+    entry.calls++;
+    entry.seconds += s;
+  }
+
+  template <class T>
+  void write(const cl::Buffer& b, const T* data, std::size_t count) {
+    if (count == 0) return;
+    cl::Event e;
+    queue.enqueueWriteBuffer(b, CL_TRUE, 0, count * sizeof(T), data, nullptr, &e);
+    record("write", e);
+  }
+  template <class T>
+  void read(const cl::Buffer& b, T* data, std::size_t count) {
+    if (count == 0) return;
+    cl::Event e;
+    queue.enqueueReadBuffer(b, CL_TRUE, 0, count * sizeof(T), data, nullptr, &e);
+    record("read", e);
+  }
+  void run(const char* name, cl::Kernel& k, std::size_t global) {
+    cl::Event e;
+    queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(global), cl::NullRange, nullptr, &e);
+    record(name, e);
+  }
+
+  template <class T>
+  cl::Buffer constant_buffer(const std::vector<T>& v) {
+    if (v.size() * sizeof(T) > max_alloc())
+      throw ResourceError(fmt::format("opencl backend: a {:.0f} MiB buffer exceeds {}'s largest allocation ({:.0f} MiB)",
+                                      v.size() * sizeof(T) / 1048576.0, info.name, max_alloc() / 1048576.0));
+    // An empty vector still needs a valid buffer object.
+    return cl::Buffer(context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, std::max<std::size_t>(1, v.size()) * sizeof(T),
+                      const_cast<T*>(v.empty() ? reinterpret_cast<const T*>(&scene_scale) : v.data()));
+  }
+
+  void upload_scene(const TriangleSurface& s) {
+    const SurfaceKey key = key_of(&s);
+    if (key == scene_key && !scene.empty()) return;
+    const DeviceScene d = DeviceScene::build(s);
+    scene.clear();
+    scene.push_back(constant_buffer(d.nodes));
+    scene.push_back(constant_buffer(d.slot_triangle));
+    scene.push_back(constant_buffer(d.slot_corners));
+    scene.push_back(constant_buffer(d.slot_features));
+    scene.push_back(constant_buffer(d.face_normals));
+    scene.push_back(constant_buffer(d.edge_normals));
+    scene.push_back(constant_buffer(d.vertex_normals));
+    scene_scale = d.scale;
+    scene_key = key;
+  }
+};
+
+OpenclBackend::OpenclBackend(const OpenclOptions& options) : impl_(std::make_unique<Impl>()) {
+  Impl& m = *impl_;
+  m.options = options;
+  try {
+    m.pick_device();
+    m.context = cl::Context(m.device);
+    m.queue = cl::CommandQueue(m.context, m.device, CL_QUEUE_PROFILING_ENABLE);
+    m.build_program();
+    m.configs = m.constant_buffer(packed_mc33_configs());
+  } catch (const cl::Error& e) {
+    fail(e, "setting up the device");
+  }
+}
+
+OpenclBackend::~OpenclBackend() = default;
+
+const DeviceInfo& OpenclBackend::device() const { return impl_->info; }
+bool OpenclBackend::program_from_cache() const { return impl_->from_cache; }
+const std::string& OpenclBackend::cache_file() const { return impl_->cache_path; }
+const OpenclProfile& OpenclBackend::profile() const { return impl_->profile; }
+void OpenclBackend::reset_profile() { impl_->profile = {}; }
+
+void OpenclBackend::signed_distance(const SdfSource& source, std::span<const Vec3> points, std::span<double> values) {
+  if (points.size() != values.size()) throw std::invalid_argument("signed_distance: batch size mismatch");
+  if (points.empty()) return;
+  Impl& m = *impl_;
+  if (source.surface && source.surface->triangles.empty()) {
+    // As core/sdf.cpp: no triangle, nothing is inside.
+    std::fill(values.begin(), values.end(), -INFINITY);
+    return;
+  }
+  try {
+    const bool surface = source.surface != nullptr;
+    if (surface) m.upload_scene(*source.surface);
+    const std::size_t n = m.chunk(3 * sizeof(double));
+    cl::Buffer in(m.context, CL_MEM_READ_ONLY, 3 * sizeof(double) * std::min(n, points.size()));
+    cl::Buffer out(m.context, CL_MEM_WRITE_ONLY, sizeof(double) * std::min(n, points.size()));
+    // CPU devices run many points per work item (each seeded by the previous one); GPUs want
+    // many small items.
+    const cl_uint per_item = m.info.type == "gpu" ? 1 : 16;
+    cl::Kernel k(m.program, surface ? "sdf_surface" : "sdf_shape");
+    for (std::size_t first = 0; first < points.size(); first += n) {
+      const std::size_t count = std::min(n, points.size() - first);
+      m.write(in, &points[first].x, 3 * count);
+      cl_uint arg = 0;
+      if (surface) {
+        for (const cl::Buffer& b : m.scene) k.setArg(arg++, b);
+        k.setArg(arg++, in);
+        k.setArg(arg++, out);
+        k.setArg(arg++, cl_uint(count));
+        k.setArg(arg++, per_item);
+        k.setArg(arg++, m.scene_scale);
+        m.run("sdf_surface", k, (count + per_item - 1) / per_item);
+      } else {
+        k.setArg(arg++, cl_int(source.shape));
+        k.setArg(arg++, in);
+        k.setArg(arg++, out);
+        k.setArg(arg++, cl_uint(count));
+        m.run("sdf_shape", k, count);
+      }
+      m.read(out, &values[first], count);
+    }
+  } catch (const cl::Error& e) {
+    fail(e, "signed distance");
+  }
+}
+
+void OpenclBackend::refinement_error(std::span<const std::array<double, kChildLatticePoints>> lattice,
+                                     std::span<const double> sizes, std::span<double> errors) {
+  if (lattice.size() != sizes.size() || lattice.size() != errors.size())
+    throw std::invalid_argument("refinement_error: batch size mismatch");
+  if (lattice.empty()) return;
+  Impl& m = *impl_;
+  try {
+    const std::size_t n = std::min(m.chunk(sizeof(lattice[0])), lattice.size());
+    cl::Buffer in(m.context, CL_MEM_READ_ONLY, sizeof(lattice[0]) * n);
+    cl::Buffer sz(m.context, CL_MEM_READ_ONLY, sizeof(double) * n);
+    cl::Buffer out(m.context, CL_MEM_WRITE_ONLY, sizeof(double) * n);
+    cl::Kernel k(m.program, "refinement_error");
+    for (std::size_t first = 0; first < lattice.size(); first += n) {
+      const std::size_t count = std::min(n, lattice.size() - first);
+      m.write(in, lattice[first].data(), kChildLatticePoints * count);
+      m.write(sz, &sizes[first], count);
+      k.setArg(0, in);
+      k.setArg(1, sz);
+      k.setArg(2, out);
+      k.setArg(3, cl_uint(count));
+      m.run("refinement_error", k, count);
+      m.read(out, &errors[first], count);
+    }
+  } catch (const cl::Error& e) {
+    fail(e, "refinement error");
+  }
+}
+
+void OpenclBackend::classify_cells(const HexComplex& complex, std::span<const double> values, std::span<CellCode> codes,
+                                   std::span<std::uint64_t> offsets) {
+  const std::size_t cells = complex.cells.size();
+  if (values.size() != complex.points.size() || codes.size() != cells || offsets.size() != cells + 1)
+    throw std::invalid_argument("classify_cells: batch size mismatch");
+  // core's classify() refuses non-finite values; so does this backend, before any dispatch.
+  for (double v : values)
+    if (!std::isfinite(v)) throw InputError("MC33 classify: a corner value is not finite");
+  offsets[0] = 0;
+  if (cells == 0) return;
+  Impl& m = *impl_;
+  constexpr cl_uint kBlock = 256;  // cells per work item of the prefix sum
+  try {
+    const std::size_t n = std::min(m.chunk(8 * sizeof(std::uint32_t)), cells);
+    const std::size_t max_blocks = (n + kBlock - 1) / kBlock;
+    const std::size_t window_limit = m.chunk(sizeof(double));
+    cl::Buffer cell_buf(m.context, CL_MEM_READ_ONLY, 8 * sizeof(std::uint32_t) * n);
+    cl::Buffer code_buf(m.context, CL_MEM_READ_WRITE, 2 * sizeof(std::uint32_t) * n);
+    cl::Buffer sums(m.context, CL_MEM_READ_WRITE, sizeof(cl_ulong) * (max_blocks + 1));
+    cl::Buffer offset_buf(m.context, CL_MEM_WRITE_ONLY, sizeof(cl_ulong) * n);
+    cl::Buffer value_buf;
+    std::size_t value_capacity = 0;
+    cl::Kernel classify(m.program, "classify"), block_sums(m.program, "hex_block_sums"),
+        scan(m.program, "hex_scan_sums"), block_offsets(m.program, "hex_block_offsets");
+    std::vector<std::uint32_t> words(2 * n);
+    std::uint64_t total = 0;
+    for (std::size_t first = 0; first < cells;) {
+      // The chunk's cells read the points [lo, hi]; shrink the chunk until that window fits.
+      std::size_t count = std::min(n, cells - first);
+      std::uint32_t lo, hi;
+      for (;;) {
+        lo = UINT32_MAX, hi = 0;
+        for (std::size_t i = first; i < first + count; ++i)
+          for (std::uint32_t p : complex.cells[i]) lo = std::min(lo, p), hi = std::max(hi, p);
+        if (hi >= values.size()) throw std::invalid_argument("classify_cells: a cell refers to a missing point");
+        if (std::size_t(hi - lo) + 1 <= window_limit || count == 1) break;
+        count = (count + 1) / 2;
+      }
+      const std::size_t window = std::size_t(hi - lo) + 1;
+      if (window > value_capacity) {
+        value_buf = cl::Buffer(m.context, CL_MEM_READ_ONLY, sizeof(double) * window);
+        value_capacity = window;
+      }
+      m.write(value_buf, &values[lo], window);
+      m.write(cell_buf, complex.cells[first].data(), 8 * count);
+      classify.setArg(0, m.configs);
+      classify.setArg(1, cell_buf);
+      classify.setArg(2, value_buf);
+      classify.setArg(3, cl_uint(lo));
+      classify.setArg(4, code_buf);
+      classify.setArg(5, cl_uint(count));
+      m.run("classify", classify, count);
+
+      const cl_uint blocks = cl_uint((count + kBlock - 1) / kBlock);
+      block_sums.setArg(0, code_buf);
+      block_sums.setArg(1, cl_uint(count));
+      block_sums.setArg(2, kBlock);
+      block_sums.setArg(3, sums);
+      m.run("hex_block_sums", block_sums, blocks);
+      scan.setArg(0, sums);
+      scan.setArg(1, blocks);
+      scan.setArg(2, cl_ulong(total));
+      m.run("hex_scan_sums", scan, 1);
+      block_offsets.setArg(0, code_buf);
+      block_offsets.setArg(1, cl_uint(count));
+      block_offsets.setArg(2, kBlock);
+      block_offsets.setArg(3, sums);
+      block_offsets.setArg(4, offset_buf);
+      m.run("hex_block_offsets", block_offsets, blocks);
+
+      m.read(code_buf, words.data(), 2 * count);
+      static_assert(sizeof(cl_ulong) == sizeof(std::uint64_t));
+      m.read(offset_buf, reinterpret_cast<cl_ulong*>(&offsets[first]), count);
+      cl_ulong chunk_total = 0;
+      cl::Event e;
+      m.queue.enqueueReadBuffer(sums, CL_TRUE, sizeof(cl_ulong) * blocks, sizeof(cl_ulong), &chunk_total, nullptr, &e);
+      m.record("read", e);
+      total = chunk_total;
+      parallel_for(count, [&](std::size_t i) { codes[first + i] = decode_cell_words(words[2 * i], words[2 * i + 1]); });
+      first += count;
+    }
+    offsets[cells] = total;
+  } catch (const cl::Error& e) {
+    fail(e, "MC33 classification");
+  }
+  for (const CellCode& c : codes)
+    if (c.symmetry == kNoCubeSymmetry)
+      // As core's classify(): unreachable for finite values (the exact face test never yields
+      // one of case 13's impossible face configurations).
+      throw std::logic_error("MC33 classify: no symmetry maps the cell onto its representative");
+}
+
+std::vector<DeviceInfo> list_opencl_devices() {
+  std::vector<DeviceInfo> out;
+  try {
+    for (const cl::Platform& p : platforms())
+      for (const cl::Device& d : devices_of(p)) out.push_back(describe(p, d));
+  } catch (const cl::Error& e) {
+    fail(e, "listing devices");
+  }
+  return out;
+}
+
+}  // namespace mchex

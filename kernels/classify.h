@@ -1,0 +1,236 @@
+// MC33 classification of one cell on a device, in the common dialect of kernels/dialect.h: a port
+// of core/mc33.cpp classify() that returns the fields of host/backend.h CellCode (packed as in
+// core/device_scene.h). Tables come from the generated mchex_tables header; the (sign pattern,
+// face outcomes) -> (subcase, symmetry) lookup is core's own table, uploaded as the `configs`
+// buffer (core/device_scene.h packed_mc33_configs()).
+//
+// The decisions must equal the CPU's exactly:
+//   - the face test is the sign of p0 p1 - n0 n1, computed exactly. OpenCL has a correctly
+//     rounded fma, so it runs core's Kahan determinant (Jeannerod, Louvet & Muller 2013: relative
+//     error <= 2u, hence the exact sign) operation for operation. Vulkan does not promise a fused
+//     fma, so there (and in OpenCL built with -DMCHEX_NO_FMA, which the tests use to check this
+//     path) the sign comes from Dekker's exact products and an exact expansion sum (Shewchuk 1997,
+//     Grow-Expansion): exact too, so both give the same decision whenever the products neither
+//     overflow nor underflow (|values| between ~1e-150 and ~1e150, as for core's Kahan);
+//   - the interior test (core/mc33.cpp interior_join) is the same double arithmetic in the same
+//     order.
+#ifndef MCHEX_CLASSIFY_H
+#define MCHEX_CLASSIFY_H
+
+#ifdef __OPENCL_C_VERSION__
+#define CLASSIFY_PARAMS_ GLOBAL_RO uint *configs,
+#define CLASSIFY_ARGS_ configs,
+#if !defined(MCHEX_NO_FMA)
+#define MCHEX_HAS_FMA 1
+#endif
+#else
+#define CLASSIFY_PARAMS_
+#define CLASSIFY_ARGS_
+#endif
+
+STRUCT(CellValues) {
+  double f[8];  // corner values, core/mc33.h corner order; f > 0 inside
+};
+
+STRUCT(CellWords) {
+  uint w0;  // subcase | sign_mask << 8 | face_joins << 16 | (tunnel + 1) << 24 | inverted << 26
+  uint w1;  // symmetry | cut_edges << 16
+};
+
+#ifdef MCHEX_HAS_FMA
+// core/mc33.cpp kahan_det, operation for operation.
+INLINE bool det_nonnegative(double a, double b, double c, double d) {
+  EXACT double w = c * d;
+  EXACT double e = fma(-c, d, w);
+  EXACT double f = fma(a, b, -w);
+  EXACT double r = f + e;
+  return r >= 0.0;
+}
+#else
+STRUCT(TwoTerms) {
+  double hi;
+  double lo;
+};
+
+INLINE TwoTerms two_sum(double a, double b) {
+  TwoTerms r;
+  EXACT double s = a + b;
+  EXACT double bv = s - a;
+  EXACT double av = s - bv;
+  EXACT double t = (a - av) + (b - bv);
+  r.hi = s;
+  r.lo = t;
+  return r;
+}
+
+// Dekker's product: a * b == hi + lo exactly (Veltkamp split with 2^27 + 1).
+INLINE TwoTerms two_product(double a, double b) {
+  TwoTerms r;
+  EXACT double p = a * b;
+  EXACT double ta = CAST(double, 134217729) * a;
+  EXACT double ahi = ta - (ta - a);
+  EXACT double alo = a - ahi;
+  EXACT double tb = CAST(double, 134217729) * b;
+  EXACT double bhi = tb - (tb - b);
+  EXACT double blo = b - bhi;
+  EXACT double err = ((ahi * bhi - p) + ahi * blo + alo * bhi) + alo * blo;
+  r.hi = p;
+  r.lo = err;
+  return r;
+}
+
+// Sign of a b - c d from the exact expansion of the four product terms: the sum of a
+// nonoverlapping expansion has the sign of its largest (last non-zero) component.
+INLINE bool det_nonnegative(double a, double b, double c, double d) {
+  TwoTerms ab = two_product(a, b);
+  TwoTerms cd = two_product(c, d);
+  double x[4];
+  x[0] = ab.lo;
+  x[1] = -cd.lo;
+  x[2] = ab.hi;
+  x[3] = -cd.hi;
+  double h[4];
+  h[0] = x[0];
+  int n = 1;
+  for (int i = 1; i < 4; ++i) {
+    double q = x[i];  // a copy, no arithmetic (precise here sends glslang 12 out of memory)
+    for (int j = 0; j < n; ++j) {
+      TwoTerms s = two_sum(q, h[j]);
+      q = s.hi;
+      h[j] = s.lo;
+    }
+    h[n] = q;
+    ++n;
+  }
+  for (int j = 3; j >= 0; --j)
+    if (h[j] != 0.0) return h[j] > 0.0;
+  return true;
+}
+#endif
+
+// core/mc33.cpp face_joins_positive.
+INLINE bool face_joins_positive(double p0, double p1, double n0, double n1) {
+  return det_nonnegative(p0, p1, n0, n1);
+}
+
+// core/mc33.cpp interior_join: -1 when the extremum joins nothing, else c1 | c2 << 4.
+INLINE int interior_join(CellValues v) {
+  EXACT double b0 = v.f[0];
+  EXACT double b1 = v.f[1];
+  EXACT double b2 = v.f[2];
+  EXACT double b3 = v.f[3];
+  EXACT double d0 = v.f[4] - v.f[0];
+  EXACT double d1 = v.f[5] - v.f[1];
+  EXACT double d2 = v.f[6] - v.f[2];
+  EXACT double d3 = v.f[7] - v.f[3];
+  EXACT double qa = d0 * d2 - d1 * d3;
+  EXACT double qb = b0 * d2 + b2 * d0 - b1 * d3 - b3 * d1;
+  if (qa == 0.0) return -1;
+  EXACT double ts = -qb / (2.0 * qa);
+  if (!(ts > 0.0 && ts < 1.0)) return -1;
+  EXACT double s0 = b0 + ts * d0;
+  EXACT double s1 = b1 + ts * d1;
+  EXACT double s2 = b2 + ts * d2;
+  EXACT double s3 = b3 + ts * d3;
+  bool p0 = s0 > 0.0, p1 = s1 > 0.0, p2 = s2 > 0.0, p3 = s3 > 0.0;
+  if (p0 != p2 || p1 != p3 || p0 == p1) return -1;
+  EXACT double q = s0 * s2 - s1 * s3;
+  int k1;
+  int k2;
+  bool positive;
+  if (qa < 0.0) {
+    if (!(q > 0.0 || (q == 0.0 && p0))) return -1;
+    k1 = 0;
+    k2 = 2;
+    positive = p0;
+  } else {
+    if (!(q < 0.0 || (q == 0.0 && p1))) return -1;
+    k1 = 1;
+    k2 = 3;
+    positive = p1;
+  }
+  int c1 = ((v.f[k1] > 0.0) == positive) ? k1 : k1 + 4;
+  int c2 = ((v.f[k2] > 0.0) == positive) ? k2 : k2 + 4;
+  return c1 | (c2 << 4);
+}
+
+// The corners connected to corner c through the links in adj (bit masks per corner).
+INLINE int component_of(int adj[8], int c) {
+  int comp = 1 << c;
+  int frontier = comp;
+  while (frontier != 0) {
+    int next = 0;
+    for (int k = 0; k < 8; ++k)
+      if (((frontier >> k) & 1) != 0) next |= adj[k];
+    next &= ~comp;
+    comp |= next;
+    frontier = next;
+  }
+  return comp;
+}
+
+// core/mc33.cpp classify() without crossings and regions (the host derives those from the values
+// and the code). Values must be finite (the host checks).
+INLINE CellWords classify_cell(CLASSIFY_PARAMS_ CellValues v) {
+  int mask = 0;
+  for (int c = 0; c < 8; ++c)
+    if (v.f[c] > 0.0) mask |= 1 << c;
+  int cut = 0;
+  for (int e = 0; e < 12; ++e)
+    if (((mask >> kCubeEdges[2 * e]) & 1) != ((mask >> kCubeEdges[2 * e + 1]) & 1)) cut |= 1 << e;
+  int ambiguous = kAmbiguousFaces[mask];
+  int adj[8];
+  for (int c = 0; c < 8; ++c) {
+    int same = ((mask >> c) & 1) != 0 ? mask : (~mask & 255);
+    adj[c] = kEdgeNeighbours[c] & same;
+  }
+  int face_joins = 0;
+  for (int fi = 0; fi < 6; ++fi) {
+    if (((ambiguous >> fi) & 1) == 0) continue;
+    int q0 = kHexFaces[4 * fi], q1 = kHexFaces[4 * fi + 1], q2 = kHexFaces[4 * fi + 2], q3 = kHexFaces[4 * fi + 3];
+    bool first_positive = ((mask >> q0) & 1) != 0;
+    int pa = first_positive ? q0 : q1;
+    int pb = first_positive ? q2 : q3;
+    int na = first_positive ? q1 : q0;
+    int nb = first_positive ? q3 : q2;
+    bool joins = face_joins_positive(v.f[pa], v.f[pb], v.f[na], v.f[nb]);
+    if (joins) face_joins |= 1 << fi;
+    int u = joins ? pa : na;
+    int w = joins ? pb : nb;
+    adj[u] |= 1 << w;
+    adj[w] |= 1 << u;
+  }
+  uint entry = configs[mask * 64 + face_joins];
+  int subcase = CAST(int, entry & 255u);
+  int partner = kSubcaseTunnelPartner[subcase];
+  int tunnel = 0;
+  if (partner != 0) {
+    int join = interior_join(v);
+    if (join >= 0) {
+      int c1 = join & 15, c2 = join >> 4;
+      if (((component_of(adj, c1) >> c2) & 1) == 0) {
+        tunnel = ((mask >> c1) & 1) != 0 ? 1 : -1;
+        subcase = partner;
+      }
+    }
+  }
+  int preferred = CAST(int, (entry >> MCHEX_CONFIG_PREFERRED_SHIFT) & 255u);
+  int inv = tunnel != 0 ? (tunnel != kSubcaseTunnel[subcase] ? 1 : 0) : preferred;
+  int symmetry = CAST(int, (entry >> (inv != 0 ? MCHEX_CONFIG_MAP1_SHIFT : MCHEX_CONFIG_MAP0_SHIFT)) & 255u);
+  CellWords words;
+  words.w0 = CAST(uint, subcase | (mask << MCHEX_CODE_SIGN_SHIFT) | (face_joins << MCHEX_CODE_FACE_SHIFT) |
+                          ((tunnel + 1) << MCHEX_CODE_TUNNEL_SHIFT) | (inv << MCHEX_CODE_INVERTED_SHIFT));
+  words.w1 = CAST(uint, symmetry | (cut << MCHEX_CODE_CUT_SHIFT));
+  return words;
+}
+
+// Hexes a directly cut (or uncut) cell gives by midpoint subdivision: 8 + 2 * cut edges
+// (notes/mc33-topology.md).
+INLINE uint cell_hexes(CellWords w) {
+  uint cut = w.w1 >> MCHEX_CODE_CUT_SHIFT;
+  uint n = 8u;
+  for (int e = 0; e < 12; ++e) n += 2u * ((cut >> CAST(uint, e)) & 1u);
+  return n;
+}
+
+#endif

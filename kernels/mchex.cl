@@ -1,0 +1,95 @@
+// OpenCL C 1.2 kernels of the opencl backend (host/backend_opencl.cpp): thin wrappers around the
+// shared device logic. The host builds the program from, in order, the generated
+// mchex_tables.cl.h, dialect.h, sdf.h, refine.h, classify.h and this file (embedded into the
+// binary at build time), so there are no #include lines here.
+//
+// Work decomposition: one work item per refinement cell or MC cell; `per_item` consecutive points
+// per work item for the SDF, so that each point's search is seeded by the previous point's
+// triangle (grid order makes that seed nearly always the answer; the result does not depend on
+// it). Sizes are 32-bit: the host dispatches chunks that fit the device's allocation limit.
+
+__kernel void sdf_surface(SCENE_PARAMS_ __global const double *points, __global double *values, uint n,
+                          uint per_item, double scale) {
+  uint first = (uint)get_global_id(0) * per_item;
+  if (first >= n) return;
+  uint last = min(n, first + per_item);
+  uint seed = 0u;
+  for (uint i = first; i < last; ++i) {
+    double3 p = (double3)(points[3 * i], points[3 * i + 1], points[3 * i + 2]);
+    SurfaceHit hit = closest_on_surface(SCENE_ARGS_ p, seed, scale);
+    values[i] = signed_value_of(SCENE_ARGS_ p, hit);
+    seed = hit.slot;
+  }
+}
+
+__kernel void sdf_shape(int kind, __global const double *points, __global double *values, uint n) {
+  uint i = (uint)get_global_id(0);
+  if (i >= n) return;
+  values[i] = shape_sdf(kind, (double3)(points[3 * i], points[3 * i + 1], points[3 * i + 2]));
+}
+
+__kernel void refinement_error(__global const double *lattice, __global const double *sizes,
+                               __global double *errors, uint n) {
+  uint i = (uint)get_global_id(0);
+  if (i >= n) return;
+  ChildLattice L;
+  for (int k = 0; k < 64; ++k) L.f[k] = lattice[64 * i + (uint)k];
+  errors[i] = refinement_error_of(L, sizes[i]);
+}
+
+// values holds the points [value_base, ...) that this chunk's cells use.
+__kernel void classify(CLASSIFY_PARAMS_ __global const uint *cells, __global const double *values,
+                       uint value_base, __global uint *codes, uint n) {
+  uint i = (uint)get_global_id(0);
+  if (i >= n) return;
+  CellValues v;
+  for (int c = 0; c < 8; ++c) v.f[c] = values[cells[8 * i + (uint)c] - value_base];
+  CellWords w = classify_cell(CLASSIFY_ARGS_ v);
+  codes[2 * i] = w.w0;
+  codes[2 * i + 1] = w.w1;
+}
+
+// Exclusive prefix sum of cell_hexes over the classified cells, in three passes: per-block sums
+// (one work item per block of consecutive cells), a scan of the block sums (one work item; there
+// are few blocks) starting at `base` (the previous chunks' total), and per-block offsets.
+__kernel void hex_block_sums(__global const uint *codes, uint n, uint block, __global ulong *sums) {
+  uint b = (uint)get_global_id(0);
+  uint first = b * block;
+  if (first >= n) return;
+  uint last = min(n, first + block);
+  ulong s = 0;
+  for (uint i = first; i < last; ++i) {
+    CellWords w;
+    w.w0 = codes[2 * i];
+    w.w1 = codes[2 * i + 1];
+    s += cell_hexes(w);
+  }
+  sums[b] = s;
+}
+
+__kernel void hex_scan_sums(__global ulong *sums, uint blocks, ulong base) {
+  if (get_global_id(0) != 0) return;
+  ulong run = base;
+  for (uint b = 0; b < blocks; ++b) {
+    ulong s = sums[b];
+    sums[b] = run;
+    run += s;
+  }
+  sums[blocks] = run;
+}
+
+__kernel void hex_block_offsets(__global const uint *codes, uint n, uint block, __global const ulong *sums,
+                                __global ulong *offsets) {
+  uint b = (uint)get_global_id(0);
+  uint first = b * block;
+  if (first >= n) return;
+  uint last = min(n, first + block);
+  ulong run = sums[b];
+  for (uint i = first; i < last; ++i) {
+    offsets[i] = run;
+    CellWords w;
+    w.w0 = codes[2 * i];
+    w.w1 = codes[2 * i + 1];
+    run += cell_hexes(w);
+  }
+}
