@@ -11,6 +11,7 @@
 
 #include <fmt/format.h>
 
+#include "core/device_scene.h"
 #include "core/error.h"
 #include "core/hex_faces.h"
 #include "host/vk_context.h"
@@ -25,6 +26,9 @@ namespace {
 
 // Workgroup sizes of the shaders (their local_size_x).
 constexpr std::uint32_t kGroup = 64, kScanGroup = 256, kScanBlock = 1024;
+// Consecutive points per invocation of the surface SDF: each search is seeded with the previous
+// point's triangle (kernels/sdf.h), which on grid-ordered batches makes the first bound tight.
+constexpr std::size_t kSdfPointsPerInvocation = 4;
 
 DeviceInfo device_info(const vk::PhysicalDevice& d) {
   DeviceInfo info;
@@ -106,6 +110,57 @@ struct VulkanBackend::Impl {
   vk::Pipeline refinement, classify, scan_blocks, scan_totals, scan_add, surface_sdf, shape_sdf;
   vk::Buffer tables;
 
+  // The device scene of the last surface (keyed by its address, array addresses and sizes, as
+  // host/backend.h says), one storage buffer per array of core/device_scene.h.
+  struct Scene {
+    const TriangleSurface* surface = nullptr;
+    const void* vertices = nullptr;
+    const void* triangles = nullptr;
+    std::size_t num_vertices = 0, num_triangles = 0;
+    vk::Buffer nodes, slot_triangle, slot_corners, slot_features, face_normals, edge_normals, vertex_normals;
+    double scale = 0;
+  };
+  std::optional<Scene> scene;
+
+  const Scene& scene_of(const TriangleSurface& s) {
+    if (scene && scene->surface == &s && scene->vertices == s.vertices.data() &&
+        scene->triangles == s.triangles.data() && scene->num_vertices == s.vertices.size() &&
+        scene->num_triangles == s.triangles.size())
+      return *scene;
+    scene.reset();
+    const DeviceScene ds = DeviceScene::build(s);
+    const std::uint32_t limit = device->physical().max_storage_buffer_range;
+    auto upload = [&](const auto& v, const char* what) {
+      const std::size_t bytes = v.size() * sizeof(v[0]);
+      // The scene is bound whole (every point may need any triangle): an array over one storage
+      // buffer is a resource limit of this device, not a chunking matter.
+      if (bytes > limit)
+        throw ResourceError(fmt::format("backend 'vulkan': the surface's {} need {} MiB in one storage buffer; "
+                                        "device '{}' allows {} MiB (use --backend cpu)",
+                                        what, bytes >> 20, info.name, limit >> 20));
+      vk::Buffer b = device->make_buffer(bytes);
+      timed(profile.upload, [&] { std::memcpy(b.data(), v.data(), bytes); });
+      return b;
+    };
+    Scene out;
+    out.surface = &s;
+    out.vertices = s.vertices.data();
+    out.triangles = s.triangles.data();
+    out.num_vertices = s.vertices.size();
+    out.num_triangles = s.triangles.size();
+    out.nodes = upload(ds.nodes, "BVH nodes");
+    out.slot_triangle = upload(ds.slot_triangle, "leaf triangle ids");
+    out.slot_corners = upload(ds.slot_corners, "triangle corners");
+    out.slot_features = upload(ds.slot_features, "triangle features");
+    out.face_normals = upload(ds.face_normals, "face pseudonormals");
+    out.edge_normals = upload(ds.edge_normals, "edge pseudonormals");
+    out.vertex_normals = upload(ds.vertex_normals, "vertex pseudonormals");
+    out.scale = ds.scale;
+    scene.emplace(std::move(out));
+    return *scene;
+  }
+
+
   explicit Impl(const VulkanOptions& options) {
     std::string want = options.device;
     if (want.empty())
@@ -143,6 +198,8 @@ struct VulkanBackend::Impl {
     scan_blocks = device->make_pipeline(spirv::scan_blocks, 3, 4);
     scan_totals = device->make_pipeline(spirv::scan_totals, 1, 16);
     scan_add = device->make_pipeline(spirv::scan_add, 2, 4);
+    surface_sdf = device->make_pipeline(spirv::surface_sdf, 9, 16);
+    shape_sdf = device->make_pipeline(spirv::shape_sdf, 2, 8);
     pipeline_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     // Written now, not only at exit: a run that ends by an error still leaves the cache behind.
     device->save_cache();
@@ -196,10 +253,38 @@ VulkanBackend::Profile VulkanBackend::profile() const { return impl_->profile; }
 
 void VulkanBackend::signed_distance(const SdfSource& source, std::span<const Vec3> points,
                                     std::span<double> values) {
-  (void)source;
-  (void)points;
-  (void)values;
-  throw std::logic_error("vulkan signed_distance: not built yet");
+  if (points.size() != values.size()) throw std::invalid_argument("SDF batch size mismatch");
+  Impl& m = *impl_;
+  const std::size_t n = points.size();
+  if (n == 0) return;
+  if (source.surface && source.surface->triangles.empty()) {
+    // core/sdf.cpp: an empty surface has nothing inside.
+    std::fill(values.begin(), values.end(), -std::numeric_limits<double>::infinity());
+    return;
+  }
+  const std::size_t per_item = source.surface ? kSdfPointsPerInvocation : 1;
+  const std::size_t chunk = std::min(n, m.chunk_for(sizeof(Vec3), kGroup * per_item));
+  vk::Buffer in = m.device->make_buffer(chunk * sizeof(Vec3));
+  vk::Buffer out = m.device->make_buffer(chunk * sizeof(double));
+  const Impl::Scene* scene = source.surface ? &m.scene_of(*source.surface) : nullptr;
+  for (std::size_t begin = 0; begin < n; begin += chunk) {
+    const std::size_t count = std::min(chunk, n - begin);
+    timed(m.profile.upload, [&] { std::memcpy(in.data(), points.data() + begin, count * sizeof(Vec3)); });
+    if (scene) {
+      struct {
+        std::uint32_t n, per_item;
+        double scale;
+      } push{static_cast<std::uint32_t>(count), static_cast<std::uint32_t>(per_item), scene->scale};
+      m.run(m.surface_sdf,
+            {{&scene->nodes}, {&scene->slot_triangle}, {&scene->slot_corners}, {&scene->slot_features},
+             {&scene->face_normals}, {&scene->edge_normals}, {&scene->vertex_normals}, {&in}, {&out}},
+            &push, (count + per_item - 1) / per_item, kGroup);
+    } else {
+      const std::int32_t push[2] = {static_cast<std::int32_t>(count), static_cast<std::int32_t>(source.shape)};
+      m.run(m.shape_sdf, {{&in}, {&out}}, push, count, kGroup);
+    }
+    timed(m.profile.download, [&] { std::memcpy(values.data() + begin, out.data(), count * sizeof(double)); });
+  }
 }
 
 void VulkanBackend::refinement_error(std::span<const std::array<double, kChildLatticePoints>> lattice,

@@ -28,6 +28,9 @@
 #include "core/hex_complex.h"
 #include "core/mc33.h"
 #include "core/refinement_error.h"
+#include "core/sdf.h"
+#include "core/shapes.h"
+#include "core/surface.h"
 #include "host/backend_vulkan.h"
 
 namespace fs = std::filesystem;
@@ -332,4 +335,120 @@ TEST(vulkan, PipelineCacheIsWrittenAndReusedByASecondBackend) {
   EXPECT_EQ(word(1), 1u);  // VK_PIPELINE_CACHE_HEADER_VERSION_ONE
   const auto uuid = second.pipeline_cache_uuid();
   EXPECT_TRUE(std::equal(uuid.begin(), uuid.end(), header.begin() + 16));
+}
+
+namespace {
+
+// Points that stress the closest-feature logic of a surface: its vertices, points on its edges and
+// inside its triangles (exactly, and nudged off by tiny and small distances along the face
+// normal), random points around it and far away.
+std::vector<Vec3> adversarial_points(const TriangleSurface& s, std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> u(0, 1), box(-2, 2);
+  std::vector<Vec3> pts;
+  for (std::size_t t = 0; t < s.triangles.size(); t += 3) {
+    const Vec3 a = s.vertices[s.triangles[t][0]], b = s.vertices[s.triangles[t][1]], c = s.vertices[s.triangles[t][2]];
+    const Vec3 n = normalized(cross(b - a, c - a));
+    const double r = u(rng), q = u(rng) * (1 - r);
+    const Vec3 inside = a + r * (b - a) + q * (c - a);
+    pts.push_back(a);
+    pts.push_back(a + u(rng) * (b - a));
+    pts.push_back(0.5 * (b + c));
+    pts.push_back(inside);
+    for (double off : {1e-14, -1e-14, 1e-9, -1e-9, 1e-3, -1e-3}) pts.push_back(inside + off * n);
+  }
+  for (int i = 0; i < 20000; ++i) pts.push_back({box(rng), box(rng), box(rng)});
+  for (int i = 0; i < 200; ++i) pts.push_back({1e4 * box(rng), 1e4 * box(rng), 1e4 * box(rng)});
+  pts.push_back({0, 0, 0});
+  return pts;
+}
+
+void expect_bit_equal(const std::vector<double>& got, const std::vector<double>& want, const std::vector<Vec3>& pts) {
+  ASSERT_EQ(got.size(), want.size());
+  int wrong = 0;
+  for (std::size_t i = 0; i < got.size() && wrong < 5; ++i)
+    if (bits(got[i]) != bits(want[i])) {
+      ++wrong;
+      ADD_FAILURE() << "point " << i << " (" << pts[i].x << ", " << pts[i].y << ", " << pts[i].z
+                    << "): device " << got[i] << " reference " << want[i];
+    }
+}
+
+}  // namespace
+
+TEST(vulkan, ShapeSdfIsBitIdenticalToTheReference) {
+  std::mt19937_64 rng(21);
+  std::uniform_real_distribution<double> u(-1.6, 1.6);
+  for (const ShapeInfo& info : shape_catalog()) {
+    std::vector<Vec3> pts;
+    for (int i = 0; i < 30000; ++i) pts.push_back({u(rng), u(rng), u(rng)});
+    // Axes, planes of symmetry and the tube junction of the two-holed solid, and far points.
+    for (int i = 0; i < 200; ++i) {
+      pts.push_back({u(rng), 0, 0});
+      pts.push_back({0, u(rng), 0});
+      pts.push_back({0, 0, u(rng)});
+      pts.push_back({u(rng), u(rng), 0});
+      pts.push_back({1e6 * u(rng), 1e6 * u(rng), 1e6 * u(rng)});
+    }
+    const ShapeSdf reference(info.kind);
+    std::vector<double> want(pts.size()), got(pts.size());
+    reference.evaluate(pts, want);
+    SdfSource source;
+    source.shape = info.kind;
+    lavapipe().signed_distance(source, pts, got);
+    SCOPED_TRACE(std::string(info.name));
+    expect_bit_equal(got, want, pts);
+  }
+}
+
+TEST(vulkan, SurfaceSdfIsBitIdenticalOnClosedOpenAndDegenerateSurfaces) {
+  std::mt19937_64 rng(22);
+  std::vector<std::pair<std::string, TriangleSurface>> surfaces;
+  surfaces.emplace_back("torus", tessellate(ShapeKind::kTorus, 48));
+  surfaces.emplace_back("sphere", tessellate(ShapeKind::kSphere, 40));
+  // Open (a band of triangles removed), and a soup: flipped, duplicated and zero-area triangles.
+  TriangleSurface open = tessellate(ShapeKind::kSphere, 24);
+  open.triangles.erase(open.triangles.begin() + 40, open.triangles.begin() + 90);
+  surfaces.emplace_back("open sphere", open);
+  TriangleSurface soup = tessellate(ShapeKind::kTorus, 16);
+  for (std::size_t t = 0; t < soup.triangles.size(); t += 7) std::swap(soup.triangles[t][1], soup.triangles[t][2]);
+  for (std::size_t t = 0; t < 20; ++t) soup.triangles.push_back(soup.triangles[t]);
+  soup.vertices.push_back({0.3, 0.3, 0.3});
+  soup.vertices.push_back({0.6, 0.6, 0.6});
+  const std::uint32_t v0 = std::uint32_t(soup.vertices.size() - 2);
+  soup.triangles.push_back({v0, v0 + 1, v0});          // repeated vertex
+  soup.vertices.push_back({0.9, 0.9, 0.9});
+  soup.triangles.push_back({v0, v0 + 1, v0 + 2});      // collinear: zero area
+  surfaces.emplace_back("soup", soup);
+  for (const auto& [name, s] : surfaces) {
+    SCOPED_TRACE(name);
+    const std::vector<Vec3> pts = adversarial_points(s, rng);
+    const SurfaceSdf reference(s);
+    std::vector<double> want(pts.size()), got(pts.size());
+    reference.evaluate(pts, want);
+    SdfSource source;
+    source.surface = &s;
+    lavapipe().signed_distance(source, pts, got);
+    expect_bit_equal(got, want, pts);
+  }
+}
+
+TEST(vulkan, SurfaceSdfChunkedEqualsWholeAndEmptySurfaceIsOutside) {
+  const TriangleSurface torus = tessellate(ShapeKind::kTorus, 32);
+  std::mt19937_64 rng(23);
+  const std::vector<Vec3> pts = adversarial_points(torus, rng);
+  SdfSource source;
+  source.surface = &torus;
+  std::vector<double> whole(pts.size()), chunked(pts.size());
+  lavapipe().signed_distance(source, pts, whole);
+  VulkanBackend small(lavapipe_options(1000));
+  const std::size_t before = small.dispatches();
+  small.signed_distance(source, pts, chunked);
+  EXPECT_EQ(small.dispatches() - before, (pts.size() + 999) / 1000);
+  expect_bit_equal(chunked, whole, pts);
+
+  const TriangleSurface empty;
+  source.surface = &empty;
+  std::vector<double> v(3, 0.0);
+  lavapipe().signed_distance(source, std::vector<Vec3>(3), v);
+  for (double x : v) EXPECT_EQ(x, -std::numeric_limits<double>::infinity());
 }
