@@ -30,6 +30,11 @@ constexpr std::uint32_t kGroup = 64, kScanGroup = 256, kScanBlock = 1024;
 // point's triangle (kernels/sdf.h), which on grid-ordered batches makes the first bound tight.
 constexpr std::size_t kSdfPointsPerInvocation = 4;
 
+std::string api_string(std::uint32_t v) {
+  return fmt::format("{}.{}.{}", VK_API_VERSION_MAJOR(v), VK_API_VERSION_MINOR(v),
+                     VK_API_VERSION_PATCH(v));
+}
+
 DeviceInfo device_info(const vk::PhysicalDevice& d) {
   DeviceInfo info;
   info.backend = "vulkan";
@@ -41,13 +46,14 @@ DeviceInfo device_info(const vk::PhysicalDevice& d) {
   for (const VkMemoryHeap& h : d.heaps)
     if (h.flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT) info.global_memory_bytes += h.size;
   info.compute_units = d.compute_units;
+  info.version = "Vulkan " + api_string(d.api_version) + ", driver " + d.driver_info;
+  if (d.api_version < VK_API_VERSION_1_2) info.note = "below Vulkan 1.2";
+  else if (d.compute_queue_family < 0) info.note = "no compute queue";
+  else if (!d.shader_float64) info.note = "no shaderFloat64 (the vulkan backend computes in fp64)";
+  else if (!d.shader_int64) info.note = "no shaderInt64 (the device prefix sum needs it)";
   return info;
 }
 
-std::string api_string(std::uint32_t v) {
-  return fmt::format("{}.{}.{}", VK_API_VERSION_MAJOR(v), VK_API_VERSION_MINOR(v),
-                     VK_API_VERSION_PATCH(v));
-}
 
 // The lookup words of shaders/classify_layout.h, from core's tables.
 std::vector<std::uint32_t> classify_tables() {
