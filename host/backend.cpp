@@ -4,6 +4,7 @@
 #include "core/error.h"
 #include "host/backend_cpu.h"
 #include "host/backend_opencl.h"
+#include "host/backend_vulkan.h"
 
 namespace mchex {
 
@@ -34,12 +35,14 @@ CellCode decode_cell_words(std::uint32_t w0, std::uint32_t w1) {
 std::unique_ptr<Backend> make_backend(const std::string& name) {
   if (name == "cpu") return make_cpu_backend();
   if (name == "opencl") return std::make_unique<OpenclBackend>();
-  if (name == "vulkan") throw InputError("vulkan backend not built yet");
+  if (name == "vulkan") return std::make_unique<VulkanBackend>();
   if (name == "auto") {
     // A GPU with fp64 is worth the transfers; a CPU driver (PoCL, lavapipe) is not faster than
     // the reference on the same cores, so auto keeps the reference there.
     for (const DeviceInfo& d : list_opencl_devices())
       if (d.type == "gpu" && d.fp64) return std::make_unique<OpenclBackend>();
+    for (const DeviceInfo& d : list_vulkan_devices())
+      if (d.type == "gpu" && d.fp64 && d.note.empty()) return std::make_unique<VulkanBackend>();
     return make_cpu_backend();
   }
   throw InputError("unknown backend '" + name + "' (known: auto, cpu, opencl, vulkan)");
@@ -48,6 +51,7 @@ std::unique_ptr<Backend> make_backend(const std::string& name) {
 std::vector<DeviceInfo> list_devices() {
   std::vector<DeviceInfo> out{make_cpu_backend()->device()};
   for (DeviceInfo& d : list_opencl_devices()) out.push_back(std::move(d));
+  for (DeviceInfo& d : list_vulkan_devices()) out.push_back(std::move(d));
   return out;
 }
 

@@ -1,0 +1,424 @@
+#include "host/backend_vulkan.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <limits>
+#include <optional>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+#include "core/device_scene.h"
+#include "core/error.h"
+#include "core/hex_faces.h"
+#include "host/vk_context.h"
+#include "host/vk_spirv.h"
+#include "shaders/classify_layout.h"
+
+namespace mchex {
+
+std::filesystem::path VulkanOptions::default_pipeline_cache_dir() { return vk::default_cache_dir(); }
+
+namespace {
+
+// Workgroup sizes of the shaders (their local_size_x).
+constexpr std::uint32_t kGroup = 64, kScanGroup = 256, kScanBlock = 1024;
+// Consecutive points per invocation of the surface SDF: each search is seeded with the previous
+// point's triangle (kernels/sdf.h), which on grid-ordered batches makes the first bound tight.
+constexpr std::size_t kSdfPointsPerInvocation = 4;
+
+std::string api_string(std::uint32_t v) {
+  return fmt::format("{}.{}.{}", VK_API_VERSION_MAJOR(v), VK_API_VERSION_MINOR(v),
+                     VK_API_VERSION_PATCH(v));
+}
+
+DeviceInfo device_info(const vk::PhysicalDevice& d) {
+  DeviceInfo info;
+  info.backend = "vulkan";
+  info.platform = d.driver_name + (d.driver_info.empty() ? "" : " (" + d.driver_info + ")");
+  info.name = d.name;
+  info.type = d.type_name();
+  info.fp64 = d.shader_float64;
+  info.max_buffer_bytes = d.max_storage_buffer_range;
+  for (const VkMemoryHeap& h : d.heaps)
+    if (h.flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT) info.global_memory_bytes += h.size;
+  info.compute_units = d.compute_units;
+  info.version = "Vulkan " + api_string(d.api_version) + ", driver " + d.driver_info;
+  if (d.api_version < VK_API_VERSION_1_2) info.note = "below Vulkan 1.2";
+  else if (d.compute_queue_family < 0) info.note = "no compute queue";
+  else if (!d.shader_float64) info.note = "no shaderFloat64 (the vulkan backend computes in fp64)";
+  else if (!d.shader_int64) info.note = "no shaderInt64 (the device prefix sum needs it)";
+  return info;
+}
+
+
+// The lookup words of shaders/classify_layout.h, from core's tables.
+std::vector<std::uint32_t> classify_tables() {
+  std::vector<std::uint32_t> t(MCHEX_TABLE_WORDS, 0);
+  for (int mask = 0; mask < 256; ++mask)
+    for (int faces = 0; faces < 64; ++faces) {
+      const Mc33Config& c = mc33_config(static_cast<std::uint8_t>(mask), static_cast<std::uint8_t>(faces));
+      t[MCHEX_TABLE_CONFIG + mask * 64 + faces] = static_cast<std::uint32_t>(c.subcase) |
+                                                  std::uint32_t(c.map[0]) << 8 |
+                                                  std::uint32_t(c.map[1]) << 16 |
+                                                  std::uint32_t(c.preferred) << 24;
+    }
+  for (int s = 0; s < kNumSubcases; ++s)
+    t[MCHEX_TABLE_SUBCASE + s] = static_cast<std::uint32_t>(kSubcaseInfo[s].tunnel_partner) |
+                                 static_cast<std::uint32_t>(kSubcaseInfo[s].tunnel + 1) << 8;
+  for (int e = 0; e < 12; ++e)
+    t[MCHEX_TABLE_EDGES + e] = std::uint32_t(kCubeEdges[e][0]) | std::uint32_t(kCubeEdges[e][1]) << 8;
+  for (int f = 0; f < 6; ++f)
+    t[MCHEX_TABLE_FACES + f] = std::uint32_t(kHexFaces[f][0]) | std::uint32_t(kHexFaces[f][1]) << 8 |
+                               std::uint32_t(kHexFaces[f][2]) << 16 | std::uint32_t(kHexFaces[f][3]) << 24;
+  return t;
+}
+
+CellCode decode_cell(std::uint32_t w0, std::uint32_t w1) {
+  CellCode c;
+  c.subcase = static_cast<Subcase>(w0 & 0xFF);
+  c.sign_mask = static_cast<std::uint8_t>(w0 >> MCHEX_CODE_SIGN_SHIFT);
+  c.face_joins = static_cast<std::uint8_t>(w0 >> MCHEX_CODE_FACE_SHIFT & 0x3F);
+  c.tunnel = static_cast<std::int8_t>(static_cast<int>(w0 >> MCHEX_CODE_TUNNEL_SHIFT & 3) - 1);
+  c.inverted = static_cast<std::uint8_t>(w0 >> MCHEX_CODE_INVERTED_SHIFT & 1);
+  c.symmetry = static_cast<std::uint8_t>(w1 & 0xFF);
+  c.cut_edges = static_cast<std::uint16_t>(w1 >> MCHEX_CODE_CUT_SHIFT);
+  return c;
+}
+
+// Adds the seconds f takes to `total`.
+template <class F>
+void timed(double& total, F&& f) {
+  const auto start = std::chrono::steady_clock::now();
+  f();
+  total += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+template <class T>
+T* mapped(const vk::Buffer& b) {
+  return static_cast<T*>(b.data());
+}
+
+}  // namespace
+
+struct VulkanBackend::Impl {
+  vk::Instance instance;
+  std::optional<vk::Device> device;
+  DeviceInfo info;
+  std::size_t max_chunk = 0;
+  double pipeline_seconds = 0;
+  std::size_t dispatches = 0;
+  VulkanBackend::Profile profile;
+
+  vk::Pipeline refinement, classify, scan_blocks, scan_totals, scan_add, surface_sdf, shape_sdf;
+  vk::Buffer tables;
+
+  // The device scene of the last surface (keyed by its address, array addresses and sizes, as
+  // host/backend.h says), one storage buffer per array of core/device_scene.h.
+  struct Scene {
+    const TriangleSurface* surface = nullptr;
+    const void* vertices = nullptr;
+    const void* triangles = nullptr;
+    std::size_t num_vertices = 0, num_triangles = 0;
+    vk::Buffer nodes, slot_triangle, slot_corners, slot_features, face_normals, edge_normals, vertex_normals;
+    double scale = 0;
+  };
+  std::optional<Scene> scene;
+
+  const Scene& scene_of(const TriangleSurface& s) {
+    if (scene && scene->surface == &s && scene->vertices == s.vertices.data() &&
+        scene->triangles == s.triangles.data() && scene->num_vertices == s.vertices.size() &&
+        scene->num_triangles == s.triangles.size())
+      return *scene;
+    scene.reset();
+    const DeviceScene ds = DeviceScene::build(s);
+    const std::uint32_t limit = device->physical().max_storage_buffer_range;
+    auto upload = [&](const auto& v, const char* what) {
+      const std::size_t bytes = v.size() * sizeof(v[0]);
+      // The scene is bound whole (every point may need any triangle): an array over one storage
+      // buffer is a resource limit of this device, not a chunking matter.
+      if (bytes > limit)
+        throw ResourceError(fmt::format("backend 'vulkan': the surface's {} need {} MiB in one storage buffer; "
+                                        "device '{}' allows {} MiB (use --backend cpu)",
+                                        what, bytes >> 20, info.name, limit >> 20));
+      vk::Buffer b = device->make_buffer(bytes);
+      timed(profile.upload, [&] { std::memcpy(b.data(), v.data(), bytes); });
+      return b;
+    };
+    Scene out;
+    out.surface = &s;
+    out.vertices = s.vertices.data();
+    out.triangles = s.triangles.data();
+    out.num_vertices = s.vertices.size();
+    out.num_triangles = s.triangles.size();
+    out.nodes = upload(ds.nodes, "BVH nodes");
+    out.slot_triangle = upload(ds.slot_triangle, "leaf triangle ids");
+    out.slot_corners = upload(ds.slot_corners, "triangle corners");
+    out.slot_features = upload(ds.slot_features, "triangle features");
+    out.face_normals = upload(ds.face_normals, "face pseudonormals");
+    out.edge_normals = upload(ds.edge_normals, "edge pseudonormals");
+    out.vertex_normals = upload(ds.vertex_normals, "vertex pseudonormals");
+    out.scale = ds.scale;
+    scene.emplace(std::move(out));
+    return *scene;
+  }
+
+
+  explicit Impl(const VulkanOptions& options) {
+    std::string want = options.device;
+    if (want.empty())
+      if (const char* env = std::getenv("MCHEX_VULKAN_DEVICE"); env && *env) want = env;
+    const vk::PhysicalDevice* chosen = nullptr;
+    for (const auto& d : instance.devices()) {
+      if (d.api_version < VK_API_VERSION_1_2 || d.compute_queue_family < 0) continue;
+      if (!want.empty()) {
+        if (d.name.find(want) != std::string::npos || d.driver_name.find(want) != std::string::npos) {
+          chosen = &d;
+          break;
+        }
+      } else if (!chosen || (chosen->type_name() != "gpu" && d.type_name() == "gpu")) {
+        chosen = &d;
+      }
+    }
+    if (!chosen)
+      throw InputError(want.empty() ? "backend 'vulkan': no Vulkan 1.2 device with a compute queue found"
+                                    : "backend 'vulkan': no Vulkan 1.2 device matches '" + want + "'");
+    // The shaders compute in fp64 to equal the cpu reference bit for bit; a device without it
+    // would need a float path with a host-side guard band, which this backend does not have.
+    if (!chosen->shader_float64)
+      throw InputError("backend 'vulkan': device '" + chosen->name +
+                       "' lacks shaderFloat64, which the vulkan backend needs (use --backend cpu or opencl)");
+    if (!chosen->shader_int64)
+      throw InputError("backend 'vulkan': device '" + chosen->name +
+                       "' lacks shaderInt64, which the device prefix sum needs");
+    info = device_info(*chosen);
+    device.emplace(instance, *chosen, options.cache_dir);
+    max_chunk = options.max_chunk;
+
+    const auto start = std::chrono::steady_clock::now();
+    refinement = device->make_pipeline(spirv::refinement_error, 3, 4);
+    classify = device->make_pipeline(spirv::classify, 5, 8);
+    scan_blocks = device->make_pipeline(spirv::scan_blocks, 3, 4);
+    scan_totals = device->make_pipeline(spirv::scan_totals, 1, 16);
+    scan_add = device->make_pipeline(spirv::scan_add, 2, 4);
+    surface_sdf = device->make_pipeline(spirv::surface_sdf, 9, 16);
+    shape_sdf = device->make_pipeline(spirv::shape_sdf, 2, 8);
+    pipeline_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    // Written now, not only at exit: a run that ends by an error still leaves the cache behind.
+    device->save_cache();
+
+    const std::vector<std::uint32_t> words = classify_tables();
+    tables = device->make_buffer(words.size() * sizeof(std::uint32_t));
+    std::memcpy(tables.data(), words.data(), words.size() * sizeof(std::uint32_t));
+  }
+
+  ~Impl() {
+    if (!device) return;
+    for (vk::Pipeline* p : {&refinement, &classify, &scan_blocks, &scan_totals, &scan_add, &surface_sdf, &shape_sdf})
+      device->destroy(*p);
+  }
+
+  // Elements per dispatch: every binding (bytes_per_element each, the largest given) within
+  // maxStorageBufferRange, the workgroups within maxComputeWorkGroupCount[0], and the test cap.
+  std::size_t chunk_for(std::size_t largest_bytes_per_element, std::uint32_t group) const {
+    const vk::PhysicalDevice& d = device->physical();
+    std::size_t n = d.max_storage_buffer_range / largest_bytes_per_element;
+    n = std::min<std::size_t>(n, std::size_t(d.max_work_group_count[0]) * group);
+    if (max_chunk) n = std::min(n, max_chunk);
+    return std::max<std::size_t>(n, 1);
+  }
+
+  void run(const vk::Pipeline& p, std::initializer_list<vk::BufferRange> buffers, const void* push,
+           std::size_t invocations, std::uint32_t group) {
+    const std::size_t groups = (invocations + group - 1) / group;
+    const auto start = std::chrono::steady_clock::now();
+    device->dispatch(p, std::span<const vk::BufferRange>(buffers.begin(), buffers.size()), push,
+                     static_cast<std::uint32_t>(groups));
+    profile.device += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    ++dispatches;
+  }
+};
+
+VulkanBackend::VulkanBackend(const VulkanOptions& options) : impl_(std::make_unique<Impl>(options)) {}
+VulkanBackend::~VulkanBackend() = default;
+
+const DeviceInfo& VulkanBackend::device() const { return impl_->info; }
+std::filesystem::path VulkanBackend::pipeline_cache_file() const { return impl_->device->cache_file(); }
+std::size_t VulkanBackend::pipeline_cache_bytes_loaded() const { return impl_->device->cache_bytes_loaded(); }
+double VulkanBackend::pipeline_seconds() const { return impl_->pipeline_seconds; }
+std::array<std::uint8_t, 16> VulkanBackend::pipeline_cache_uuid() const {
+  std::array<std::uint8_t, 16> out{};
+  std::memcpy(out.data(), impl_->device->physical().pipeline_cache_uuid, out.size());
+  return out;
+}
+std::size_t VulkanBackend::dispatches() const { return impl_->dispatches; }
+VulkanBackend::Profile VulkanBackend::profile() const { return impl_->profile; }
+
+void VulkanBackend::signed_distance(const SdfSource& source, std::span<const Vec3> points,
+                                    std::span<double> values) {
+  if (points.size() != values.size()) throw std::invalid_argument("SDF batch size mismatch");
+  Impl& m = *impl_;
+  const std::size_t n = points.size();
+  if (n == 0) return;
+  if (source.surface && source.surface->triangles.empty()) {
+    // core/sdf.cpp: an empty surface has nothing inside.
+    std::fill(values.begin(), values.end(), -std::numeric_limits<double>::infinity());
+    return;
+  }
+  const std::size_t per_item = source.surface ? kSdfPointsPerInvocation : 1;
+  const std::size_t chunk = std::min(n, m.chunk_for(sizeof(Vec3), kGroup * per_item));
+  vk::Buffer in = m.device->make_buffer(chunk * sizeof(Vec3));
+  vk::Buffer out = m.device->make_buffer(chunk * sizeof(double));
+  const Impl::Scene* scene = source.surface ? &m.scene_of(*source.surface) : nullptr;
+  for (std::size_t begin = 0; begin < n; begin += chunk) {
+    const std::size_t count = std::min(chunk, n - begin);
+    timed(m.profile.upload, [&] { std::memcpy(in.data(), points.data() + begin, count * sizeof(Vec3)); });
+    if (scene) {
+      struct {
+        std::uint32_t n, per_item;
+        double scale;
+      } push{static_cast<std::uint32_t>(count), static_cast<std::uint32_t>(per_item), scene->scale};
+      m.run(m.surface_sdf,
+            {{&scene->nodes}, {&scene->slot_triangle}, {&scene->slot_corners}, {&scene->slot_features},
+             {&scene->face_normals}, {&scene->edge_normals}, {&scene->vertex_normals}, {&in}, {&out}},
+            &push, (count + per_item - 1) / per_item, kGroup);
+    } else {
+      const std::int32_t push[2] = {static_cast<std::int32_t>(count), static_cast<std::int32_t>(source.shape)};
+      m.run(m.shape_sdf, {{&in}, {&out}}, push, count, kGroup);
+    }
+    timed(m.profile.download, [&] { std::memcpy(values.data() + begin, out.data(), count * sizeof(double)); });
+  }
+}
+
+void VulkanBackend::refinement_error(std::span<const std::array<double, kChildLatticePoints>> lattice,
+                                     std::span<const double> sizes, std::span<double> errors) {
+  if (lattice.size() != sizes.size() || lattice.size() != errors.size())
+    throw std::invalid_argument("refinement_error: batch size mismatch");
+  Impl& m = *impl_;
+  const std::size_t n = lattice.size();
+  if (n == 0) return;
+  const std::size_t chunk = std::min(n, m.chunk_for(sizeof(lattice[0]), kGroup));
+  vk::Buffer in = m.device->make_buffer(chunk * sizeof(lattice[0]));
+  vk::Buffer size = m.device->make_buffer(chunk * sizeof(double));
+  vk::Buffer out = m.device->make_buffer(chunk * sizeof(double));
+  for (std::size_t begin = 0; begin < n; begin += chunk) {
+    const std::size_t count = std::min(chunk, n - begin);
+    timed(m.profile.upload, [&] {
+      std::memcpy(in.data(), lattice.data() + begin, count * sizeof(lattice[0]));
+      std::memcpy(size.data(), sizes.data() + begin, count * sizeof(double));
+    });
+    const std::uint32_t push = static_cast<std::uint32_t>(count);
+    m.run(m.refinement, {{&in}, {&size}, {&out}}, &push, count, kGroup);
+    timed(m.profile.download, [&] { std::memcpy(errors.data() + begin, out.data(), count * sizeof(double)); });
+  }
+}
+
+void VulkanBackend::classify_cells(const HexComplex& complex, std::span<const double> values,
+                                   std::span<CellCode> codes, std::span<std::uint64_t> offsets) {
+  Impl& m = *impl_;
+  const std::size_t cells = complex.cells.size();
+  if (values.size() != complex.points.size() || codes.size() != cells || offsets.size() != cells + 1)
+    throw std::invalid_argument("classify_cells: batch size mismatch");
+  // core's classify() refuses a cell with a non-finite corner value; so does this, with its
+  // message (checked on the host: a device has no exceptions).
+  if (!std::all_of(values.begin(), values.end(), [](double v) { return std::isfinite(v); }))
+    for (const CellCorners& c : complex.cells)
+      for (std::uint32_t p : c)
+        if (!std::isfinite(values[p])) throw InputError("MC33 classify: a corner value is not finite");
+  offsets[0] = 0;
+  if (cells == 0) return;
+
+  const vk::PhysicalDevice& d = m.device->physical();
+  // Point values bound whole when they fit one storage buffer (and the test cap does not ask
+  // for chunks), else gathered per cell on the host, 8 per cell.
+  const bool gathered = values.size() * sizeof(double) > d.max_storage_buffer_range ||
+                        (m.max_chunk && values.size() > m.max_chunk);
+  const std::size_t chunk =
+      std::min(cells, m.chunk_for(gathered ? 8 * sizeof(double) : sizeof(CellCorners), kGroup));
+  vk::Buffer value_buf = m.device->make_buffer((gathered ? 8 * chunk : values.size()) * sizeof(double));
+  if (!gathered)
+    timed(m.profile.upload, [&] { std::memcpy(value_buf.data(), values.data(), values.size() * sizeof(double)); });
+  vk::Buffer cell_buf = m.device->make_buffer(chunk * sizeof(CellCorners));
+  vk::Buffer code_buf = m.device->make_buffer(chunk * 2 * sizeof(std::uint32_t));
+  vk::Buffer count_buf = m.device->make_buffer(chunk * sizeof(std::uint32_t));
+  vk::Buffer offset_buf = m.device->make_buffer(chunk * sizeof(std::uint64_t));
+  const std::size_t blocks = (chunk + kScanBlock - 1) / kScanBlock;
+  vk::Buffer total_buf = m.device->make_buffer(blocks * sizeof(std::uint64_t));
+
+  std::uint64_t carry = 0;
+  for (std::size_t begin = 0; begin < cells; begin += chunk) {
+    const std::size_t count = std::min(chunk, cells - begin);
+    timed(m.profile.upload, [&] {
+      if (gathered) {
+        double* v = mapped<double>(value_buf);
+        for (std::size_t i = 0; i < count; ++i)
+          for (int c = 0; c < 8; ++c) v[8 * i + c] = values[complex.cells[begin + i][c]];
+      } else {
+        std::memcpy(cell_buf.data(), complex.cells.data() + begin, count * sizeof(CellCorners));
+      }
+    });
+    const std::uint32_t push[2] = {static_cast<std::uint32_t>(count), gathered ? 1u : 0u};
+    m.run(m.classify, {{&value_buf}, {&cell_buf}, {&m.tables}, {&code_buf}, {&count_buf}}, push, count, kGroup);
+
+    // Exclusive prefix sum of the counts (shaders/scan_*.comp), continuing from the chunks before.
+    const std::uint32_t n32 = static_cast<std::uint32_t>(count);
+    const std::size_t chunk_blocks = (count + kScanBlock - 1) / kScanBlock;
+    m.run(m.scan_blocks, {{&count_buf}, {&offset_buf}, {&total_buf}}, &n32, chunk_blocks * kScanGroup, kScanGroup);
+    struct {
+      std::uint32_t blocks, pad;
+      std::uint64_t carry;
+    } totals_push{static_cast<std::uint32_t>(chunk_blocks), 0, carry};
+    m.run(m.scan_totals, {{&total_buf}}, &totals_push, kScanGroup, kScanGroup);
+    m.run(m.scan_add, {{&offset_buf}, {&total_buf}}, &n32, count, kScanGroup);
+
+    timed(m.profile.download, [&] {
+      const std::uint32_t* w = mapped<std::uint32_t>(code_buf);
+      for (std::size_t i = 0; i < count; ++i) codes[begin + i] = decode_cell(w[2 * i], w[2 * i + 1]);
+      std::memcpy(offsets.data() + begin, offset_buf.data(), count * sizeof(std::uint64_t));
+    });
+    carry = offsets[begin + count - 1] + mapped<std::uint32_t>(count_buf)[count - 1];
+  }
+  offsets[cells] = carry;
+}
+
+std::vector<DeviceInfo> list_vulkan_devices() {
+  std::vector<DeviceInfo> out;
+  try {
+    vk::Instance instance;
+    for (const auto& d : instance.devices()) out.push_back(device_info(d));
+  } catch (const std::exception&) {
+    // No loader or no driver: Vulkan simply has no devices here.
+  }
+  return out;
+}
+
+std::vector<std::string> describe_vulkan_devices() {
+  std::vector<std::string> out;
+  try {
+    vk::Instance instance;
+    for (const auto& d : instance.devices()) {
+      std::string heaps;
+      for (const VkMemoryHeap& h : d.heaps)
+        heaps += fmt::format("{}{:.1f} GiB{}", heaps.empty() ? "" : " + ", double(h.size) / (1u << 30),
+                             (h.flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT) ? " device-local" : "");
+      out.push_back(fmt::format(
+          "vulkan: {} [{}] driver {} ({}), API {}, shaderFloat64 {}, shaderInt64 {}, "
+          "maxStorageBufferRange {} MiB, maxComputeWorkGroupCount {}x{}x{}, maxComputeWorkGroupSize "
+          "{}x{}x{} ({} invocations), heaps {}{}",
+          d.name, d.type_name(), d.driver_name, d.driver_info, api_string(d.api_version),
+          d.shader_float64 ? "yes" : "no", d.shader_int64 ? "yes" : "no",
+          d.max_storage_buffer_range >> 20, d.max_work_group_count[0], d.max_work_group_count[1],
+          d.max_work_group_count[2], d.max_work_group_size[0], d.max_work_group_size[1],
+          d.max_work_group_size[2], d.max_work_group_invocations, heaps,
+          d.api_version < VK_API_VERSION_1_2 ? " (below Vulkan 1.2: not used)" : ""));
+    }
+  } catch (const std::exception& e) {
+    out.push_back(std::string("vulkan: no devices (") + e.what() + ")");
+  }
+  return out;
+}
+
+}  // namespace mchex

@@ -1,0 +1,83 @@
+// The `vulkan` backend (host/backend.h): the data-parallel stages as GLSL compute shaders
+// (shaders/*.comp), compiled to SPIR-V at build time and run through Vulkan 1.2 on any device
+// with fp64 (Mesa lavapipe on this machine). Results equal the cpu reference bit for bit: SDF
+// values, refinement errors, CellCodes and hex offsets (test_vulkan checks each).
+//
+// Large batches are cut into chunks that fit the device's limits: every binding within
+// maxStorageBufferRange (128 MiB on lavapipe) and every dispatch within
+// maxComputeWorkGroupCount[0]. Compiled pipelines are kept in a VkPipelineCache saved under
+// $XDG_CACHE_HOME/mchex-gpu (else ~/.cache/mchex-gpu), one file per device UUID and driver
+// version, so a second run does not recompile.
+#pragma once
+
+#include <cstddef>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "host/backend.h"
+
+namespace mchex {
+
+struct VulkanOptions {
+  // Which device: empty takes the first GPU, else the first device; otherwise the first device
+  // whose name or driver name contains this text (e.g. "llvmpipe"). The environment variable
+  // MCHEX_VULKAN_DEVICE, when set, is used where this is empty.
+  std::string device;
+  // Where the pipeline cache file lives; empty: no cache on disk.
+  std::filesystem::path cache_dir = default_pipeline_cache_dir();
+  // Largest number of elements (points, cells) per dispatch; 0: only the device's limits.
+  // Tests force small chunks with it to exercise the chunking.
+  std::size_t max_chunk = 0;
+
+  static std::filesystem::path default_pipeline_cache_dir();
+};
+
+class VulkanBackend : public Backend {
+ public:
+  // Throws InputError (exit 1, one line) when Vulkan has no usable device here, or the chosen
+  // one lacks what the shaders need (shaderFloat64, shaderInt64).
+  explicit VulkanBackend(const VulkanOptions& options = {});
+  ~VulkanBackend() override;
+
+  const DeviceInfo& device() const override;
+  void signed_distance(const SdfSource& source, std::span<const Vec3> points,
+                       std::span<double> values) override;
+  void refinement_error(std::span<const std::array<double, kChildLatticePoints>> lattice,
+                        std::span<const double> sizes, std::span<double> errors) override;
+  void classify_cells(const HexComplex& complex, std::span<const double> values,
+                      std::span<CellCode> codes, std::span<std::uint64_t> offsets) override;
+
+  // The pipeline cache: its file, how many bytes of it were loaded at creation, and the seconds
+  // spent creating the pipelines (compilation, or a cache hit).
+  std::filesystem::path pipeline_cache_file() const;
+  std::size_t pipeline_cache_bytes_loaded() const;
+  double pipeline_seconds() const;
+  // The chosen device's pipelineCacheUUID: a cache file's header must carry it (Vulkan spec,
+  // VkPipelineCacheHeaderVersionOne) for the driver to use the file.
+  std::array<std::uint8_t, 16> pipeline_cache_uuid() const;
+  // Dispatches issued so far (each within the device's limits): tests check the chunking.
+  std::size_t dispatches() const;
+  // Where the time went since creation (seconds): host copies into mapped buffers (and gathers),
+  // dispatches (submit to fence: the device's work, JIT compilation on first use included), and
+  // copies back out (and decoding).
+  struct Profile {
+    double upload = 0, device = 0, download = 0;
+  };
+  Profile profile() const;
+
+  struct Impl;
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+// Every Vulkan physical device (for `mchex-gpu devices`); empty when there is no Vulkan loader
+// or driver (never throws for that).
+std::vector<DeviceInfo> list_vulkan_devices();
+// The same devices with what a GPU user wants to see: driver, API version, fp64/int64, storage
+// buffer range, workgroup limits, memory heaps; one line each.
+std::vector<std::string> describe_vulkan_devices();
+
+}  // namespace mchex

@@ -1,0 +1,141 @@
+// The Vulkan boilerplate of the vulkan backend, written once (STYLE.md: Vulkan-Samples,
+// vk-bootstrap): instance, physical devices, one logical device with a compute queue,
+// host-visible storage buffers, compute pipelines from embedded SPIR-V with a pipeline cache kept
+// on disk, and one synchronous dispatch call. Every Vulkan call's result is checked; a failure
+// becomes one std::runtime_error line that names the call and the VkResult.
+//
+// Target: the Vulkan 1.2 API on any device (Mesa lavapipe here). Compute only; no window system.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <span>
+#include <string>
+#include <vector>
+
+#include <vulkan/vulkan.h>
+
+namespace mchex::vk {
+
+// "vkCreateDevice failed: VK_ERROR_OUT_OF_HOST_MEMORY"
+void check(VkResult result, const char* call);
+const char* result_name(VkResult result);
+
+// What `mchex-gpu devices` shows of one physical device, and what the backend needs to know.
+struct PhysicalDevice {
+  VkPhysicalDevice handle = VK_NULL_HANDLE;
+  std::string name, driver_name, driver_info;
+  VkDriverId driver_id{};
+  VkPhysicalDeviceType type{};
+  std::uint32_t api_version = 0, driver_version = 0;
+  std::uint8_t device_uuid[VK_UUID_SIZE] = {};
+  std::uint8_t pipeline_cache_uuid[VK_UUID_SIZE] = {};
+  std::uint32_t vendor_id = 0, device_id = 0;
+  bool shader_float64 = false, shader_int64 = false;
+  std::uint32_t max_storage_buffer_range = 0;
+  std::uint32_t max_work_group_count[3] = {}, max_work_group_size[3] = {};
+  std::uint32_t max_work_group_invocations = 0;
+  std::uint32_t max_push_constants_size = 0;
+  std::vector<VkMemoryHeap> heaps;
+  int compute_queue_family = -1;  // -1: the device has no compute queue
+  std::uint32_t compute_units = 0;  // not a Vulkan property: 0 (unknown)
+
+  std::string type_name() const;  // "cpu" | "gpu" | "other"
+};
+
+// One VkInstance (API 1.2) and the physical devices it sees.
+class Instance {
+ public:
+  Instance();
+  ~Instance();
+  Instance(const Instance&) = delete;
+  Instance& operator=(const Instance&) = delete;
+  VkInstance handle() const { return instance_; }
+  const std::vector<PhysicalDevice>& devices() const { return devices_; }
+
+ private:
+  VkInstance instance_ = VK_NULL_HANDLE;
+  std::vector<PhysicalDevice> devices_;
+};
+
+// A storage buffer in host-visible, host-coherent memory, mapped for its whole life.
+class Buffer {
+ public:
+  Buffer() = default;
+  Buffer(VkDevice device, const VkPhysicalDeviceMemoryProperties& memory, VkDeviceSize bytes);
+  ~Buffer();
+  Buffer(Buffer&& o) noexcept;
+  Buffer& operator=(Buffer&& o) noexcept;
+  VkBuffer handle() const { return buffer_; }
+  VkDeviceSize size() const { return bytes_; }
+  void* data() const { return mapped_; }
+
+ private:
+  void release();
+  VkDevice device_ = VK_NULL_HANDLE;
+  VkBuffer buffer_ = VK_NULL_HANDLE;
+  VkDeviceMemory memory_ = VK_NULL_HANDLE;
+  VkDeviceSize bytes_ = 0;
+  void* mapped_ = nullptr;
+};
+
+// A compute pipeline whose bindings 0..num_buffers-1 are storage buffers and whose push constant
+// block is push_bytes long.
+struct Pipeline {
+  VkShaderModule module = VK_NULL_HANDLE;
+  VkDescriptorSetLayout set_layout = VK_NULL_HANDLE;
+  VkPipelineLayout layout = VK_NULL_HANDLE;
+  VkPipeline pipeline = VK_NULL_HANDLE;
+  std::uint32_t num_buffers = 0, push_bytes = 0;
+};
+
+// A range of a buffer bound to one binding.
+struct BufferRange {
+  const Buffer* buffer = nullptr;
+  VkDeviceSize offset = 0, bytes = VK_WHOLE_SIZE;
+};
+
+// The logical device, its compute queue and the pipeline cache, for one physical device.
+class Device {
+ public:
+  // cache_dir: where the pipeline cache file lives (created if missing); empty: no disk cache.
+  Device(const Instance& instance, const PhysicalDevice& physical, std::filesystem::path cache_dir);
+  ~Device();  // writes the pipeline cache back to disk
+  Device(const Device&) = delete;
+  Device& operator=(const Device&) = delete;
+
+  const PhysicalDevice& physical() const { return physical_; }
+  Buffer make_buffer(VkDeviceSize bytes) const;
+  Pipeline make_pipeline(std::span<const std::uint32_t> spirv, std::uint32_t num_buffers,
+                         std::uint32_t push_bytes);
+  void destroy(Pipeline& p);
+  // Records, submits and waits for one dispatch of groups_x workgroups.
+  void dispatch(const Pipeline& p, std::span<const BufferRange> buffers, const void* push,
+                std::uint32_t groups_x);
+
+  // The file the pipeline cache is read from and written to (empty when there is none), and how
+  // many bytes of it this device loaded at creation (0: no file, or one the driver rejected).
+  const std::filesystem::path& cache_file() const { return cache_file_; }
+  std::size_t cache_bytes_loaded() const { return cache_bytes_loaded_; }
+  void save_cache() const;
+
+ private:
+  void release();
+  PhysicalDevice physical_;
+  VkPhysicalDeviceMemoryProperties memory_{};
+  VkDevice device_ = VK_NULL_HANDLE;
+  VkQueue queue_ = VK_NULL_HANDLE;
+  VkCommandPool command_pool_ = VK_NULL_HANDLE;
+  VkCommandBuffer command_buffer_ = VK_NULL_HANDLE;
+  VkDescriptorPool descriptor_pool_ = VK_NULL_HANDLE;
+  VkFence fence_ = VK_NULL_HANDLE;
+  VkPipelineCache cache_ = VK_NULL_HANDLE;
+  std::filesystem::path cache_file_;
+  std::size_t cache_bytes_loaded_ = 0;
+};
+
+// The default pipeline cache folder: $XDG_CACHE_HOME/mchex-gpu, else $HOME/.cache/mchex-gpu,
+// else none.
+std::filesystem::path default_cache_dir();
+
+}  // namespace mchex::vk

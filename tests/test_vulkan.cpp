@@ -1,0 +1,454 @@
+// The vulkan backend against the cpu reference, really run on Mesa lavapipe (selected
+// explicitly: its ICD is the only one the loader sees in this process, and the device is picked
+// by name). No lavapipe means these tests FAIL; they never skip.
+//
+// Every comparison is exact: SDF values and refinement errors bit for bit, CellCodes field for
+// field, offsets equal. Inputs are random and adversarial (every sign pattern with random, tied
+// and guard-band magnitudes; points on triangles, edges and vertices and far away), and the
+// chunked paths are forced with a small chunk size.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <glob.h>
+#include <limits>
+#include <random>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "core/error.h"
+#include "core/grid.h"
+#include "core/hex_complex.h"
+#include "core/mc33.h"
+#include "core/refinement_error.h"
+#include "core/sdf.h"
+#include "core/shapes.h"
+#include "core/surface.h"
+#include "host/backend_vulkan.h"
+
+namespace fs = std::filesystem;
+using namespace mchex;
+
+namespace {
+
+// The scratch folder of this test process: the pipeline cache and Mesa's shader cache live here,
+// so runs never depend on (or fill) the user's caches.
+fs::path scratch() {
+  static const fs::path dir = [] {
+    fs::path d = fs::temp_directory_path() / ("mchex-test-vulkan-" + std::to_string(::getpid()));
+    fs::remove_all(d);
+    fs::create_directories(d);
+    return d;
+  }();
+  return dir;
+}
+
+// Before any Vulkan call: only lavapipe's ICD, Mesa's caches in the scratch folder.
+class LavapipeEnvironment : public ::testing::Environment {
+ public:
+  void SetUp() override {
+    glob_t g{};
+    std::string icd;
+    if (::glob("/usr/share/vulkan/icd.d/lvp_icd.*.json", 0, nullptr, &g) == 0 && g.gl_pathc > 0)
+      icd = g.gl_pathv[0];
+    globfree(&g);
+    // An empty VK_DRIVER_FILES would let the loader take every ICD; the device-name check in
+    // lavapipe() still fails the tests then.
+    ::setenv("VK_DRIVER_FILES", icd.c_str(), 1);
+    ::setenv("VK_ICD_FILENAMES", icd.c_str(), 1);  // loaders before 1.3.207 read this name
+    ::setenv("MESA_SHADER_CACHE_DIR", (scratch() / "mesa").c_str(), 1);
+    ::unsetenv("MCHEX_VULKAN_DEVICE");
+  }
+  void TearDown() override { fs::remove_all(scratch()); }
+};
+const auto* const kEnvironment = ::testing::AddGlobalTestEnvironment(new LavapipeEnvironment);
+
+VulkanOptions lavapipe_options(std::size_t max_chunk = 0, fs::path cache = scratch() / "pipelines") {
+  VulkanOptions o;
+  o.device = "llvmpipe";
+  o.cache_dir = std::move(cache);
+  o.max_chunk = max_chunk;
+  return o;
+}
+
+VulkanBackend& lavapipe() {
+  static VulkanBackend backend(lavapipe_options());
+  return backend;
+}
+
+std::uint64_t bits(double x) { return std::bit_cast<std::uint64_t>(x); }
+
+// A complex whose cells own their 8 points, so each cell's values are set independently.
+HexComplex separate_cells(std::size_t cells) {
+  HexComplex c;
+  c.points.resize(8 * cells);
+  c.cells.resize(cells);
+  for (std::size_t i = 0; i < cells; ++i)
+    for (int k = 0; k < 8; ++k) c.cells[i][k] = static_cast<std::uint32_t>(8 * i + k);
+  return c;
+}
+
+void expect_same_as_reference(const HexComplex& complex, const std::vector<double>& values,
+                              const std::vector<CellCode>& codes,
+                              const std::vector<std::uint64_t>& offsets) {
+  ASSERT_EQ(codes.size(), complex.cells.size());
+  ASSERT_EQ(offsets.size(), complex.cells.size() + 1);
+  std::uint64_t total = 0;
+  int wrong = 0;
+  for (std::size_t i = 0; i < complex.cells.size() && wrong < 5; ++i) {
+    std::array<double, 8> f;
+    for (int c = 0; c < 8; ++c) f[c] = values[complex.cells[i][c]];
+    const CellClass r = classify(f);
+    const CellCode& g = codes[i];
+    const bool same = g.subcase == r.subcase && g.sign_mask == r.sign_mask &&
+                      g.face_joins == r.face_joins && g.tunnel == r.tunnel &&
+                      g.symmetry == r.symmetry && (g.inverted != 0) == r.inverted &&
+                      g.cut_edges == r.cut_edges && offsets[i] == total;
+    if (!same) {
+      ++wrong;
+      ADD_FAILURE() << "cell " << i << ": device subcase " << int(g.subcase) << " mask " << int(g.sign_mask)
+                    << " faces " << int(g.face_joins) << " tunnel " << int(g.tunnel) << " symmetry "
+                    << int(g.symmetry) << " inverted " << int(g.inverted) << " cut " << g.cut_edges
+                    << " offset " << offsets[i] << "; reference " << int(r.subcase) << " "
+                    << int(r.sign_mask) << " " << int(r.face_joins) << " " << int(r.tunnel) << " "
+                    << int(r.symmetry) << " " << r.inverted << " " << r.cut_edges << " " << total;
+    }
+    total += 8 + 2 * static_cast<std::uint64_t>(std::popcount(r.cut_edges));
+  }
+  if (wrong == 0) {
+    EXPECT_EQ(offsets.back(), total);
+  }
+}
+
+struct Classified {
+  std::vector<CellCode> codes;
+  std::vector<std::uint64_t> offsets;
+};
+
+Classified run_classify(Backend& b, const HexComplex& complex, const std::vector<double>& values) {
+  Classified out{std::vector<CellCode>(complex.cells.size()),
+                 std::vector<std::uint64_t>(complex.cells.size() + 1)};
+  b.classify_cells(complex, values, out.codes, out.offsets);
+  return out;
+}
+
+// Every sign pattern, each with several magnitude rules: random, all equal (every face test a
+// tie), powers of two (exact products: ties and near-ties of the asymptotic decider), values at
+// the zero tolerance of the mesher's zero rule (1e-10 of the cell size) mixed with O(1) ones, and
+// magnitudes spread over many decades.
+std::vector<double> adversarial_values(std::size_t& cells, std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> unit(1e-3, 1.0);
+  std::uniform_int_distribution<int> pow2(-3, 3), decade(-12, 2), coin(0, 1);
+  std::vector<double> v;
+  for (int mask = 0; mask < 256; ++mask)
+    for (int rule = 0; rule < 5; ++rule)
+      for (int rep = 0; rep < (rule == 1 ? 1 : 24); ++rep)
+        for (int c = 0; c < 8; ++c) {
+          double m = 1;
+          switch (rule) {
+            case 0: m = unit(rng); break;
+            case 1: m = 1; break;
+            case 2: m = std::ldexp(1.0, pow2(rng)); break;
+            case 3: m = coin(rng) ? 1e-10 : unit(rng); break;
+            case 4: m = std::pow(10.0, decade(rng)) * unit(rng); break;
+          }
+          v.push_back((mask >> c & 1) ? m : -m);
+        }
+  cells = v.size() / 8;
+  return v;
+}
+
+}  // namespace
+
+TEST(vulkan, LavapipeIsListedWithItsLimits) {
+  const std::vector<DeviceInfo> devices = list_vulkan_devices();
+  auto it = std::find_if(devices.begin(), devices.end(),
+                         [](const DeviceInfo& d) { return d.name.find("llvmpipe") != std::string::npos; });
+  ASSERT_NE(it, devices.end()) << "lavapipe (llvmpipe) not found: setup.sh installs mesa-vulkan-drivers";
+  EXPECT_EQ(it->backend, "vulkan");
+  EXPECT_EQ(it->type, "cpu");
+  EXPECT_TRUE(it->fp64);
+  EXPECT_GE(it->max_buffer_bytes, 1u << 20);
+  const std::vector<std::string> lines = describe_vulkan_devices();
+  ASSERT_FALSE(lines.empty());
+  EXPECT_NE(lines[0].find("maxStorageBufferRange"), std::string::npos) << lines[0];
+  EXPECT_NE(lines[0].find("shaderFloat64 yes"), std::string::npos) << lines[0];
+  EXPECT_EQ(lavapipe().device().name, it->name);
+}
+
+TEST(vulkan, AbsentDeviceIsOneClearInputError) {
+  VulkanOptions o = lavapipe_options();
+  o.device = "no-such-device";
+  try {
+    VulkanBackend b(o);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("no-such-device"), std::string::npos) << e.what();
+  }
+}
+
+TEST(vulkan, RefinementErrorIsBitIdenticalToTheReference) {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::vector<std::array<double, kChildLatticePoints>> lattice;
+  std::vector<double> sizes;
+  auto add = [&](auto&& value, double size) {
+    std::array<double, kChildLatticePoints> f;
+    for (int c = 0; c < 4; ++c)
+      for (int b = 0; b < 4; ++b)
+        for (int a = 0; a < 4; ++a) f[child_lattice_index(a, b, c)] = value(a / 3.0, b / 3.0, c / 3.0);
+    lattice.push_back(f);
+    sizes.push_back(size);
+  };
+  for (int i = 0; i < 3000; ++i) {
+    // A sphere's distance in a random cell (smooth), a random field (rough), a trilinear field
+    // (error 0 up to rounding), a constant (0), and flat parents with a bump (infinite error).
+    const double size = std::ldexp(1.0, -(i % 7)) * (0.5 + 0.5 * std::abs(u(rng)));
+    const double cx = u(rng), cy = u(rng), cz = u(rng);
+    add([&](double x, double y, double z) {
+      return 0.7 - std::sqrt((cx + size * x) * (cx + size * x) + (cy + size * y) * (cy + size * y) +
+                             (cz + size * z) * (cz + size * z));
+    }, size);
+    add([&](double, double, double) { return u(rng); }, size);
+    const double a = u(rng), b = u(rng), c = u(rng), d = u(rng);
+    add([&](double x, double y, double z) { return a + b * x + c * y * z + d * x * y * z; }, size);
+    add([&](double, double, double) { return cx; }, size);
+    add([&](double x, double y, double z) { return (x > 0 && x < 1 && y > 0 && y < 1 && z > 0 && z < 1) ? cy : cx; },
+        size);
+  }
+  std::vector<double> device(lattice.size());
+  lavapipe().refinement_error(lattice, sizes, device);
+  int infinite = 0;
+  for (std::size_t i = 0; i < lattice.size(); ++i) {
+    const double ref = refinement_error(lattice[i], sizes[i]);
+    ASSERT_EQ(bits(device[i]), bits(ref)) << "cell " << i << ": " << device[i] << " vs " << ref;
+    infinite += std::isinf(ref);
+  }
+  EXPECT_GT(infinite, 0);  // the zero-gradient rule was exercised
+
+  // Chunked: 97 cells per dispatch gives the same bits.
+  VulkanBackend small(lavapipe_options(97));
+  std::vector<double> chunked(lattice.size());
+  const std::size_t before = small.dispatches();
+  small.refinement_error(lattice, sizes, chunked);
+  EXPECT_EQ(small.dispatches() - before, (lattice.size() + 96) / 97);
+  for (std::size_t i = 0; i < lattice.size(); ++i) ASSERT_EQ(bits(chunked[i]), bits(device[i])) << i;
+}
+
+TEST(vulkan, ClassifyEverySignPatternWithRandomTiedAndGuardBandMagnitudes) {
+  std::mt19937_64 rng(11);
+  std::size_t cells = 0;
+  const std::vector<double> values = adversarial_values(cells, rng);
+  const HexComplex complex = separate_cells(cells);
+  const Classified got = run_classify(lavapipe(), complex, values);
+  expect_same_as_reference(complex, values, got.codes, got.offsets);
+  std::set<int> masks;
+  for (const CellCode& c : got.codes) masks.insert(c.sign_mask);
+  EXPECT_EQ(masks.size(), 256u);
+}
+
+TEST(vulkan, ClassifyRandomFieldsReachEverySubcaseIncludingTunnels) {
+  // Random corner values hit all 32 subcase slots (the tunnel subcases are rare: many cells).
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(-1, 1);
+  const std::size_t cells = 400000;
+  HexComplex complex = separate_cells(cells);
+  std::vector<double> values(8 * cells);
+  for (double& v : values) v = u(rng);
+  const Classified got = run_classify(lavapipe(), complex, values);
+  expect_same_as_reference(complex, values, got.codes, got.offsets);
+  std::set<int> subcases;
+  for (const CellCode& c : got.codes) subcases.insert(static_cast<int>(c.subcase));
+  EXPECT_EQ(subcases.size(), std::size_t(kNumSubcases));
+}
+
+TEST(vulkan, ClassifyOnASharedGridChunkedAndGatheredEqualsWhole) {
+  // A uniform grid (shared points) with a smooth field plus noise; then the same with 1000 cells
+  // per chunk, which also takes the gathered-values path and carries the prefix sum across
+  // chunks.
+  const UniformGrid grid(Box{{-1, -1, -1}, {1, 1, 1}}, 3);
+  const HexComplex complex = uniform_complex(grid);
+  std::mt19937_64 rng(3);
+  std::uniform_real_distribution<double> u(-0.05, 0.05);
+  std::vector<double> values(complex.points.size());
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    const Vec3 p = complex.points[i];
+    values[i] = 0.8 - std::sqrt(p.x * p.x + p.y * p.y + p.z * p.z) + u(rng);
+  }
+  const Classified whole = run_classify(lavapipe(), complex, values);
+  expect_same_as_reference(complex, values, whole.codes, whole.offsets);
+  VulkanBackend small(lavapipe_options(1000));
+  const Classified chunked = run_classify(small, complex, values);
+  EXPECT_TRUE(chunked.codes == whole.codes);
+  EXPECT_TRUE(chunked.offsets == whole.offsets);
+  EXPECT_GE(small.dispatches(), 4 * ((complex.cells.size() + 999) / 1000));
+}
+
+TEST(vulkan, ClassifyRefusesNonFiniteValuesLikeTheReference) {
+  HexComplex complex = separate_cells(2);
+  std::vector<double> values(16, 1.0);
+  values[11] = std::numeric_limits<double>::quiet_NaN();
+  std::vector<CellCode> codes(2);
+  std::vector<std::uint64_t> offsets(3);
+  EXPECT_THROW(lavapipe().classify_cells(complex, values, codes, offsets), InputError);
+  // A non-finite value at a point no cell uses is not an error (the reference never sees it).
+  complex.points.push_back({});
+  values.assign(17, 1.0);
+  values[16] = std::numeric_limits<double>::infinity();
+  EXPECT_NO_THROW(lavapipe().classify_cells(complex, values, codes, offsets));
+  EXPECT_EQ(offsets[2], 16u);
+}
+
+TEST(vulkan, PipelineCacheIsWrittenAndReusedByASecondBackend) {
+  const fs::path dir = scratch() / "cache-test";
+  fs::remove_all(dir);
+  {
+    VulkanBackend first(lavapipe_options(0, dir));
+    EXPECT_EQ(first.pipeline_cache_bytes_loaded(), 0u);  // nothing there yet
+    ASSERT_TRUE(fs::exists(first.pipeline_cache_file())) << first.pipeline_cache_file();
+    EXPECT_EQ(first.pipeline_cache_file().parent_path(), dir);
+  }
+  VulkanBackend second(lavapipe_options(0, dir));
+  // The second backend loaded the whole file the first one wrote, and the driver accepted it.
+  const std::uintmax_t file_bytes = fs::file_size(second.pipeline_cache_file());
+  EXPECT_EQ(second.pipeline_cache_bytes_loaded(), file_bytes);
+  // The file is this device's cache: VkPipelineCacheHeaderVersionOne (length 32, version 1,
+  // vendor, device, pipelineCacheUUID) as the driver wrote it. Lavapipe (Mesa 22.3) keeps no
+  // compiled code in a VkPipelineCache, so there the file is this header alone; a GPU driver
+  // appends its binaries after it.
+  ASSERT_GE(file_bytes, 32u);
+  std::ifstream in(second.pipeline_cache_file(), std::ios::binary);
+  std::array<unsigned char, 32> header{};
+  in.read(reinterpret_cast<char*>(header.data()), 32);
+  auto word = [&](int i) {
+    return std::uint32_t(header[4 * i]) | std::uint32_t(header[4 * i + 1]) << 8 |
+           std::uint32_t(header[4 * i + 2]) << 16 | std::uint32_t(header[4 * i + 3]) << 24;
+  };
+  EXPECT_EQ(word(0), 32u);
+  EXPECT_EQ(word(1), 1u);  // VK_PIPELINE_CACHE_HEADER_VERSION_ONE
+  const auto uuid = second.pipeline_cache_uuid();
+  EXPECT_TRUE(std::equal(uuid.begin(), uuid.end(), header.begin() + 16));
+}
+
+namespace {
+
+// Points that stress the closest-feature logic of a surface: its vertices, points on its edges and
+// inside its triangles (exactly, and nudged off by tiny and small distances along the face
+// normal), random points around it and far away.
+std::vector<Vec3> adversarial_points(const TriangleSurface& s, std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> u(0, 1), box(-2, 2);
+  std::vector<Vec3> pts;
+  for (std::size_t t = 0; t < s.triangles.size(); t += 3) {
+    const Vec3 a = s.vertices[s.triangles[t][0]], b = s.vertices[s.triangles[t][1]], c = s.vertices[s.triangles[t][2]];
+    const Vec3 n = normalized(cross(b - a, c - a));
+    const double r = u(rng), q = u(rng) * (1 - r);
+    const Vec3 inside = a + r * (b - a) + q * (c - a);
+    pts.push_back(a);
+    pts.push_back(a + u(rng) * (b - a));
+    pts.push_back(0.5 * (b + c));
+    pts.push_back(inside);
+    for (double off : {1e-14, -1e-14, 1e-9, -1e-9, 1e-3, -1e-3}) pts.push_back(inside + off * n);
+  }
+  for (int i = 0; i < 20000; ++i) pts.push_back({box(rng), box(rng), box(rng)});
+  for (int i = 0; i < 200; ++i) pts.push_back({1e4 * box(rng), 1e4 * box(rng), 1e4 * box(rng)});
+  pts.push_back({0, 0, 0});
+  return pts;
+}
+
+void expect_bit_equal(const std::vector<double>& got, const std::vector<double>& want, const std::vector<Vec3>& pts) {
+  ASSERT_EQ(got.size(), want.size());
+  int wrong = 0;
+  for (std::size_t i = 0; i < got.size() && wrong < 5; ++i)
+    if (bits(got[i]) != bits(want[i])) {
+      ++wrong;
+      ADD_FAILURE() << "point " << i << " (" << pts[i].x << ", " << pts[i].y << ", " << pts[i].z
+                    << "): device " << got[i] << " reference " << want[i];
+    }
+}
+
+}  // namespace
+
+TEST(vulkan, ShapeSdfIsBitIdenticalToTheReference) {
+  std::mt19937_64 rng(21);
+  std::uniform_real_distribution<double> u(-1.6, 1.6);
+  for (const ShapeInfo& info : shape_catalog()) {
+    std::vector<Vec3> pts;
+    for (int i = 0; i < 30000; ++i) pts.push_back({u(rng), u(rng), u(rng)});
+    // Axes, planes of symmetry and the tube junction of the two-holed solid, and far points.
+    for (int i = 0; i < 200; ++i) {
+      pts.push_back({u(rng), 0, 0});
+      pts.push_back({0, u(rng), 0});
+      pts.push_back({0, 0, u(rng)});
+      pts.push_back({u(rng), u(rng), 0});
+      pts.push_back({1e6 * u(rng), 1e6 * u(rng), 1e6 * u(rng)});
+    }
+    const ShapeSdf reference(info.kind);
+    std::vector<double> want(pts.size()), got(pts.size());
+    reference.evaluate(pts, want);
+    SdfSource source;
+    source.shape = info.kind;
+    lavapipe().signed_distance(source, pts, got);
+    SCOPED_TRACE(std::string(info.name));
+    expect_bit_equal(got, want, pts);
+  }
+}
+
+TEST(vulkan, SurfaceSdfIsBitIdenticalOnClosedOpenAndDegenerateSurfaces) {
+  std::mt19937_64 rng(22);
+  std::vector<std::pair<std::string, TriangleSurface>> surfaces;
+  surfaces.emplace_back("torus", tessellate(ShapeKind::kTorus, 48));
+  surfaces.emplace_back("sphere", tessellate(ShapeKind::kSphere, 40));
+  // Open (a band of triangles removed), and a soup: flipped, duplicated and zero-area triangles.
+  TriangleSurface open = tessellate(ShapeKind::kSphere, 24);
+  open.triangles.erase(open.triangles.begin() + 40, open.triangles.begin() + 90);
+  surfaces.emplace_back("open sphere", open);
+  TriangleSurface soup = tessellate(ShapeKind::kTorus, 16);
+  for (std::size_t t = 0; t < soup.triangles.size(); t += 7) std::swap(soup.triangles[t][1], soup.triangles[t][2]);
+  for (std::size_t t = 0; t < 20; ++t) soup.triangles.push_back(soup.triangles[t]);
+  soup.vertices.push_back({0.3, 0.3, 0.3});
+  soup.vertices.push_back({0.6, 0.6, 0.6});
+  const std::uint32_t v0 = std::uint32_t(soup.vertices.size() - 2);
+  soup.triangles.push_back({v0, v0 + 1, v0});          // repeated vertex
+  soup.vertices.push_back({0.9, 0.9, 0.9});
+  soup.triangles.push_back({v0, v0 + 1, v0 + 2});      // collinear: zero area
+  surfaces.emplace_back("soup", soup);
+  for (const auto& [name, s] : surfaces) {
+    SCOPED_TRACE(name);
+    const std::vector<Vec3> pts = adversarial_points(s, rng);
+    const SurfaceSdf reference(s);
+    std::vector<double> want(pts.size()), got(pts.size());
+    reference.evaluate(pts, want);
+    SdfSource source;
+    source.surface = &s;
+    lavapipe().signed_distance(source, pts, got);
+    expect_bit_equal(got, want, pts);
+  }
+}
+
+TEST(vulkan, SurfaceSdfChunkedEqualsWholeAndEmptySurfaceIsOutside) {
+  const TriangleSurface torus = tessellate(ShapeKind::kTorus, 32);
+  std::mt19937_64 rng(23);
+  const std::vector<Vec3> pts = adversarial_points(torus, rng);
+  SdfSource source;
+  source.surface = &torus;
+  std::vector<double> whole(pts.size()), chunked(pts.size());
+  lavapipe().signed_distance(source, pts, whole);
+  VulkanBackend small(lavapipe_options(1000));
+  const std::size_t before = small.dispatches();
+  small.signed_distance(source, pts, chunked);
+  EXPECT_EQ(small.dispatches() - before, (pts.size() + 999) / 1000);
+  expect_bit_equal(chunked, whole, pts);
+
+  const TriangleSurface empty;
+  source.surface = &empty;
+  std::vector<double> v(3, 0.0);
+  lavapipe().signed_distance(source, std::vector<Vec3>(3), v);
+  for (double x : v) EXPECT_EQ(x, -std::numeric_limits<double>::infinity());
+}
