@@ -1,5 +1,7 @@
 #include "host/vk_context.h"
 
+#include "core/error.h"
+
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -73,7 +75,12 @@ Instance::Instance() {
   VkInstanceCreateInfo info{};
   info.sType = VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO;
   info.pApplicationInfo = &app;
-  check(vkCreateInstance(&info, nullptr, &instance_), "vkCreateInstance");
+  const VkResult created = vkCreateInstance(&info, nullptr, &instance_);
+  // No installed driver (no ICD, or none for Vulkan 1.2) means "no Vulkan device here": a
+  // usage matter for `--backend vulkan` (exit 1), not an internal failure.
+  if (created == VK_ERROR_INCOMPATIBLE_DRIVER)
+    throw InputError("backend 'vulkan': no Vulkan 1.2 driver found (vkCreateInstance: VK_ERROR_INCOMPATIBLE_DRIVER)");
+  check(created, "vkCreateInstance");
 
   std::uint32_t n = 0;
   VkResult r = vkEnumeratePhysicalDevices(instance_, &n, nullptr);
