@@ -1,6 +1,7 @@
 #include "core/octree.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -97,6 +98,7 @@ Octree::Octree(const Box& cube, int max_depth) : cube_(cube), max_depth_(max_dep
   if (max_depth < 0 || max_depth > kMaxAdaptiveDepth)
     throw InputError(fmt::format("--max-depth must be between 0 and {}, got {}", kMaxAdaptiveDepth, max_depth));
   refined_.resize(static_cast<std::size_t>(max_depth));
+  marks_.resize(static_cast<std::size_t>(max_depth));
 }
 
 std::uint32_t Octree::cells_per_axis(int level) const { return pow3(level); }
@@ -115,7 +117,35 @@ bool Octree::exists(int level, std::uint64_t cell) const {
 bool Octree::refine(int level, std::uint64_t cell) {
   if (level >= max_depth_) throw std::logic_error("refining a cell at the deepest level");
   if (!exists(level, cell)) throw std::logic_error("refining a cell whose parent is not refined");
-  return refined_[level].insert(cell);
+  if (!refined_[level].insert(cell)) return false;
+  const auto [i, j, k] = octree_unkey(cell);
+  for (int c = 0; c < 8; ++c)
+    marks_[level].insert(octree_key(i + kCubeCorners[c][0], j + kCubeCorners[c][1], k + kCubeCorners[c][2]));
+  return true;
+}
+
+bool Octree::mark(int level, std::uint64_t vertex) {
+  if (level >= max_depth_) throw std::logic_error("marking a vertex at the deepest level");
+  return marks_[level].insert(vertex);
+}
+
+bool Octree::is_marked(int level, std::uint64_t vertex) const {
+  return level < max_depth_ && marks_[level].contains(vertex);
+}
+
+std::vector<std::uint64_t> Octree::marked_vertices(int level) const {
+  if (level >= max_depth_) return {};
+  return sorted(marks_[level].keys());
+}
+
+std::uint8_t mark_closure(std::uint8_t marks) {
+  if (template_for_marks(marks).valid) return marks;
+  std::uint8_t best = 0xFF;
+  for (int m = 0; m < 256; ++m)
+    if ((m & marks) == marks && template_for_marks(static_cast<std::uint8_t>(m)).valid &&
+        std::popcount(static_cast<unsigned>(m)) < std::popcount(static_cast<unsigned>(best)))
+      best = static_cast<std::uint8_t>(m);
+  return best;
 }
 
 std::vector<std::uint64_t> Octree::refined_cells(int level) const {
@@ -146,21 +176,12 @@ std::size_t Octree::leaf_count() const {
 }
 
 std::uint8_t Octree::marks(int level, std::uint64_t cell) const {
-  if (level >= max_depth_ || refined_[level].size() == 0) return 0;
+  if (level >= max_depth_ || marks_[level].size() == 0) return 0;
   const auto [i, j, k] = octree_unkey(cell);
-  const std::uint32_t n = cells_per_axis(level);
   std::uint8_t m = 0;
-  for (int c = 0; c < 8; ++c) {
-    // Corner c of the leaf is a corner of the (up to 8) level cells around that vertex.
-    const std::uint32_t vx = i + kCubeCorners[c][0], vy = j + kCubeCorners[c][1], vz = k + kCubeCorners[c][2];
-    bool marked = false;
-    for (int a = 0; a < 8 && !marked; ++a) {
-      const std::uint32_t x = vx - kCubeCorners[a][0], y = vy - kCubeCorners[a][1], z = vz - kCubeCorners[a][2];
-      if (x >= n || y >= n || z >= n) continue;  // unsigned: also catches -1
-      marked = refined_[level].contains(octree_key(x, y, z));
-    }
-    if (marked) m |= static_cast<std::uint8_t>(1u << c);
-  }
+  for (int c = 0; c < 8; ++c)
+    if (marks_[level].contains(octree_key(i + kCubeCorners[c][0], j + kCubeCorners[c][1], k + kCubeCorners[c][2])))
+      m |= static_cast<std::uint8_t>(1u << c);
   return m;
 }
 
@@ -296,18 +317,17 @@ Octree refine_octree(const SignedDistance& sdf, const Box& cube, const AdaptiveO
 
 namespace {
 
-// The cells of `level` that touch (share at least a point with) cell `fine` of level + 1.
+// The cells of a level whose closed box holds vertex v of the next level (v in that level's
+// vertex units: cell q spans [3q, 3q + 3]).
 template <class F>
-void for_each_touching_coarse(std::uint64_t fine, std::uint32_t n_coarse, F&& f) {
-  const auto a = octree_unkey(fine);
-  std::array<std::array<std::uint32_t, 3>, 3> q{};
+void for_each_cell_holding(std::uint64_t v, std::uint32_t n, F&& f) {
+  const auto a = octree_unkey(v);
+  std::array<std::array<std::uint32_t, 2>, 3> q{};
   std::array<int, 3> count{};
   for (int d = 0; d < 3; ++d) {
-    // Coarse q spans [3q, 3q + 3] in fine units and the fine cell [a, a + 1]: they meet iff
-    // 3q <= a + 1 and 3q + 3 >= a.
-    const std::int64_t lo = std::max<std::int64_t>(0, (std::int64_t(a[d]) - 3 + 2) / 3);
-    const std::int64_t hi = std::min<std::int64_t>(n_coarse - 1, (std::int64_t(a[d]) + 1) / 3);
-    for (std::int64_t v = lo; v <= hi; ++v) q[d][count[d]++] = static_cast<std::uint32_t>(v);
+    const std::int64_t lo = std::max<std::int64_t>(0, (std::int64_t(a[d]) + 2) / 3 - 1);
+    const std::int64_t hi = std::min<std::int64_t>(std::int64_t(n) - 1, a[d] / 3);
+    for (std::int64_t x = lo; x <= hi; ++x) q[d][count[d]++] = static_cast<std::uint32_t>(x);
   }
   for (int x = 0; x < count[0]; ++x)
     for (int y = 0; y < count[1]; ++y)
@@ -325,31 +345,45 @@ std::size_t balance_octree(Octree& tree, OctreeStats* stats) {
   for (bool changed = true; changed;) {
     changed = false;
     ++rounds;
-    // Finest first: a refinement made for level L only adds constraints at L and coarser, except
-    // that new leaves at L + 1 need the next round.
+    // Finest first: what is done for level L only adds marks at L and refinements whose corners
+    // are marks at L, which rule (a) carries to L - 1; new leaves at L + 1 wait for the next round.
     for (int level = depth - 1; level >= 0; --level) {
-      std::size_t refined_here = 0;
-      // Rule (a).
+      std::size_t refined_here = 0, marked_here = 0;
+      // Rule (a): a leaf holding a mark of the next level refines.
       if (level + 1 < depth) {
         const std::uint32_t n = tree.cells_per_axis(level);
-        for (std::uint64_t fine : tree.refined_cells(level + 1))
-          for_each_touching_coarse(fine, n, [&](std::uint64_t q) {
+        for (std::uint64_t v : tree.marked_vertices(level + 1))
+          for_each_cell_holding(v, n, [&](std::uint64_t q) {
             if (tree.exists(level, q) && tree.refine(level, q)) ++refined_here;
           });
       }
-      // Rule (b), repeated: a refinement marks new corners of its neighbours.
+      // Rule (b), repeated: new marks and refinements change the neighbours' patterns.
       for (bool again = true; again;) {
         again = false;
-        for (std::uint64_t leaf : tree.leaves(level))
-          if (!template_for_marks(tree.marks(level, leaf)).valid) {
+        for (std::uint64_t leaf : tree.leaves(level)) {
+          const std::uint8_t m = tree.marks(level, leaf);
+          if (template_for_marks(m).valid) continue;
+          again = true;
+          const std::uint8_t closed = mark_closure(m);
+          if (closed == 0xFF) {
             tree.refine(level, leaf);
             ++refined_here;
-            again = true;
+            continue;
           }
+          const auto [i, j, k] = octree_unkey(leaf);
+          for (int c = 0; c < 8; ++c)
+            if ((closed & ~m) >> c & 1) {
+              tree.mark(level, octree_key(i + kCubeCorners[c][0], j + kCubeCorners[c][1], k + kCubeCorners[c][2]));
+              ++marked_here;
+            }
+        }
       }
-      if (refined_here) changed = true;
+      if (refined_here || marked_here) changed = true;
       total += refined_here;
-      if (stats) stats->levels[level].refined_by_balance += refined_here;
+      if (stats) {
+        stats->levels[level].refined_by_balance += refined_here;
+        stats->levels[level].marks_added += marked_here;
+      }
     }
   }
   if (stats) {
@@ -362,16 +396,13 @@ std::size_t balance_octree(Octree& tree, OctreeStats* stats) {
 bool octree_balanced(const Octree& tree, std::string* why) {
   const int depth = tree.max_depth();
   for (int level = 0; level < depth; ++level) {
-    // (a), checked from the leaf's side: no refined cell of level + 1 in its closed box.
-    const std::vector<std::uint64_t> fine = level + 1 < depth ? tree.refined_cells(level + 1)
-                                                              : std::vector<std::uint64_t>{};
-    KeySet touched;
-    for (std::uint64_t f : fine)
-      for_each_touching_coarse(f, tree.cells_per_axis(level), [&](std::uint64_t q) { touched.insert(q); });
+    KeySet holding;  // leaves of this level with a mark of the next level in their closed box
+    for (std::uint64_t v : tree.marked_vertices(level + 1))
+      for_each_cell_holding(v, tree.cells_per_axis(level), [&](std::uint64_t q) { holding.insert(q); });
     for (std::uint64_t leaf : tree.leaves(level)) {
       const auto [i, j, k] = octree_unkey(leaf);
-      if (touched.contains(leaf)) {
-        if (why) *why = fmt::format("leaf ({}, {}, {}) of level {} touches a refined cell of level {}", i, j, k, level, level + 1);
+      if (holding.contains(leaf)) {
+        if (why) *why = fmt::format("leaf ({}, {}, {}) of level {} holds a mark of level {}", i, j, k, level, level + 1);
         return false;
       }
       const std::uint8_t m = tree.marks(level, leaf);

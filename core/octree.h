@@ -18,16 +18,23 @@
 // R is about 0.2 h^2 / R) and refines creases and the SDF's own kinks (the medial axis, where
 // |grad f| jumps) down to max_depth.
 //
-// Balancing (balance_octree), to a fixed point, two rules for every leaf c of level L:
-//   (a) no refined cell of level L + 1 touches c (not even at a point): the leaves around any
-//       leaf are at most one level finer, so the fine cells a template continues into c are
-//       never themselves refined;
-//   (b) c's marked corners (corners of refined cells of level L) form a pattern that a template
-//       handles: none, one corner, the two corners of an edge, the four of a face
-//       (template_for_marks); any other pattern, all eight included, refines c into its 27
-//       children.
-// Refining only ever adds cells and never beyond max_depth (a leaf that breaks a rule always has
-// a refined cell of its own level or the next beside it), so the loop ends.
+// Balancing (balance_octree). A MARK on a vertex of level L says that the cells of level L
+// around it continue the finer level there: every corner of a refined cell is marked, and a leaf
+// whose marked corners form a pattern no template handles gets more marks, the fewest that make
+// one (Schneiders' marking closure, as in the vanilla code of
+// CMU-CBML/Element-Saving-Hexahedral-3-Refinement-Templates): three corners of a face, or two
+// opposite corners of a face, mark the whole face; a pattern in no face (two opposite corners
+// of the cell, marks on two faces, ...) refines the leaf, which marks all 8 of its corners. To a
+// fixed point, for every leaf c of level L:
+//   (a) no mark of level L + 1 lies in c's closed box (it would put a fine point on c's
+//       boundary): the leaves touching c are at most one level finer, and the fine cubes a
+//       template continues into c never meet a finer cell;
+//   (b) c's marked corners form a template's pattern: none, one corner, the two corners of an
+//       edge, the four of a face (template_for_marks).
+// Marks and refinements only ever grow, and never beyond max_depth (a rule is only broken next to
+// a mark of the leaf's own level or the next, and marks of level L exist only below max_depth),
+// so the loop ends. Each face's pattern then depends only on its 4 corners' marks, which both
+// cells sharing it see alike: the complex conforms.
 //
 // The complex (build_adaptive_complex): every leaf replaced by its template. Points are keyed by
 // exact integer coordinates at a common resolution, 4 * 3^max_depth units per cube edge (template
@@ -95,28 +102,37 @@ class Octree {
   // A cell exists when it is the root or its parent is refined.
   bool exists(int level, std::uint64_t cell) const;
   bool is_refined(int level, std::uint64_t cell) const;
-  // Refines an existing leaf (level < max_depth); returns false if it already was refined.
+  // Refines an existing leaf (level < max_depth) and marks its 8 corners; returns false if it
+  // already was refined.
   bool refine(int level, std::uint64_t cell);
+  // Marks vertex (i, j, k) of a level (< max_depth); returns false if it already was marked.
+  bool mark(int level, std::uint64_t vertex);
+  bool is_marked(int level, std::uint64_t vertex) const;
+  std::vector<std::uint64_t> marked_vertices(int level) const;  // sorted
   // Refined cells of a level (level < max_depth), sorted by key.
   std::vector<std::uint64_t> refined_cells(int level) const;
   // Leaves of a level, sorted by key.
   std::vector<std::uint64_t> leaves(int level) const;
   std::size_t leaf_count() const;
-  // Marked corners of a leaf: bit c <=> its corner c (VTK order) is a corner of a refined cell of
-  // its level.
+  // Marked corners of a cell: bit c <=> its corner c (VTK order) is marked.
   std::uint8_t marks(int level, std::uint64_t cell) const;
 
  private:
   Box cube_;
   int max_depth_;
   std::vector<KeySet> refined_;  // per level 0 .. max_depth - 1
+  std::vector<KeySet> marks_;    // per level 0 .. max_depth - 1, vertex keys
 };
+
+// The fewest marks that contain `marks` and have a template (0xFF where only refinement does).
+std::uint8_t mark_closure(std::uint8_t marks);
 
 struct OctreeLevelStats {
   std::size_t candidates = 0;          // cells whose error was evaluated
   std::size_t sdf_points = 0;          // distinct new points in this level's batch
   std::size_t refined_by_error = 0;
   std::size_t refined_by_balance = 0;
+  std::size_t marks_added = 0;         // by the closure, beyond the refined cells' corners
   std::size_t leaves = 0;              // after balancing
 };
 struct OctreeStats {
