@@ -1,46 +1,25 @@
-// The MCHex mesher on a uniform grid; see mchex_mesher.h for the keys that make it conform.
+// The MCHex mesher; see mchex_mesher.h for the names that make it conform.
 #include "core/mchex_mesher.h"
 
 #include <algorithm>
+#include <chrono>
 #include <bit>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <string>
-#include <unordered_map>
 #include <vector>
 
+#include "core/complex_topology.h"
 #include "core/error.h"
 #include "core/hex_faces.h"
 #include "core/mc33.h"
+#include "core/parallel.h"
 #include "core/polyhedra.h"
 #include "core/subdivide.h"
 
 namespace mchex {
 namespace {
-
-
-// A global point key: kind in the top 3 bits of hi, the rest as mchex_mesher.h lists.
-struct PointKey {
-  std::uint64_t hi = 0, lo = 0;
-  friend bool operator==(const PointKey&, const PointKey&) = default;
-};
-enum KeyKind : std::uint64_t { kVertexKey, kMidpointKey, kFacePieceKey, kLoopKey, kCentreKey };
-constexpr PointKey make_key(KeyKind kind, std::uint64_t a, std::uint64_t b) {
-  return {(std::uint64_t(kind) << 61) | a, b};
-}
-
-struct PointKeyHash {
-  std::size_t operator()(const PointKey& k) const {
-    // splitmix64 finaliser over both words.
-    std::uint64_t x = k.hi * 0x9E3779B97F4A7C15ull ^ (k.lo + 0x632BE59BD9B4E019ull + (k.hi << 6));
-    x ^= x >> 30;
-    x *= 0xBF58476D1CE4E5B9ull;
-    x ^= x >> 27;
-    x *= 0x94D049BB133111EBull;
-    x ^= x >> 31;
-    return static_cast<std::size_t>(x);
-  }
-};
 
 // Cell point keys (0..19) lying on each cell face: its 4 corners and the crossings of its 4
 // edges. A face piece lies on the one face whose mask holds all its keys.
@@ -56,6 +35,27 @@ constexpr std::array<std::uint32_t, 6> make_face_key_masks() {
   return m;
 }
 constexpr std::array<std::uint32_t, 6> kFaceKeyMasks = make_face_key_masks();
+
+// The cell face that holds two cell edges (-1 if none): where an isosurface chord between their
+// crossings runs.
+constexpr std::array<std::array<std::int8_t, 12>, 12> make_edge_pair_face() {
+  std::array<std::array<std::int8_t, 12>, 12> t{};
+  for (auto& row : t) row.fill(-1);
+  for (int f = 0; f < 6; ++f)
+    for (int a = 0; a < 12; ++a)
+      for (int b = 0; b < 12; ++b)
+        if (a != b && (kFaceKeyMasks[f] >> (8 + a) & 1) && (kFaceKeyMasks[f] >> (8 + b) & 1))
+          t[a][b] = static_cast<std::int8_t>(f);
+  return t;
+}
+constexpr auto kEdgePairFace = make_edge_pair_face();
+
+constexpr int cube_edge_of(int a, int b) {
+  for (int e = 0; e < 12; ++e)
+    if ((kCubeEdges[e][0] == a && kCubeEdges[e][1] == b) || (kCubeEdges[e][0] == b && kCubeEdges[e][1] == a))
+      return e;
+  return -1;
+}
 
 // Regions of a cell without any interior join: same-sign corners linked along cell edges and
 // across the diagonal each ambiguous face joins (CellClass::face_joins), numbered by lowest
@@ -104,127 +104,248 @@ void regions_without_interior(CellClass& c) {
   for (int i = n; i < 8; ++i) c.regions[i] = {};
 }
 
-// The cell stage: every grid cell cut and subdivided, its hex corners merged by global keys into
-// one point array.
-struct MchexCells {
-  std::vector<Vec3> points;  // every global point once, in first-use order
-  std::vector<std::array<std::uint32_t, 8>> inside, outside;  // VTK order, into points
+// A point of the output while the cells run: a global id below kLocal, or kLocal | the index of
+// a point its chunk made (fixed up once every chunk is done).
+constexpr std::uint32_t kLocal = 0x80000000u;
+
+// Where the shared points of each grid edge and face start in the global point array (after the
+// complex's own points): an uncut edge or face needs one slot, a cut edge 3, a cut face 8.
+struct SlotLayout {
+  std::vector<std::uint32_t> edge_base, face_base;
+  std::uint64_t end = 0;
 };
 
-MchexCells mchex_cut_cells(const UniformGrid& grid, std::span<const double> f, double eps,
-                           MchexStats& stats) {
-  const std::vector<Vec3> grid_points = grid.vertices();
-  const std::uint64_t num_vertices = grid.vertex_count();
-  const std::uint32_t n = grid.cells_per_axis();
+SlotLayout lay_out_slots(const HexComplex& cx, const ComplexTopology& t, std::span<const double> f) {
+  SlotLayout s;
+  const auto positive = [&](std::uint32_t p) { return f[p] > 0; };
+  std::uint64_t next = cx.points.size();
+  s.edge_base.resize(t.edge_points.size());
+  for (std::size_t e = 0; e < t.edge_points.size(); ++e) {
+    s.edge_base[e] = static_cast<std::uint32_t>(next);
+    next += positive(t.edge_points[e][0]) != positive(t.edge_points[e][1]) ? 3 : 1;
+  }
+  s.face_base.resize(t.face_points.size());
+  for (std::size_t q = 0; q < t.face_points.size(); ++q) {
+    s.face_base[q] = static_cast<std::uint32_t>(next);
+    const auto& fp = t.face_points[q];
+    const bool p0 = positive(fp[0]);
+    const bool cut = positive(fp[1]) != p0 || positive(fp[2]) != p0 || positive(fp[3]) != p0;
+    next += cut ? 8 : 1;
+  }
+  s.end = next;
+  return s;
+}
 
-  std::unordered_map<PointKey, std::uint32_t, PointKeyHash> ids;
-  ids.reserve(grid.cell_count() * 16);
-  std::vector<Vec3> points;
-  std::vector<std::array<std::uint32_t, 8>> inside, outside;
-  auto id_of = [&](const PointKey& key, const Vec3& p) {
-    auto [it, inserted] = ids.try_emplace(key, static_cast<std::uint32_t>(points.size()));
-    if (inserted) points.push_back(p);  // first computed wins: one coordinate per key
-    return it->second;
+// One chunk's output, in cell order.
+struct ChunkOutput {
+  std::vector<Hex> inside, outside;
+  std::vector<Vec3> locals;
+  MchexStats stats;
+};
+
+// A cell to cut, as the mesher names its parts: the cell of the complex itself, or one child of
+// a cell refined locally (paper Section 5, Figure 7), whose corners, edges and faces are either
+// the parent's (then named globally) or inside the parent (then named by the indices of their
+// points in the parent's refinement, cell-local).
+struct PieceFrame {
+  std::array<std::uint32_t, 8> global;  // corner's point id in the complex, or kNone
+  std::array<std::uint8_t, 8> local;    // corner's index among the refinement's points
+  std::array<std::uint32_t, 12> edge;   // global edge id, or kNone (an edge inside the parent)
+  std::array<std::uint32_t, 6> face;    // global face id, or kNone
+  std::uint32_t piece = 0;              // child index (0 for an unrefined cell)
+};
+constexpr std::uint32_t kNone = 0xFFFFFFFFu;
+
+// Cell-local names: kind, then small fields (indices of refinement points, slots, children).
+enum LocalKind : std::uint64_t { kLoopCentroid = 1, kVolumeCentre, kInnerPoint, kInnerEdge, kInnerFace };
+constexpr std::uint64_t local_key(LocalKind kind, std::uint64_t a, std::uint64_t b = 0, std::uint64_t c = 0) {
+  return kind << 56 | a << 40 | b << 8 | c;
+}
+
+struct Mesher {
+  const HexComplex& cx;
+  const ComplexTopology& topo;
+  const SlotLayout& slots;
+  std::span<const double> f;
+  double eps;
+  std::vector<Vec3>& shared;  // [0, slots.end): written by owners only
+
+  // The points one cell makes for itself (loop centroids, volume centres, everything inside a
+  // refined cell), by local name.
+  struct LocalPoints {
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> ids;
+    std::uint32_t get(std::uint64_t key, const Vec3& x, ChunkOutput& out) {
+      for (const auto& [k, id] : ids)
+        if (k == key) return id;
+      const std::uint32_t id = kLocal | static_cast<std::uint32_t>(out.locals.size());
+      out.locals.push_back(x);
+      ids.emplace_back(key, id);
+      return id;
+    }
   };
 
-  for (std::uint32_t k = 0; k < n; ++k)
-    for (std::uint32_t j = 0; j < n; ++j)
-      for (std::uint32_t i = 0; i < n; ++i) {
-        const std::uint64_t cell_id = i + std::uint64_t(n) * (j + std::uint64_t(n) * k);
-        const std::array<std::uint32_t, 8> gv = grid.cell_corners(i, j, k);
-        std::array<double, 8> fc;
-        std::array<Vec3, 8> xc;
-        for (int c = 0; c < 8; ++c) {
-          fc[c] = f[gv[c]];
-          xc[c] = grid_points[gv[c]];
-        }
-        CellClass cls = classify(fc);
-        stats.cases[static_cast<int>(cls.subcase)] += 1;
-        // Crossings clamped away from the corners (the eps of the paper's cutting): the value
-        // depends on the edge's two values only, so all cells around the edge agree.
-        for (int e = 0; e < 12; ++e)
-          if (cls.cut_edges >> e & 1) cls.crossing[e] = std::clamp(cls.crossing[e], eps, 1 - eps);
-        if (subcase_has_tunnel(cls.subcase)) {
-          // KNOWN GAP: the paper refines a tunnel cell locally (Section 5, Figure 7). Until that
-          // exists the cell is cut with its partner's topology: the same face chords (so the
-          // neighbours still conform) and regions joined only along edges and faces.
-          cls.subcase = subcase_info(cls.subcase).tunnel_partner;
-          cls.tunnel = 0;
-          regions_without_interior(cls);
-          ++stats.tunnel_cells;
-        }
-        stats.expected_hexes += 8 + 2 * static_cast<std::size_t>(std::popcount(cls.cut_edges));
+  void mesh_cell(std::uint32_t cell, ChunkOutput& out) const {
+    const CellCorners& gv = cx.cells[cell];
+    std::array<double, 8> fc;
+    std::array<Vec3, 8> xc;
+    for (int c = 0; c < 8; ++c) {
+      fc[c] = f[gv[c]];
+      xc[c] = cx.points[gv[c]];
+    }
+    CellClass cls = classify(fc);
+    out.stats.cases[static_cast<int>(cls.subcase)] += 1;
+    if (subcase_has_tunnel(cls.subcase)) {
+      // KNOWN GAP: the paper refines a tunnel cell locally (Section 5, Figure 7). Until that
+      // exists the cell is cut with its partner's topology: the same face chords (so the
+      // neighbours still conform) and regions joined only along edges and faces.
+      cls.subcase = subcase_info(cls.subcase).tunnel_partner;
+      cls.tunnel = 0;
+      regions_without_interior(cls);
+      ++out.stats.tunnel_cells;
+    }
+    out.stats.expected_hexes += 8 + 2 * static_cast<std::size_t>(std::popcount(cls.cut_edges));
+    PieceFrame frame;
+    frame.global = gv;
+    for (int c = 0; c < 8; ++c) frame.local[c] = static_cast<std::uint8_t>(c);
+    frame.edge = topo.cell_edges[cell];
+    frame.face = topo.cell_faces[cell];
+    LocalPoints locals;
+    mesh_piece(cell, frame, xc, cls, locals, out);
+  }
 
-        // Global base key of a cell point key: grid vertex, or grid edge (after the vertices).
-        auto base_key = [&](CellPointKey key) -> std::uint64_t {
-          if (is_corner_key(key)) return gv[key];
-          const int e = key_edge(key);
-          const int a = kCubeEdges[e][0], b = kCubeEdges[e][1];  // a is the lower end (+axis)
-          int axis = 0;
-          while (kCubeCorners[a][axis] == kCubeCorners[b][axis]) ++axis;
-          return num_vertices + 3 * std::uint64_t(gv[a]) + axis;
-        };
+  // Cuts one (sub)cell and subdivides its polyhedra; `cls` already classified, tunnels resolved.
+  void mesh_piece(std::uint32_t cell, const PieceFrame& fr, const std::array<Vec3, 8>& xc, CellClass cls,
+                  LocalPoints& locals, ChunkOutput& out) const {
+    // Crossings clamped away from the corners (the eps of the paper's cutting): the value depends
+    // on the edge's two values only, so all cells around the edge agree.
+    for (int e = 0; e < 12; ++e)
+      if (cls.cut_edges >> e & 1) cls.crossing[e] = std::clamp(cls.crossing[e], eps, 1 - eps);
 
-        const std::vector<Polyhedron> polys = cut_cell(xc, cls);
-        for (std::size_t pi = 0; pi < polys.size(); ++pi) {
-          const Polyhedron& p = polys[pi];
-          // Global keys of the polyhedron's faces.
-          std::vector<PointKey> face_keys(p.faces.size());
-          for (std::size_t fi = 0; fi < p.faces.size(); ++fi) {
-            const auto& face = p.faces[fi];
-            if (fi < p.num_cell_face_pieces) {
-              std::uint32_t mask = 0;
-              std::uint64_t min_corner = ~std::uint64_t(0);
-              for (std::uint32_t v : face) {
-                mask |= 1u << p.keys[v];
-                if (is_corner_key(p.keys[v])) min_corner = std::min<std::uint64_t>(min_corner, gv[p.keys[v]]);
-              }
-              int cf = 0;
-              while ((mask & ~kFaceKeyMasks[cf]) != 0) ++cf;  // cut_cell's pieces lie on a face
-              const int axis = cf / 2, side = cf % 2;
-              std::array<std::uint32_t, 3> lo = {i, j, k};
-              lo[axis] += side;
-              const std::uint64_t grid_face = 3 * std::uint64_t(grid.vertex_index(lo[0], lo[1], lo[2])) + axis;
-              face_keys[fi] = make_key(kFacePieceKey, grid_face, min_corner);
-            } else {
-              int min_crossing = 20;
-              for (std::uint32_t v : face) min_crossing = std::min<int>(min_crossing, p.keys[v]);
-              face_keys[fi] = make_key(kLoopKey, cell_id, static_cast<std::uint64_t>(min_crossing));
-            }
-          }
-          const PointKey centre = make_key(kCentreKey, cell_id, pi);
-          auto& target = p.region_sign > 0 ? inside : outside;
-          for (const SubdivisionHex& h : midpoint_subdivide(p)) {
-            std::array<std::uint32_t, 8> out;
-            for (int c = 0; c < 8; ++c) {
-              const SubdivisionPointKey& sk = h.keys[c];
-              PointKey key;
-              switch (sk.kind) {
-                case SubdivisionPointKey::Kind::kVertex:
-                  key = make_key(kVertexKey, base_key(sk.a), 0);
-                  break;
-                case SubdivisionPointKey::Kind::kEdge: {
-                  const std::uint64_t a = base_key(sk.a), b = base_key(sk.b);
-                  key = make_key(kMidpointKey, std::min(a, b), std::max(a, b));
-                  break;
-                }
-                case SubdivisionPointKey::Kind::kFace:
-                  key = face_keys[sk.a];
-                  break;
-                case SubdivisionPointKey::Kind::kCentre:
-                  key = centre;
-                  break;
-              }
-              out[c] = id_of(key, h.corners[c]);
-            }
-            target.push_back(out);
-          }
+    // Each face's corners in canonical order, as comparable names: global point ids on a face of
+    // the complex (build_topology's order), refinement indices on a face inside the parent.
+    std::array<std::array<std::uint32_t, 4>, 6> order;
+    for (int q = 0; q < 6; ++q) {
+      if (fr.face[q] != kNone) {
+        order[q] = topo.face_points[fr.face[q]];
+      } else {
+        std::array<std::uint32_t, 4> o;
+        for (int i = 0; i < 4; ++i) o[i] = fr.local[kHexFaces[q][i]];
+        std::rotate(o.begin(), std::min_element(o.begin(), o.end()), o.end());
+        if (o[3] < o[1]) std::swap(o[1], o[3]);
+        order[q] = o;
+      }
+    }
+    auto name_in_face = [&](int q, int corner) { return fr.face[q] != kNone ? fr.global[corner] : fr.local[corner]; };
+    auto rank_in_face = [&](int q, int corner) {
+      const std::uint32_t name = name_in_face(q, corner);
+      for (int r = 0; r < 4; ++r)
+        if (order[q][r] == name) return r;
+      return 4;  // unreachable for a consistent topology
+    };
+    // Rank of cell edge e in face q: r such that the edge joins face points r and r + 1.
+    auto edge_rank_in_face = [&](int q, int e) {
+      const int ra = rank_in_face(q, kCubeEdges[e][0]), rb = rank_in_face(q, kCubeEdges[e][1]);
+      return ((ra + 1) & 3) == rb ? ra : rb;
+    };
+    // Slot `slot` of edge e / face q (mchex_mesher.h), with the point x.
+    auto edge_point = [&](int e, std::uint32_t slot, const Vec3& x) {
+      const std::uint32_t g = fr.edge[e];
+      if (g != kNone) {
+        const std::uint32_t id = slots.edge_base[g] + slot;
+        if (topo.edge_owner[g] == cell) shared[id] = x;
+        return id;
+      }
+      const std::uint64_t a = fr.local[kCubeEdges[e][0]], b = fr.local[kCubeEdges[e][1]];
+      return locals.get(local_key(kInnerEdge, std::min(a, b) << 8 | std::max(a, b), 0, slot), x, out);
+    };
+    auto face_point = [&](int q, std::uint32_t slot, const Vec3& x) {
+      const std::uint32_t g = fr.face[q];
+      if (g != kNone) {
+        const std::uint32_t id = slots.face_base[g] + slot;
+        if (topo.face_owner[g] == cell) shared[id] = x;
+        return id;
+      }
+      const std::uint64_t name = std::uint64_t(order[q][0]) << 24 | order[q][1] << 16 | order[q][2] << 8 | order[q][3];
+      return locals.get(local_key(kInnerFace, name >> 16, name & 0xFFFF, slot), x, out);
+    };
+    // Whether corner c is the lower end of edge e (the end slot 0 starts from).
+    auto is_lower_end = [&](int e, int c) {
+      const int other = kCubeEdges[e][0] == c ? kCubeEdges[e][1] : kCubeEdges[e][0];
+      if (fr.edge[e] != kNone) return fr.global[c] == topo.edge_points[fr.edge[e]][0];
+      return fr.local[c] < fr.local[other];
+    };
+    auto corner_point = [&](int c, const Vec3& x) {
+      if (fr.global[c] != kNone) return fr.global[c];
+      return locals.get(local_key(kInnerPoint, fr.local[c]), x, out);
+    };
+
+    const std::vector<Polyhedron> polys = cut_cell(xc, cls);
+    for (std::size_t pi = 0; pi < polys.size(); ++pi) {
+      const Polyhedron& p = polys[pi];
+      // Per face of the polyhedron: the cell face it lies on and its slot (pieces), or the local
+      // key of its isosurface loop.
+      std::vector<std::int32_t> face_slot(p.faces.size());
+      std::vector<std::int8_t> face_cell_face(p.faces.size(), -1);
+      for (std::size_t fi = 0; fi < p.faces.size(); ++fi) {
+        const auto& face = p.faces[fi];
+        if (fi < p.num_cell_face_pieces) {
+          std::uint32_t mask = 0;
+          for (std::uint32_t v : face) mask |= 1u << p.keys[v];
+          int q = 0;
+          while ((mask & ~kFaceKeyMasks[q]) != 0) ++q;  // cut_cell's pieces lie on a face
+          int rank = 4;
+          for (std::uint32_t v : face)
+            if (is_corner_key(p.keys[v])) rank = std::min(rank, rank_in_face(q, p.keys[v]));
+          face_cell_face[fi] = static_cast<std::int8_t>(q);
+          face_slot[fi] = rank;
+        } else {
+          int min_crossing = 20;
+          for (std::uint32_t v : face) min_crossing = std::min<int>(min_crossing, p.keys[v]);
+          face_slot[fi] = min_crossing;
         }
       }
-
-  stats.points = points.size();
-  return {std::move(points), std::move(inside), std::move(outside)};
-}
+      auto& target = p.region_sign > 0 ? out.inside : out.outside;
+      for (const SubdivisionHex& h : midpoint_subdivide(p)) {
+        Hex hex;
+        for (int c = 0; c < 8; ++c) {
+          const SubdivisionPointKey& sk = h.keys[c];
+          const Vec3& x = h.corners[c];
+          std::uint32_t id = 0;
+          switch (sk.kind) {
+            case SubdivisionPointKey::Kind::kVertex:
+              id = is_corner_key(sk.a) ? corner_point(sk.a, x) : edge_point(key_edge(sk.a), 1, x);
+              break;
+            case SubdivisionPointKey::Kind::kEdge: {
+              const bool ca = is_corner_key(sk.a), cb = is_corner_key(sk.b);
+              if (ca && cb) {  // an uncut cell edge
+                id = edge_point(cube_edge_of(sk.a, sk.b), 0, x);
+              } else if (ca || cb) {  // corner to the crossing on its edge
+                const int corner = ca ? sk.a : sk.b, e = key_edge(ca ? sk.b : sk.a);
+                id = edge_point(e, is_lower_end(e, corner) ? 0 : 2, x);
+              } else {  // an isosurface chord across a cell face
+                const int ea = key_edge(sk.a), eb = key_edge(sk.b);
+                const int q = kEdgePairFace[ea][eb];
+                id = face_point(q, 4 + std::min(edge_rank_in_face(q, ea), edge_rank_in_face(q, eb)), x);
+              }
+              break;
+            }
+            case SubdivisionPointKey::Kind::kFace:
+              if (face_cell_face[sk.a] >= 0)
+                id = face_point(face_cell_face[sk.a], static_cast<std::uint32_t>(face_slot[sk.a]), x);
+              else
+                id = locals.get(local_key(kLoopCentroid, fr.piece, static_cast<std::uint64_t>(face_slot[sk.a])), x, out);
+              break;
+            case SubdivisionPointKey::Kind::kCentre:
+              id = locals.get(local_key(kVolumeCentre, fr.piece, pi), x, out);
+              break;
+          }
+          hex[c] = id;
+        }
+        target.push_back(hex);
+      }
+    }
+  }
+};
 
 }  // namespace
 
@@ -236,16 +357,19 @@ std::string_view mchex_case_name(int slot) {
 
 double zero_tolerance(double cell_size) { return 1e-10 * cell_size; }
 
-MeshPair mesh_mchex(const UniformGrid& grid, std::span<const double> values, double eps,
+MeshPair mesh_mchex(const HexComplex& cx, std::span<const double> values, double eps,
                     MchexStats* stats_out) {
   if (!(eps > 0 && eps < 0.5)) throw InputError("eps must be in (0, 0.5), got " + std::to_string(eps));
-  if (values.size() != grid.vertex_count())
+  if (values.size() != cx.points.size())
     throw InputError("mesh_mchex: " + std::to_string(values.size()) + " values for " +
-                     std::to_string(grid.vertex_count()) + " grid vertices");
+                     std::to_string(cx.points.size()) + " grid points");
   MchexStats stats;
 
-  // The zero rule (mchex_mesher.h), once per vertex.
-  const double tiny = zero_tolerance(grid.cell_size());
+  // The zero rule (mchex_mesher.h), once per point.
+  double smallest = std::numeric_limits<double>::infinity();
+  for (double h : cx.cell_size) smallest = std::min(smallest, h);
+  if (!std::isfinite(smallest)) smallest = cx.box.empty() ? 1.0 : cx.box.diagonal();
+  const double tiny = zero_tolerance(smallest);
   std::vector<double> f(values.begin(), values.end());
   for (double& v : f) {
     if (!std::isfinite(v)) throw InputError("mesh_mchex: a grid value is not finite");
@@ -255,11 +379,75 @@ MeshPair mesh_mchex(const UniformGrid& grid, std::span<const double> values, dou
     }
   }
 
-  MchexCells cells = mchex_cut_cells(grid, f, eps, stats);
+  using Clock = std::chrono::steady_clock;
+  auto since = [](Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); };
+  auto t0 = Clock::now();
+  const ComplexTopology topo = build_topology(cx);
+  const SlotLayout slots = lay_out_slots(cx, topo, f);
+  if (slots.end >= kLocal) throw ResourceError("mesh_mchex: more than 2^31 points");
+  std::vector<Vec3> points(slots.end);
+  std::copy(cx.points.begin(), cx.points.end(), points.begin());
+  stats.seconds_topology = since(t0);
+  t0 = Clock::now();
+
+  // Fixed chunks (never the thread count) so that the output order is the same on any machine.
+  constexpr std::size_t kChunk = 1024;
+  const std::size_t num_chunks = (cx.cells.size() + kChunk - 1) / kChunk;
+  std::vector<ChunkOutput> chunks(num_chunks);
+  const Mesher mesher{cx, topo, slots, f, eps, points};
+  parallel_chunks(num_chunks, 1, [&](std::size_t b, std::size_t e) {
+    for (std::size_t ch = b; ch < e; ++ch) {
+      const std::size_t end = std::min(cx.cells.size(), (ch + 1) * kChunk);
+      for (std::size_t c = ch * kChunk; c < end; ++c) mesher.mesh_cell(static_cast<std::uint32_t>(c), chunks[ch]);
+    }
+  });
+
+  stats.seconds_cells = since(t0);
+  t0 = Clock::now();
+
+  // Chunk-local points go after the shared ones; hexes keep the cells' order.
+  std::size_t num_in = 0, num_out = 0;
+  for (const ChunkOutput& ch : chunks) {
+    num_in += ch.inside.size();
+    num_out += ch.outside.size();
+    for (int s = 0; s < kNumSubcases; ++s) stats.cases[s] += ch.stats.cases[s];
+    stats.tunnel_cells += ch.stats.tunnel_cells;
+    stats.expected_hexes += ch.stats.expected_hexes;
+  }
+  std::vector<Hex> inside, outside;
+  inside.reserve(num_in);
+  outside.reserve(num_out);
+  for (ChunkOutput& ch : chunks) {
+    if (points.size() + ch.locals.size() >= kLocal) throw ResourceError("mesh_mchex: more than 2^31 points");
+    const auto base = static_cast<std::uint32_t>(points.size());
+    points.insert(points.end(), ch.locals.begin(), ch.locals.end());
+    auto fix = [base](Hex h) {
+      for (std::uint32_t& v : h)
+        if (v & kLocal) v = base + (v & ~kLocal);
+      return h;
+    };
+    for (const Hex& h : ch.inside) inside.push_back(fix(h));
+    for (const Hex& h : ch.outside) outside.push_back(fix(h));
+    ch = ChunkOutput{};
+  }
+
+  MeshPair out{compact_mesh(points, inside, kInside), compact_mesh(points, outside, kOutside)};
+  // Distinct points of both meshes: the interface points are counted once.
+  {
+    std::vector<bool> used(points.size());
+    for (const auto* hs : {&inside, &outside})
+      for (const Hex& h : *hs)
+        for (std::uint32_t v : h) used[v] = true;
+    stats.points = static_cast<std::size_t>(std::count(used.begin(), used.end(), true));
+  }
+  stats.seconds_assembly = since(t0);
   if (stats_out) *stats_out = stats;
-  // Both meshes from the one point array: interface points are bit-identical.
-  return {compact_mesh(cells.points, cells.inside, kInside),
-          compact_mesh(cells.points, cells.outside, kOutside)};
+  return out;
+}
+
+MeshPair mesh_mchex(const UniformGrid& grid, std::span<const double> values, double eps,
+                    MchexStats* stats) {
+  return mesh_mchex(uniform_complex(grid), values, eps, stats);
 }
 
 }  // namespace mchex

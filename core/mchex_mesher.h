@@ -1,25 +1,27 @@
-// The MCHex mesher on a uniform grid (Tong & Zhang 2025, Section 5): every cell is classified by
-// Marching Cubes 33, cut by the isosurface into 3-regular polyhedra, and each polyhedron is split
-// into hexes by midpoint subdivision (Definition 4.3, Theorem 4.1). The hexes of the inside
-// polyhedra form the solid's mesh, the others the mesh of the box around it.
+// The MCHex mesher (Tong & Zhang 2025, Section 5): every cell of a conforming hex complex (a
+// uniform grid, or the adaptive grid after its templates) is classified by Marching Cubes 33,
+// cut by the isosurface into 3-regular polyhedra, and each polyhedron is split into hexes by
+// midpoint subdivision (Definition 4.3, Theorem 4.1). The hexes of the inside polyhedra form the
+// solid's mesh, the others the mesh of the box around it.
 //
-// Conformity comes from global point keys, never from matching coordinates: each hex corner is
-// named by what it is in the grid, so the cells (and the polyhedra of one cell) that share a
-// point compute the same key and get the same point id:
-//   grid corner       its grid vertex index;
-//   crossing          its grid edge (3 * lower vertex + axis); the crossing parameter depends
-//                     only on the edge's two values, so every cell around the edge agrees;
-//   edge midpoint     the unordered pair of its end points' keys;
-//   face centroid     a piece of a cell face: (grid face, lowest grid corner of the piece) -- a
-//                     piece always has a corner, and the pieces of one face share no corner;
-//                     an isosurface polygon: (cell, lowest crossing of the loop) -- it is
-//                     shared by the inside and outside polyhedra of one cell only;
-//   volume centre     (cell, polyhedron index): never shared.
-// A key's coordinates are those computed the first time it is met (cells in grid order), so a
-// shared point is bit-identical wherever it is used and both output meshes take their points
-// from the same array (the interface matches exactly, as check_mesh requires).
+// Conformity comes from names, never from matching coordinates. Every hex corner is one of:
+//   a grid point          its point id;
+//   on a grid edge        (edge id, slot): slot 1 the crossing, slots 0 / 2 the midpoints of the
+//                         parts from the edge's lower / higher point id to it (an uncut edge has
+//                         slot 0 only, its midpoint); the crossing parameter depends only on the
+//                         edge's two values, so every cell around the edge agrees;
+//   on a grid face        (face id, slot): slots 0..3 the centroid of the face piece whose
+//                         lowest-ranked corner has that rank in the face's canonical order
+//                         (core/complex_topology.h), slots 4..7 the midpoint of the isosurface
+//                         chord across the face, by its lower-ranked face edge;
+//   inside the cell       the centroid of an isosurface polygon, the volume centre of a
+//                         polyhedron: the cell's own, shared by its inside and outside polyhedra.
+// Edges and faces are numbered once (build_topology), so cells resolve these names by index
+// arithmetic. The cells run in parallel, in fixed chunks; a shared point's coordinates are
+// written by its owner (the lowest cell around its edge or face) only, so the output is the same
+// byte for byte whatever the thread count.
 //
-// Known gaps (printed in the statistics, not hidden):
+// Known gaps (counted in MchexStats, not hidden):
 //  - the six tunnel subcases (4.1.2, 6.1.2, 7.4.2, 10.1.2, 12.1.2, 13.5.2) are meshed with
 //    their non-tunnel partner's topology (same face chords, the interior not joined); the paper
 //    refines those cells locally instead (Section 5, Figure 7), which is not implemented yet;
@@ -33,6 +35,7 @@
 #include <string_view>
 
 #include "core/grid.h"
+#include "core/hex_complex.h"
 #include "core/ro.h"
 
 namespace mchex {
@@ -48,19 +51,24 @@ struct MchexStats {
   std::size_t perturbed_values = 0; // grid values moved off zero by the zero rule
   std::size_t expected_hexes = 0;   // sum over cells of 8 + 2 * cut edges
   std::size_t points = 0;           // distinct global points (both meshes together)
+  // Wall time of the stages: numbering the complex's edges and faces, cutting + subdividing the
+  // cells (parallel), and assembling the two meshes from the chunks.
+  double seconds_topology = 0, seconds_cells = 0, seconds_assembly = 0;
 };
 
-// Zero rule: a grid value with |f| < zero_tolerance(h) = 1e-10 * h (h the cell size, the SDF
-// being a distance) becomes -zero_tolerance(h): "on the surface counts as outside", as in
-// core/mc33.h. It is applied once to the vertex array, so every cell sharing the vertex sees the
-// same value, and no crossing lands exactly on a corner (the clamp below then keeps it inside).
+// Zero rule: a grid value with |f| < zero_tolerance(h) = 1e-10 * h (h the smallest cell size of
+// the complex, the SDF being a distance) becomes -zero_tolerance(h): "on the surface counts as
+// outside", as in core/mc33.h. It is applied once to the point values, so every cell sharing a
+// point sees the same value, and no crossing lands exactly on a corner.
 double zero_tolerance(double cell_size);
 
-
-// values: the SDF (f > 0 inside) at every grid vertex in UniformGrid::vertex_index order.
+// values: the SDF (f > 0 inside) at every point of the complex.
 // eps in (0, 0.5): crossing parameters are clamped to [eps, 1 - eps] so that no polyhedron has
-// a (near-)zero-length edge. Deterministic: a serial loop over the cells in grid order.
+// a (near-)zero-length edge. Deterministic for any thread count.
 // Throws InputError for a bad eps, a values size mismatch or a non-finite value.
+MeshPair mesh_mchex(const HexComplex& complex, std::span<const double> values, double eps,
+                    MchexStats* stats = nullptr);
+// The uniform grid (values in UniformGrid::vertex_index order) through uniform_complex().
 MeshPair mesh_mchex(const UniformGrid& grid, std::span<const double> values, double eps,
                     MchexStats* stats = nullptr);
 

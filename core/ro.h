@@ -6,6 +6,7 @@
 #include <span>
 
 #include "core/grid.h"
+#include "core/hex_complex.h"
 #include "core/hex_mesh.h"
 
 namespace mchex {
@@ -16,6 +17,8 @@ struct MeshPair {
 
 // values: the SDF at every grid vertex, in UniformGrid::vertex_index order.
 MeshPair mesh_remove_outside(const UniformGrid& grid, std::span<const double> values);
+// Any conforming complex (the adaptive grid): values at its points.
+MeshPair mesh_remove_outside(const HexComplex& complex, std::span<const double> values);
 
 // Splits a set of hexes over shared points into a compact mesh of those hexes only (points
 // renumbered in first-use order, so the result is deterministic).

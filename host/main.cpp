@@ -249,7 +249,11 @@ int run_mesh(const MeshCommand& o, bool quiet) {
     report["cases"] = cases;
     report["mchex"] = {{"eps", o.eps},
                        {"tunnel_cells_partner_topology", mchex_stats.tunnel_cells},
-                       {"perturbed_zero_values", mchex_stats.perturbed_values}};
+                       {"perturbed_zero_values", mchex_stats.perturbed_values},
+                       {"points", mchex_stats.points},
+                       {"seconds", {{"topology", mchex_stats.seconds_topology},
+                                    {"cells", mchex_stats.seconds_cells},
+                                    {"assembly", mchex_stats.seconds_assembly}}}};
   }
   if (fid) report["fidelity"] = fidelity_json(*fid);
   report["times"] = clock.to_json();

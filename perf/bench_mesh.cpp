@@ -9,6 +9,8 @@
 #include <string>
 #include <vector>
 
+#include <tbb/global_control.h>
+
 #include "core/grid.h"
 #include "perf/bench_common.h"
 #include "core/mesh_check.h"
@@ -37,7 +39,15 @@ int main(int argc, char** argv) {
     sdf.evaluate(pts, f);
   });
   MeshPair m;
-  const double t_ro = seconds_of([&] { m = method == "mchex" ? mesh_mchex(grid, f, 1e-3) : mesh_remove_outside(grid, f); });
+  MchexStats ms;
+  const double t_ro = seconds_of([&] { m = method == "mchex" ? mesh_mchex(grid, f, 1e-3, &ms) : mesh_remove_outside(grid, f); });
+  double t_serial = 0;
+  if (method == "mchex") {
+    // The same mesher on one thread, in the same run: the parallel speed-up as a ratio.
+    tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+    MchexStats s1;
+    t_serial = seconds_of([&] { (void)mesh_mchex(grid, f, 1e-3, &s1); });
+  }
   MeshCheck c;
   const Box box = grid.box();
   const double t_check = seconds_of([&] { c = check_mesh(m.inside, &m.outside, &box); });
@@ -63,12 +73,18 @@ int main(int argc, char** argv) {
   row(method.c_str(), t_ro);
   row("check", t_check);
   for (int i = 0; i < 3; ++i) row((std::string("write ") + ext[i]).c_str(), t_write[i]);
-  std::printf("  %s alone: %.3g output hexes/s (serial)\n", method.c_str(), hexes / t_ro);
+  std::printf("  %s alone: %.3g output hexes/s\n", method.c_str(), hexes / t_ro);
+  if (method == "mchex") {
+    std::printf("  mchex stages: topology %.3f s, polyhedra + subdivision %.3f s (%.3g hexes/s), assembly %.3f s\n",
+                ms.seconds_topology, ms.seconds_cells, hexes / ms.seconds_cells, ms.seconds_assembly);
+    std::printf("  mchex on 1 thread: %.3g hexes/s; 2 threads / 1 thread speed-up %.2fx\n", hexes / t_serial, t_serial / t_ro);
+  }
   std::printf("  end to end (sdf+method+check+write .vtu): %.3g hexes/s\n", hexes / total);
   std::printf("{\"bench\":\"mesh\",\"method\":\"%s\",\"shape\":\"%s\",\"depth\":%d,\"hexes\":%.0f,\"ok\":%s,"
               "\"share\":{\"sdf\":%.4f,\"method\":%.4f,\"check\":%.4f,\"write_vtu\":%.4f},"
-              "\"method_hexes_per_s\":%.0f,\"hexes_per_s_end_to_end\":%.0f,\"write_ratio_mesh_vtu_msh\":[%.3f,1,%.3f]}\n",
+              "\"method_hexes_per_s\":%.0f,\"cells_hexes_per_s\":%.0f,\"speedup_2_over_1_thread\":%.3f,\"hexes_per_s_end_to_end\":%.0f,\"write_ratio_mesh_vtu_msh\":[%.3f,1,%.3f]}\n",
               method.c_str(), shape.c_str(), depth, hexes, c.ok ? "true" : "false", t_sdf / total, t_ro / total, t_check / total,
-              t_write[1] / total, hexes / t_ro, hexes / total, t_write[0] / t_write[1], t_write[2] / t_write[1]);
+              t_write[1] / total, hexes / t_ro, method == "mchex" ? hexes / ms.seconds_cells : 0.0,
+              t_serial > 0 ? t_serial / t_ro : 0.0, hexes / total, t_write[0] / t_write[1], t_write[2] / t_write[1]);
   return c.ok ? 0 : 1;
 }

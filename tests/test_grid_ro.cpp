@@ -7,6 +7,7 @@
 #include "core/error.h"
 #include "core/fidelity.h"
 #include "core/grid.h"
+#include "core/hex_complex.h"
 #include "core/mesh_check.h"
 #include "core/ro.h"
 #include "core/shapes.h"
@@ -74,6 +75,20 @@ TEST(RemoveOutside, KeepsExactlyTheCellsWithAPositiveCornerSum) {
   EXPECT_TRUE(check.ok);
   EXPECT_EQ(check.inside.boundary.euler_characteristic, 0);  // a torus of cells
   EXPECT_TRUE(check.inside.boundary.closed_manifold());
+}
+
+TEST(RemoveOutside, ComplexOfTheGridGivesTheSameMeshes) {
+  const ShapeSdf torus(ShapeKind::kTorus);
+  const UniformGrid g(padded_cube(torus.bounds(), 0.1), 2);
+  const HexComplex cx = uniform_complex(g);
+  ASSERT_EQ(cx.cells.size(), g.cell_count());
+  std::vector<double> f(cx.points.size());
+  torus.evaluate(cx.points, f);
+  const MeshPair a = mesh_remove_outside(g, f), b = mesh_remove_outside(cx, f);
+  EXPECT_EQ(a.inside.hexes, b.inside.hexes);
+  EXPECT_EQ(a.outside.hexes, b.outside.hexes);
+  EXPECT_EQ(a.inside.points.size(), b.inside.points.size());
+  EXPECT_THROW(mesh_remove_outside(cx, std::span<const double>(f).first(5)), InputError);
 }
 
 TEST(Fidelity, CubeOfCellsAgainstTheUnitSphere) {

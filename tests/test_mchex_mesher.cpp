@@ -8,13 +8,18 @@
 // of cases 12/14 and the subcases the paper refines are known gaps, paper Section 5).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
+#include <numeric>
+#include <tbb/global_control.h>
 #include <random>
 #include <cstdio>
+#include <cstring>
 #include <string>
 #include <vector>
 
 #include "core/grid.h"
+#include "core/hex_complex.h"
 #include "core/mchex_mesher.h"
 #include "core/mesh_check.h"
 #include "core/shapes.h"
@@ -181,6 +186,107 @@ TEST(Mchex, RandomFieldsConformIncludingTunnelCells) {
   std::printf("[mchex] random fields: %zu tunnel cells, %zu of 32 subcase slots seen\n", tunnels,
               subcases_seen);
   EXPECT_GT(tunnels, 0u);
+}
+
+TEST(Mchex, SameBytesOnOneAndTwoThreads) {
+  MchexRun one = [] {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+    return mesh_shape(ShapeKind::kTwoHoled, 3);
+  }();
+  MchexRun two = [] {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 2);
+    return mesh_shape(ShapeKind::kTwoHoled, 3);
+  }();
+  for (const auto& [a, b] : {std::pair{&one.mesh.inside, &two.mesh.inside},
+                             std::pair{&one.mesh.outside, &two.mesh.outside}}) {
+    ASSERT_FALSE(a->hexes.empty());
+    EXPECT_EQ(a->hexes, b->hexes);
+    ASSERT_EQ(a->points.size(), b->points.size());
+    EXPECT_EQ(0, std::memcmp(a->points.data(), b->points.data(), a->points.size() * sizeof(Vec3)));
+  }
+}
+
+// The names of shared points come from the complex's topology, not from grid indices: renumber
+// the points and shuffle the cells (each cell's corners kept in VTK order) and the mesh is the
+// same set of hexes, corner for corner in coordinates.
+TEST(Mchex, AnyNumberingOfTheComplexGivesTheSameHexes) {
+  const ShapeSdf sdf(ShapeKind::kTorus);
+  const UniformGrid grid(padded_cube(sdf.bounds(), 0.1), 2);
+  const HexComplex a = uniform_complex(grid);
+  std::vector<double> fa(a.points.size());
+  sdf.evaluate(a.points, fa);
+
+  std::mt19937_64 rng(7);
+  std::vector<std::uint32_t> new_id(a.points.size());
+  std::iota(new_id.begin(), new_id.end(), 0u);
+  std::shuffle(new_id.begin(), new_id.end(), rng);
+  HexComplex b = a;
+  std::vector<double> fb(fa.size());
+  for (std::size_t i = 0; i < a.points.size(); ++i) {
+    b.points[new_id[i]] = a.points[i];
+    fb[new_id[i]] = fa[i];
+  }
+  for (CellCorners& c : b.cells)
+    for (std::uint32_t& v : c) v = new_id[v];
+  std::shuffle(b.cells.begin(), b.cells.end(), rng);
+
+  MchexStats sa, sb;
+  const MeshPair ma = mesh_mchex(a, fa, 1e-3, &sa), mb = mesh_mchex(b, fb, 1e-3, &sb);
+  EXPECT_EQ(sa.points, sb.points);
+  auto geometric = [](const HexMesh& m) {
+    std::vector<std::array<double, 24>> hexes;
+    for (const Hex& h : m.hexes) {
+      std::array<double, 24> g;
+      for (int c = 0; c < 8; ++c) {
+        // Rounded to 1e-9 so that ulp-level differences cannot reorder the sort.
+        g[3 * c] = std::round(m.points[h[c]].x * 1e9);
+        g[3 * c + 1] = std::round(m.points[h[c]].y * 1e9);
+        g[3 * c + 2] = std::round(m.points[h[c]].z * 1e9);
+      }
+      hexes.push_back(g);
+    }
+    std::sort(hexes.begin(), hexes.end());
+    return hexes;
+  };
+  // Equal to rounding: a shared point's coordinates come from its owner cell, which depends on
+  // the cell order.
+  const auto ga = geometric(ma.inside), gb = geometric(mb.inside);
+  ASSERT_EQ(ga.size(), gb.size());
+  ASSERT_FALSE(ga.empty());
+  double worst = 0;
+  for (std::size_t i = 0; i < ga.size(); ++i)
+    for (int k = 0; k < 24; ++k) worst = std::max(worst, std::abs(ga[i][k] - gb[i][k]));
+  EXPECT_LE(worst, 1.0);  // in units of 1e-9
+  EXPECT_EQ(ma.outside.hexes.size(), mb.outside.hexes.size());
+  const MeshCheck check = check_mesh(mb.inside, &mb.outside, &a.box);
+  EXPECT_TRUE(check.ok);
+  EXPECT_EQ(check.inside.boundary.euler_characteristic, 0);
+}
+
+// A curved complex (every grid point moved by a smooth map, so the cells are general trilinear
+// hexes, not cubes) still conforms: the names never look at coordinates.
+TEST(Mchex, CurvedComplexConforms) {
+  const ShapeSdf sdf(ShapeKind::kSphere);
+  const UniformGrid grid(padded_cube(sdf.bounds(), 0.1), 3);
+  HexComplex cx = uniform_complex(grid);
+  std::vector<double> f(cx.points.size());
+  sdf.evaluate(cx.points, f);
+  for (Vec3& p : cx.points) {
+    const Vec3 q = p;
+    p = {q.x + 0.04 * std::sin(3 * q.y), q.y + 0.04 * std::sin(3 * q.z), q.z + 0.04 * std::sin(3 * q.x)};
+  }
+  Box box;
+  for (const Vec3& p : cx.points) box.extend(p);
+  const MeshPair m = mesh_mchex(cx, f, 1e-3);
+  const MeshCheck c = check_mesh(m.inside, &m.outside, nullptr);
+  for (const MeshStats* ms : {&c.inside, &*c.outside}) {
+    EXPECT_EQ(ms->nonmanifold_faces, 0u);
+    EXPECT_EQ(ms->orientation_errors, 0u);
+    EXPECT_EQ(ms->repeated_vertex_hexes, 0u);
+  }
+  EXPECT_EQ(c.combined->interface_errors, 0u);
+  EXPECT_EQ(c.inside.boundary.euler_characteristic, 2);
+  EXPECT_TRUE(c.inside.boundary.closed_manifold());
 }
 
 TEST(Mchex, RejectsBadInput) {

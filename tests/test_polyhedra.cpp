@@ -2,10 +2,10 @@
 // (core/subdivide.h), checked on every sign pattern against the facts of notes/mc33-topology.md
 // (regions, corner counts, polyhedron V/F, hexes = 8 + 2 * cut edges) and against geometry that
 // does not share their code (volumes by the divergence theorem and by the exact trilinear hex
-// volume). Then the Bernstein certificate of every hex, per subcase: the paper (Section 5,
-// Figure 6) proves plain midpoint subdivision positive for 14 cases, of which its "Case 12" and
-// "Case 14" need a volume-centre offset that is not implemented yet; those and the subcases the
-// paper refines (Figure 7) are measured and printed, not asserted.
+// volume). Then the Bernstein certificate of every hex, per subcase: every subcase that
+// core/local_refinement.h cuts directly is asserted 100% certified; the refined ones (their
+// direct cut is what makes them refined) are measured and printed. tests/test_local_refinement.cpp
+// certifies the refined cells.
 //
 // Figure 6 numbers its templates in its own order, not Chernyaev's. The volume centres the paper
 // gives identify them: "Case 12", ((5+s1+s6)/10, (3+s10+s11)/10, (4+s3+s7)/10), is the 10-vertex
@@ -14,6 +14,8 @@
 // 12-vertex polyhedron of corners {1,2,5,7} with 8 cut edges: the 4-corner region of MC33 12.1.1
 // (or of 12.2, which has two such regions; the paper's Table 3 offsets are for the transition
 // cells 2, 5 and 6 only, and 12.1.1 certifies fully on cubes here, so 12.1.1 is the likelier).
+// Case 11 (and its mirror 14) fails plain subdivision for crossings near 0 and 1; we refine those
+// cells locally instead of the paper's volume-centre offset (local_refinement.cpp says why).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -27,6 +29,7 @@
 #include <string>
 #include <vector>
 
+#include "core/local_refinement.h"
 #include "core/mc33.h"
 #include "core/polyhedra.h"
 #include "core/quality.h"
@@ -76,20 +79,9 @@ std::map<Subcase, std::vector<RegionFact>> notes_facts() {
   return m;
 }
 
-// Subcases certified under plain midpoint subdivision in every sample, asserted (case 11 only away
-// from crossings near 0 and 1, see below). Which of them are the paper's Figure 6 templates is only
-// partly established (see the top of this file).
-bool asserted_direct(Subcase s) {
-  using S = Subcase;
-  switch (s) {
-    case S::kEmpty: case S::k1: case S::k2: case S::k3_1: case S::k4_1_1: case S::k5:
-    case S::k6_1_1: case S::k7_1: case S::k8: case S::k9: case S::k10_1_1: case S::k11:
-    case S::k13_1:
-      return true;
-    default:
-      return false;
-  }
-}
+// Subcases certified under plain midpoint subdivision in every sample, asserted: exactly those
+// that local refinement leaves to the direct cut.
+bool asserted_direct(Subcase s) { return !needs_local_refinement(s); }
 
 // ---- Samples ---------------------------------------------------------------------------------
 
@@ -210,20 +202,40 @@ TEST(polyhedra, TunnelSubcasesAreRefused) {
   EXPECT_THROW(cut_cell(unit_cube(), c), TunnelSubcaseError);
 }
 
-// The known failure of the sweep below, pinned: a case-11 cell (positive corners {0,1,5,6}, the
-// canonical pattern: the paper's Figure 6 "Case 12", which the paper says needs its volume-centre
-// offset, Eq. 14) whose crossings are s3 = s7 = 0.048, s9 = 0.952, s2 = s4 = s12 = 0.5 (paper
-// Table 1 numbering). Plain midpoint subdivision gives a hex with det J < 0 at a corner (min
-// Bernstein coefficient about -1.6e-3 on the unit cube); a scan of corner magnitudes in {1, t}
-// finds failures from t = 0.05 (s ~ 0.05) on and none at t >= 0.1. When the offset lands, this
-// test turns into the offset's test.
-TEST(polyhedra, Case11CounterexampleToPlainMidpointSubdivision) {
-  const CellClass c = classify({0.05, 0.05, -0.05, -0.05, -1, 0.05, 1, -1});
+// The failure that makes case 11 (the paper's Figure 6 "Case 12") a refined subcase, as a
+// regression: positive corners {0,1,5,6} (the canonical pattern) with crossings s3 = s7 = 0.048,
+// s9 = 0.952, s2 = s4 = s12 = 0.5 (paper Table 1 numbering). Plain midpoint subdivision gives a
+// hex with det J < 0 at a corner (min Bernstein coefficient about -1.6e-3 on the unit cube; a scan
+// of corner magnitudes in {1, t} finds failures from t = 0.05 on and none at t >= 0.1). Local
+// refinement (core/local_refinement.h) certifies every hex of the same cell.
+TEST(polyhedra, Case11CounterexampleIsRefinedAndCertifies) {
+  const Cell f = {0.05, 0.05, -0.05, -0.05, -1, 0.05, 1, -1};
+  const CellClass c = classify(f);
   ASSERT_EQ(c.subcase, Subcase::k11);
   double worst = 1e300;
   for (const Polyhedron& p : cut_cell(unit_cube(), c))
     for (const auto& h : midpoint_subdivide(p)) worst = std::min(worst, min_bernstein(h.corners));
   EXPECT_LT(worst, 0);
+  ASSERT_TRUE(needs_local_refinement(c));
+  const LocalRefinement r = refine_locally(unit_cube(), f, c, 1e-10);
+  long hexes = 0;
+  for (const auto& leaf : r.cells) {
+    Corners g;
+    Cell lf;
+    for (int j = 0; j < 8; ++j) {
+      g[j] = r.points[leaf[j]];
+      lf[j] = r.values[leaf[j]];
+    }
+    CellClass lc = classify(lf);
+    for (int e = 0; e < 12; ++e)
+      if (lc.cut_edges >> e & 1) lc.crossing[e] = std::clamp(lc.crossing[e], 1e-3, 1 - 1e-3);
+    for (const Polyhedron& p : cut_cell(g, lc))
+      for (const auto& h : midpoint_subdivide(p)) {
+        EXPECT_TRUE(bernstein_certified(h.corners));
+        ++hexes;
+      }
+  }
+  EXPECT_EQ(hexes, local_refinement_hexes(Subcase::k11));
 }
 
 TEST(polyhedra, AllSignPatternsCutSubdivideAndCertify) {
@@ -321,16 +333,8 @@ TEST(polyhedra, AllSignPatternsCutSubdivideAndCertify) {
     if (!asserted_direct(s)) continue;
     for (int extreme = 0; extreme < 2; ++extreme) {
       const Stats& st = pair[extreme];
-      // KNOWN FAILURE, not a tolerance: case 11 (the paper's "Case 12", see the top of this
-      // file) with crossings near 0 and 1 (s ~ 1e-3) gives hexes with a negative Bernstein
-      // coefficient (about 1.4% of them, min scaled coefficient about -0.15): the paper needs
-      // its volume-centre offset there. Its random-magnitude draws are still asserted; the
-      // near-degenerate ones are printed above and left for the offset
-      // (Case11CounterexampleToPlainMidpointSubdivision pins one such cell).
-      if (s == Subcase::k11 && extreme) continue;
       EXPECT_EQ(st.certified, st.hexes) << "subcase " << subcase_name(s)
-                                          << ": the paper proves plain midpoint subdivision "
-                                             "positive here (Figure 6)";
+                                          << ": cut directly, so it must certify";
     }
   }
 }

@@ -1,0 +1,96 @@
+#include "core/complex_topology.h"
+
+#include <algorithm>
+#include <stdexcept>
+#include <string>
+
+#include <tbb/parallel_sort.h>
+
+#include "core/hex_faces.h"
+#include "core/mc33.h"
+#include "core/parallel.h"
+
+namespace mchex {
+namespace {
+
+struct EdgeEntry {
+  std::uint64_t key;   // (low point << 32) | high point
+  std::uint64_t slot;  // cell * 12 + local edge: the sort's tie-break puts the lowest cell first
+  bool operator<(const EdgeEntry& o) const { return key != o.key ? key < o.key : slot < o.slot; }
+};
+
+struct FaceEntry {
+  std::array<std::uint32_t, 4> sorted;  // the face's points, ascending: its name
+  std::uint64_t slot;                   // cell * 6 + local face
+  bool operator<(const FaceEntry& o) const {
+    return sorted != o.sorted ? sorted < o.sorted : slot < o.slot;
+  }
+};
+
+}  // namespace
+
+ComplexTopology build_topology(const HexComplex& complex) {
+  const std::size_t n = complex.cells.size();
+  ComplexTopology t;
+  t.cell_edges.resize(n);
+  t.cell_faces.resize(n);
+
+  std::vector<EdgeEntry> edges(12 * n);
+  std::vector<FaceEntry> faces(6 * n);
+  parallel_for(n, [&](std::size_t c) {
+    const CellCorners& p = complex.cells[c];
+    for (int i = 0; i < 8; ++i)
+      for (int j = i + 1; j < 8; ++j)
+        if (p[i] == p[j])
+          throw std::invalid_argument("hex complex: cell " + std::to_string(c) + " repeats point " +
+                                      std::to_string(p[i]));
+    for (int e = 0; e < 12; ++e) {
+      std::uint64_t a = p[kCubeEdges[e][0]], b = p[kCubeEdges[e][1]];
+      if (a > b) std::swap(a, b);
+      edges[12 * c + e] = {(a << 32) | b, 12 * c + e};
+    }
+    for (int f = 0; f < 6; ++f) {
+      std::array<std::uint32_t, 4> q;
+      for (int i = 0; i < 4; ++i) q[i] = p[kHexFaces[f][i]];
+      std::sort(q.begin(), q.end());
+      faces[6 * c + f] = {q, 6 * c + f};
+    }
+  });
+  tbb::parallel_sort(edges.begin(), edges.end());
+  tbb::parallel_sort(faces.begin(), faces.end());
+
+  for (std::size_t i = 0; i < edges.size();) {
+    const auto id = static_cast<std::uint32_t>(t.edge_points.size());
+    t.edge_points.push_back({static_cast<std::uint32_t>(edges[i].key >> 32),
+                             static_cast<std::uint32_t>(edges[i].key)});
+    t.edge_owner.push_back(static_cast<std::uint32_t>(edges[i].slot / 12));
+    std::size_t j = i;
+    for (; j < edges.size() && edges[j].key == edges[i].key; ++j)
+      t.cell_edges[edges[j].slot / 12][edges[j].slot % 12] = id;
+    i = j;
+  }
+  for (std::size_t i = 0; i < faces.size();) {
+    const auto id = static_cast<std::uint32_t>(t.face_points.size());
+    const std::uint64_t cell = faces[i].slot / 6;
+    const int local = static_cast<int>(faces[i].slot % 6);
+    // Cyclic order from the owner cell's face, rotated to start at the lowest point and turned
+    // towards its lower neighbour: independent of which cell lists it.
+    std::array<std::uint32_t, 4> q;
+    for (int k = 0; k < 4; ++k) q[k] = complex.cells[cell][kHexFaces[local][k]];
+    std::rotate(q.begin(), std::min_element(q.begin(), q.end()), q.end());
+    if (q[3] < q[1]) std::swap(q[1], q[3]);
+    t.face_points.push_back(q);
+    t.face_owner.push_back(static_cast<std::uint32_t>(cell));
+    std::size_t j = i;
+    for (; j < faces.size() && faces[j].sorted == faces[i].sorted; ++j)
+      t.cell_faces[faces[j].slot / 6][faces[j].slot % 6] = id;
+    if (j - i > 2)
+      throw std::invalid_argument("hex complex: a face is shared by " + std::to_string(j - i) +
+                                  " cells (point " + std::to_string(q[0]) + ")");
+    t.face_cells.push_back(static_cast<std::uint8_t>(j - i));
+    i = j;
+  }
+  return t;
+}
+
+}  // namespace mchex
