@@ -11,10 +11,11 @@
 // What the mesher does per subcase decides what is certified ("certify what the mesher will
 // actually do"):
 //   direct  the paper's 14 templates of Figure 6 plus the uncut cell: cut_cell on the cell itself;
-//   local refinement  the 17 subcases of Figure 7 (the tunnels among them), which the mesher
-//           routes through local refinement (core/local_refinement.h, another branch). It has not
-//           landed here, so these are reported as "needs local refinement (not landed)": never as
-//           passing, and the run does not pass while any is left.
+//   local refinement  the subcases core/local_refinement.h refines (paper Figure 7, the tunnels
+//           among them): refine_locally on the cell, then every leaf child classified from its
+//           (virtual) values and cut directly, as the mesher does.
+// The cell types are the basic cells; the paper's 15 + 1 further types (children of local
+// refinement) are covered by refining each basic type, not listed in the table.
 // Sign patterns: for each subcase, one cell per class of patterns up to rotation and complement
 // (the complement gives the same polyhedra), found by classify() on seeded random corner values:
 // the rotation class of its canonical representative and, for 12.2, the mirror class too (its
@@ -61,7 +62,7 @@ struct CertifyResult {
   std::vector<std::array<CertifyEntry, kNumSubcases>> table;
   std::optional<CertifyFailure> first_failure;
   std::size_t hexes = 0;
-  std::size_t not_landed_subcases = 0;  // subcases routed through local refinement
+  std::size_t not_landed_subcases = 0;  // subcases no sampled cell reached (not certified)
   double seconds = 0;
   bool passed() const { return !first_failure && not_landed_subcases == 0; }
 };
