@@ -4,6 +4,7 @@
 #include <bit>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <random>
 
@@ -113,6 +114,23 @@ std::vector<Sample> samples(const Pattern& p, const CertifyOptions& o, std::mt19
     std::array<double, 8> m;
     for (double& x : m) x = coin(rng) ? (coin(rng) ? 1.0 : 1e-6) : u(rng);
     add(m);
+  }
+  // Many end cells clamp to the same crossings (the cut does not depend on the values beyond its
+  // class and crossings, except through the inner points' virtual values of a refined cell):
+  // keep one per distinct (crossings, values' signs pattern) for direct cells.
+  if (!needs_local_refinement(ref)) {
+    auto key = [&](const Sample& a) { return clamped(a.cls, o.eps).crossing; };
+    std::vector<Sample> unique;
+    std::vector<std::array<double, 12>> seen;
+    for (const Sample& smp : out) {
+      const auto k = key(smp);
+      bool dup = false;
+      for (const auto& q : seen) dup = dup || std::memcmp(q.data(), k.data(), sizeof(k)) == 0;
+      if (dup) continue;
+      seen.push_back(k);
+      unique.push_back(smp);
+    }
+    out.swap(unique);
   }
   return out;
 }
