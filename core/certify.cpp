@@ -156,8 +156,10 @@ CertifyResult certify(const CertifyOptions& o) {
       std::mt19937_64 rng(o.seed ^ (0x9E3779B97F4A7C15ULL * (task + 1)));
       TaskResult& tr = results[task];
       auto check = [&](const std::array<Vec3, 8>& cell, const CellClass& c, const std::array<double, 12>& s) {
-        for (const Polyhedron& poly : cut_cell(cell, c))
-          for (const SubdivisionHex& h : midpoint_subdivide(poly)) {
+        // As the mesher builds them: in the parametric cube, corners mapped by the cell's map.
+        for (const Polyhedron& poly : cut_cell(kUnitCubeCorners, c))
+          for (SubdivisionHex h : midpoint_subdivide(poly)) {
+            for (Vec3& x : h.corners) x = trilinear_map(cell, x);
             ++tr.hexes;
             const double scaled = min_bernstein_scaled(h.corners);
             tr.min_coefficient = std::min(tr.min_coefficient, scaled);

@@ -13,13 +13,6 @@
 namespace mchex {
 namespace {
 
-Vec3 trilinear(const std::array<Vec3, 8>& x, Vec3 t) {
-  const double u = t.x, v = t.y, w = t.z;
-  return (1 - u) * (1 - v) * (1 - w) * x[0] + u * (1 - v) * (1 - w) * x[1] + u * v * (1 - w) * x[2] +
-         (1 - u) * v * (1 - w) * x[3] + (1 - u) * (1 - v) * w * x[4] + u * (1 - v) * w * x[5] +
-         u * v * w * x[6] + (1 - u) * v * w * x[7];
-}
-
 // Newton on the trilinear map (paper Eq. 7) from the centre. Returns false when it does not
 // converge; *inside tells whether the preimage lies in the closed unit cube.
 bool invert_trilinear(const std::array<Vec3, 8>& x, Vec3 p, bool* inside) {
@@ -28,7 +21,7 @@ bool invert_trilinear(const std::array<Vec3, 8>& x, Vec3 p, bool* inside) {
     const auto [du, dv, dw] = jacobian(x, t.x, t.y, t.z);
     const double det = triple(du, dv, dw);
     if (!(std::abs(det) > 0)) return false;
-    const Vec3 r = p - trilinear(x, t);
+    const Vec3 r = p - trilinear_map(x, t);
     // Cramer's rule for J * delta = r.
     const Vec3 delta{triple(r, dv, dw) / det, triple(du, r, dw) / det, triple(du, dv, r) / det};
     t += delta;

@@ -18,6 +18,7 @@
 #include "core/mc33.h"
 #include "core/parallel.h"
 #include "core/polyhedra.h"
+#include "core/quality.h"
 #include "core/subdivide.h"
 
 namespace mchex {
@@ -288,7 +289,13 @@ struct Mesher {
       return locals.get(local_key(kInnerPoint, fr.local[c]), x, out);
     };
 
-    const std::vector<Polyhedron> polys = cut_cell(xc, cls);
+    // Paper Section 5: the polyhedra and their midpoint subdivision are built in the cell's
+    // parametric unit cube (crossings at s, face and volume centres as means of parametric
+    // points) and every hex corner is mapped through the cell's trilinear map (Eq. 7), which is
+    // what its proofs over the 3-refinement cell types assume. On a cube (uniform grid) this is
+    // the same as building in space; on a transition cell with non-parallelogram faces the
+    // means differ, and those taken in space certify less often (core/certify.h).
+    const std::vector<Polyhedron> polys = cut_cell(kUnitCubeCorners, cls);
     for (std::size_t pi = 0; pi < polys.size(); ++pi) {
       const Polyhedron& p = polys[pi];
       // Per face of the polyhedron: the cell face it lies on and its slot (pieces), or the local
@@ -318,7 +325,7 @@ struct Mesher {
         Hex hex;
         for (int c = 0; c < 8; ++c) {
           const SubdivisionPointKey& sk = h.keys[c];
-          const Vec3& x = h.corners[c];
+          const Vec3 x = trilinear_map(xc, h.corners[c]);
           std::uint32_t id = 0;
           switch (sk.kind) {
             case SubdivisionPointKey::Kind::kVertex:

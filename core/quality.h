@@ -26,6 +26,21 @@ using HexCorners = std::array<Vec3, 8>;
 using BernsteinCoefficients = std::array<double, 27>;
 constexpr int bernstein_index(int i, int j, int k) { return i + 3 * j + 9 * k; }
 
+// The element map (paper Eq. 7, shape functions Eq. 8): the point of the hex with corners c at
+// parametric point t in the unit cube. Every cell of a complex is this map of the unit cube.
+// Nested linear interpolation (x, then y, then z): a lerp between equal values is exact, so a
+// point on a cell face whose corners share a coordinate (a face on the box) keeps it exactly.
+inline Vec3 trilinear_map(const HexCorners& c, Vec3 t) {
+  auto lerp = [](const Vec3& a, const Vec3& b, double s) { return a + s * (b - a); };
+  const Vec3 y0 = lerp(lerp(c[0], c[1], t.x), lerp(c[3], c[2], t.x), t.y);
+  const Vec3 y1 = lerp(lerp(c[4], c[5], t.x), lerp(c[7], c[6], t.x), t.y);
+  return lerp(y0, y1, t.z);
+}
+
+// The unit cube itself, corners in VTK order.
+inline constexpr HexCorners kUnitCubeCorners = {
+    {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}}};
+
 // Columns of J (Eq. 9): dx/dxi, dx/deta, dx/dzeta at (xi, eta, zeta).
 std::array<Vec3, 3> jacobian(const HexCorners& c, double xi, double eta, double zeta);
 double jacobian_determinant(const HexCorners& c, double xi, double eta, double zeta);
