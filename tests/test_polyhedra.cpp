@@ -34,6 +34,7 @@
 #include "core/polyhedra.h"
 #include "core/quality.h"
 #include "core/subdivide.h"
+#include "tests/cell_samples.h"
 
 namespace mchex {
 namespace {
@@ -121,18 +122,7 @@ std::vector<Corners> geometries(std::mt19937_64& rng) {
   return out;
 }
 
-// Corner values of one sign pattern: `extreme` draws make each magnitude 1 or 1e-3 so that the
-// crossings sit near 0 or 1 (s ~ 1e-3); the others are uniform in [0.05, 1].
-Cell draw(std::uint8_t mask, bool extreme, std::mt19937_64& rng) {
-  std::uniform_real_distribution<double> u(0.05, 1.0);
-  std::bernoulli_distribution coin(0.5);
-  Cell f;
-  for (int c = 0; c < 8; ++c) {
-    const double m = extreme ? (coin(rng) ? 1.0 : 1e-3 * u(rng)) : u(rng);
-    f[c] = (mask >> c & 1) ? m : -m;
-  }
-  return f;
-}
+using test::draw_cell;
 
 // ---- Checks of one polyhedron ----------------------------------------------------------------
 
@@ -248,7 +238,7 @@ TEST(polyhedra, AllSignPatternsCutSubdivideAndCertify) {
   for (int mask = 0; mask < 256; ++mask) {
     for (int extreme = 0; extreme < 2; ++extreme) {
       for (int d = 0; d < kDraws; ++d) {
-        const Cell f = draw(static_cast<std::uint8_t>(mask), extreme != 0, rng);
+        const Cell f = draw_cell(static_cast<std::uint8_t>(mask), extreme, rng);
         const CellClass c = classify(f);
         if (subcase_has_tunnel(c.subcase)) {
           tunnels_seen.insert(c.subcase);
