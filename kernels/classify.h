@@ -224,13 +224,9 @@ INLINE CellWords classify_cell(CLASSIFY_PARAMS_ CellValues v) {
   return words;
 }
 
-// Hexes a directly cut (or uncut) cell gives by midpoint subdivision: 8 + 2 * cut edges
-// (notes/mc33-topology.md).
-INLINE uint cell_hexes(CellWords w) {
-  uint cut = w.w1 >> MCHEX_CODE_CUT_SHIFT;
-  uint n = 8u;
-  for (int e = 0; e < 12; ++e) n += 2u * ((cut >> CAST(uint, e)) & 1u);
-  return n;
-}
+// Hexes the mesher makes from the cell (core/local_refinement.h local_refinement_hexes: 8 + 2 * cut
+// edges for a cell cut directly, the sum over its leaves for one refined locally), a function of
+// the subcase alone, so the prefix sum of these is where each cell's hexes start in the output.
+INLINE uint cell_hexes(CellWords w) { return CAST(uint, kSubcaseHexes[w.w0 & 255u]); }
 
 #endif
