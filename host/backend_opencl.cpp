@@ -130,6 +130,7 @@ struct OpenclBackend::Impl {
   std::string cache_path;
   OpenclProfile profile;
   cl::Buffer configs;
+  std::map<std::string, cl::Kernel> kernels;  // made once per program (PoCL: ~ms each)
   bool host_unified = false;  // CL_DEVICE_HOST_UNIFIED_MEMORY: buffers may live in host memory
 
   // The device scene of the last surface.
@@ -276,6 +277,12 @@ struct OpenclBackend::Impl {
     record(name, e);
   }
 
+  cl::Kernel& kernel(const std::string& name) {
+    auto it = kernels.find(name);
+    if (it == kernels.end()) it = kernels.emplace(name, cl::Kernel(program, name.c_str())).first;
+    return it->second;
+  }
+
   // A buffer over the caller's memory (zero_copy devices only: CL_DEVICE_HOST_UNIFIED_MEMORY).
   template <class T>
   cl::Buffer host_buffer(cl_mem_flags flags, const T* data, std::size_t count) {
@@ -359,7 +366,7 @@ void OpenclBackend::signed_distance(const SdfSource& source, std::span<const Vec
     // CPU devices run many points per work item (each seeded by the previous one); GPUs want
     // many small items.
     const cl_uint per_item = m.info.type == "gpu" ? 1 : 16;
-    cl::Kernel k(m.program, surface ? "sdf_surface" : "sdf_shape");
+    cl::Kernel& k = m.kernel(surface ? "sdf_surface" : "sdf_shape");
     for (std::size_t first = 0; first < points.size(); first += n) {
       const std::size_t count = std::min(n, points.size() - first);
       m.write(in, &points[first].x, 3 * count);
@@ -397,7 +404,7 @@ void OpenclBackend::refinement_error(std::span<const std::array<double, kChildLa
     cl::Buffer in(m.context, CL_MEM_READ_ONLY, sizeof(lattice[0]) * n);
     cl::Buffer sz(m.context, CL_MEM_READ_ONLY, sizeof(double) * n);
     cl::Buffer out(m.context, CL_MEM_WRITE_ONLY, sizeof(double) * n);
-    cl::Kernel k(m.program, "refinement_error");
+    cl::Kernel& k = m.kernel("refinement_error");
     for (std::size_t first = 0; first < lattice.size(); first += n) {
       const std::size_t count = std::min(n, lattice.size() - first);
       m.write(in, lattice[first].data(), kChildLatticePoints * count);
@@ -450,8 +457,8 @@ void OpenclBackend::classify_cells(const HexComplex& complex, std::span<const do
                             : cl::Buffer(m.context, CL_MEM_READ_ONLY, sizeof(double) * values.size());
       if (!zero_copy) m.write(value_buf, values.data(), values.size());
     }
-    cl::Kernel classify(m.program, "classify"), block_sums(m.program, "hex_block_sums"),
-        scan(m.program, "hex_scan_sums"), block_offsets(m.program, "hex_block_offsets");
+    cl::Kernel &classify = m.kernel("classify"), &block_sums = m.kernel("hex_block_sums"),
+               &scan = m.kernel("hex_scan_sums"), &block_offsets = m.kernel("hex_block_offsets");
     std::vector<std::uint32_t> words(2 * n);
     static_assert(sizeof(cl_ulong) == sizeof(std::uint64_t) && sizeof(CellCorners) == 8 * sizeof(std::uint32_t));
     std::uint64_t total = 0;

@@ -5,6 +5,7 @@
 // names in either dialect. No table is typed by hand in device code.
 //
 // Usage: gen_device_tables OUT_DIR   (writes OUT_DIR/mchex_tables.cl.h and mchex_tables.glsl.h)
+#include <cmath>
 #include <cstddef>
 #include <cstdio>
 #include <fstream>
@@ -144,6 +145,8 @@ std::string constants(bool glsl) {
   std::string s;
   for (const auto& d : defines())
     s += "#define " + d.name + " " + std::to_string(d.value) + (d.comment.empty() ? "" : "  // " + d.comment) + "\n";
+  // kernels/classify.h's filter in front of the exact face test: 2^-50 = 8 u (u = 2^-53).
+  s += "#define MCHEX_DET_FILTER " + double_literal(std::ldexp(1.0, -50), glsl) + "\n";
   s += "// core/shapes.h shape_dimensions\n";
   for (const auto& [name, v] : shape_constants()) s += "#define " + name + " " + double_literal(v, glsl) + "\n";
   return s;

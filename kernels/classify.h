@@ -81,7 +81,7 @@ INLINE TwoTerms two_product(double a, double b) {
 
 // Sign of a b - c d from the exact expansion of the four product terms: the sum of a
 // nonoverlapping expansion has the sign of its largest (last non-zero) component.
-INLINE bool det_nonnegative(double a, double b, double c, double d) {
+INLINE bool det_nonnegative_exact(double a, double b, double c, double d) {
   TwoTerms ab = two_product(a, b);
   TwoTerms cd = two_product(c, d);
   double x[4];
@@ -105,6 +105,22 @@ INLINE bool det_nonnegative(double a, double b, double c, double d) {
   for (int j = 3; j >= 0; --j)
     if (h[j] != 0.0) return h[j] > 0.0;
   return true;
+}
+
+// A filter in front of the expansion (Shewchuk 1997, Section 4.2's idea): r = fl(fl(ab) - fl(cd))
+// differs from ab - cd by at most u |ab| + u |cd| + u |r| <= 2u (1 + u) (|ab| + |cd|) (u = 2^-53,
+// each operation correctly rounded, no contraction). MCHEX_DET_FILTER = 2^-50 (generated) makes
+// the bound 8u (|ab| + |cd|), four times that even after its own rounding, so when |r| exceeds it
+// r has the exact sign; only the rest (ties and near-ties: few cells) pay for the expansion. The
+// same decision as the exact path whenever that one holds (no overflow or underflow of the
+// products, see above).
+INLINE bool det_nonnegative(double a, double b, double c, double d) {
+  EXACT double ab = a * b;
+  EXACT double cd = c * d;
+  EXACT double r = ab - cd;
+  EXACT double bound = (FABS(ab) + FABS(cd)) * MCHEX_DET_FILTER;
+  if (FABS(r) > bound) return r > 0.0;
+  return det_nonnegative_exact(a, b, c, d);
 }
 #endif
 
