@@ -5,6 +5,7 @@
 // Every failure is one line on stderr and a non-zero exit: 1 bad input or usage, 2 resource limit.
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -18,12 +19,15 @@
 #include <tbb/global_control.h>
 #include <tbb/info.h>
 
+#include "core/cell_types.h"
+#include "core/certify.h"
 #include "core/error.h"
 #include "core/fidelity.h"
 #include "core/grid.h"
 #include "core/mchex_mesher.h"
 #include "core/mesh_check.h"
 #include "core/mesh_io.h"
+#include "core/octree.h"
 #include "core/report.h"
 #include "core/ro.h"
 #include "core/sdf.h"
@@ -170,9 +174,39 @@ void write_json(const fs::path& path, const json& j) {
   if (ec) throw InputError(path.string() + ": " + ec.message());
 }
 
+// The report's "grid" for the adaptive complex: levels, cells per cell type and per template.
+json adaptive_grid_json(const AdaptiveGrid& g, const OctreeStats& stats, double threshold, int max_depth) {
+  json per_type = json::object(), per_level = json::array(), per_template = json::object();
+  const auto types = cell_types();
+  std::vector<std::size_t> count(types.size());
+  for (std::uint8_t t : g.cell_type) ++count[t];
+  for (std::size_t t = 0; t < types.size(); ++t) per_type[types[t].name] = count[t];
+  for (int k = 0; k < kNumTemplateKinds; ++k)
+    per_template[std::string(template_name(static_cast<TemplateKind>(k)))] = g.leaves_per_template[k];
+  for (const OctreeLevelStats& l : stats.levels)
+    per_level.push_back({{"candidates", l.candidates}, {"sdf_points", l.sdf_points}, {"refined_by_error", l.refined_by_error},
+                         {"refined_by_balance", l.refined_by_balance}, {"marks_added", l.marks_added}, {"leaves", l.leaves}});
+  const Box& cube = g.complex.box;
+  return {{"kind", "adaptive"},
+          {"threshold", threshold},
+          {"threshold_relative_to", "cell edge length"},
+          {"max_depth", max_depth},
+          {"levels", g.levels},
+          {"cells", g.complex.cells.size()},
+          {"points", g.complex.points.size()},
+          {"cells_per_type", per_type},
+          {"leaves_per_template", per_template},
+          {"per_level", per_level},
+          {"balance_rounds", stats.balance_rounds},
+          {"box", {{"lo", {cube.lo.x, cube.lo.y, cube.lo.z}}, {"hi", {cube.hi.x, cube.hi.y, cube.hi.z}}}},
+          {"finest_cell_size", (cube.hi.x - cube.lo.x) / std::pow(3.0, g.levels - 1)}};
+}
+
 struct MeshCommand {
   std::string input, shape, inside = "inside.mesh", outside, report, method = "mchex", backend = "auto";
   int depth = 3;
+  double threshold = 0;  // > 0: adaptive grid (refine while error > threshold * cell size)
+  int max_depth = 5;
   double pad = 0.1;
   double eps = 1e-3;  // --method mchex: crossings clamped to [eps, 1 - eps]
   bool fidelity = false;
@@ -195,19 +229,40 @@ int run_mesh(const MeshCommand& o, bool quiet) {
   StageClock clock(quiet);
   const Solid solid = load_solid(o.input, o.shape, clock, quiet);
   const Box cube = padded_cube(solid.sdf->bounds(), o.pad);
-  const UniformGrid grid(cube, o.depth);
-  check_memory_budget(grid, o.method);
+  const bool adaptive = o.threshold > 0;
+  const UniformGrid grid(cube, adaptive ? 0 : o.depth);
+  if (!adaptive) check_memory_budget(grid, o.method);
+  json grid_json = {{"kind", "uniform"},
+                    {"levels", grid.depth()},
+                    {"cells_per_axis", grid.cells_per_axis()},
+                    {"cells", grid.cell_count()},
+                    {"cells_per_type", {{"cube", grid.cell_count()}}},
+                    {"box", {{"lo", {cube.lo.x, cube.lo.y, cube.lo.z}}, {"hi", {cube.hi.x, cube.hi.y, cube.hi.z}}}},
+                    {"cell_size", grid.cell_size()}};
+  // --threshold: the adaptive 3-refinement grid (core/octree.h) as a HexComplex.
+  std::optional<AdaptiveGrid> agrid;
+  if (adaptive) {
+    OctreeStats ostats;
+    agrid = clock.run("octree", [&] {
+      Octree tree = refine_octree(*solid.sdf, cube, {o.threshold, o.max_depth}, &ostats);
+      balance_octree(tree, &ostats);
+      return build_adaptive_complex(tree);
+    });
+    grid_json = adaptive_grid_json(*agrid, ostats, o.threshold, o.max_depth);
+  }
 
   const std::vector<double> values = clock.run("sdf", [&] {
-    const std::vector<Vec3> points = grid.vertices();
+    const std::vector<Vec3> points = adaptive ? agrid->complex.points : grid.vertices();
     std::vector<double> v(points.size());
     solid.sdf->evaluate(points, v);
     return v;
   });
   MchexStats mchex_stats;
-  const MeshPair meshes = o.method == "mchex"
-                              ? clock.run("mchex", [&] { return mesh_mchex(grid, values, o.eps, &mchex_stats); })
-                              : clock.run("ro", [&] { return mesh_remove_outside(grid, values); });
+  auto run_method = [&](const auto& where) {
+    return o.method == "mchex" ? clock.run("mchex", [&] { return mesh_mchex(where, values, o.eps, &mchex_stats); })
+                               : clock.run("ro", [&] { return mesh_remove_outside(where, values); });
+  };
+  const MeshPair meshes = adaptive ? run_method(agrid->complex) : run_method(grid);
   const MeshCheck check = clock.run("check", [&] { return check_mesh(meshes.inside, &meshes.outside, &cube); });
   std::optional<Fidelity> fid;
   if (o.fidelity) fid = clock.run("fidelity", [&] { return measure(meshes.inside, solid, cube, o.lattice); });
@@ -222,14 +277,7 @@ int run_mesh(const MeshCommand& o, bool quiet) {
       {"input", solid.to_json()},
       {"method", o.method},
       {"backend", {{"name", "cpu"}, {"device", "reference (Embree + TBB)"}, {"threads", tbb::info::default_concurrency()}}},
-      {"grid",
-       {{"kind", "uniform"},
-        {"levels", grid.depth()},
-        {"cells_per_axis", grid.cells_per_axis()},
-        {"cells", grid.cell_count()},
-        {"cells_per_type", {{"cube", grid.cell_count()}}},
-        {"box", {{"lo", {cube.lo.x, cube.lo.y, cube.lo.z}}, {"hi", {cube.hi.x, cube.hi.y, cube.hi.z}}}},
-        {"cell_size", grid.cell_size()}}},
+      {"grid", grid_json},
       {"elements",
        {{"inside_hexes", meshes.inside.hexes.size()},
         {"outside_hexes", meshes.outside.hexes.size()},
@@ -260,8 +308,12 @@ int run_mesh(const MeshCommand& o, bool quiet) {
   if (!o.report.empty()) write_json(o.report, report);
 
   if (!quiet) {
-    fmt::print("mchex-gpu: {} -> {} grid of {}^3 cells (depth {}), method {}\n", solid.name,
-               "uniform", grid.cells_per_axis(), grid.depth(), o.method);
+    if (adaptive)
+      fmt::print("mchex-gpu: {} -> adaptive grid of {} cells, {} levels (threshold {}, max depth {}), method {}\n",
+                 solid.name, agrid->complex.cells.size(), agrid->levels, o.threshold, o.max_depth, o.method);
+    else
+      fmt::print("mchex-gpu: {} -> {} grid of {}^3 cells (depth {}), method {}\n", solid.name,
+                 "uniform", grid.cells_per_axis(), grid.depth(), o.method);
     fmt::print("  inside : {:>10} hexes {:>10} vertices -> {}\n", meshes.inside.hexes.size(),
                meshes.inside.points.size(), inside_path.string());
     fmt::print("  outside: {:>10} hexes {:>10} vertices -> {}\n", meshes.outside.hexes.size(),
@@ -348,6 +400,13 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0.0, 0.5))->capture_default_str();
   mesh->add_option("--depth", mo.depth, "uniform 3-refinement depth: 3^depth cells per axis")
       ->check(CLI::Range(0, kMaxUniformDepth))->capture_default_str();
+  mesh->add_option("--threshold", mo.threshold,
+                   "adaptive 3-refinement instead of --depth: refine a cell while the paper's refinement error (how far "
+                   "its trilinear isosurface lies from its 27 children's) exceeds THRESHOLD times the cell's own edge "
+                   "length; dimensionless, so it suits a model of any size (the paper's batch run: 0.05)")
+      ->check(CLI::PositiveNumber);
+  mesh->add_option("--max-depth", mo.max_depth, "--threshold: deepest refinement level")
+      ->check(CLI::Range(0, kMaxAdaptiveDepth))->capture_default_str();
   mesh->add_option("--pad", mo.pad, "padding around the input, as a fraction of its largest extent")
       ->check(CLI::Range(0.0, 10.0))->capture_default_str();
   mesh->add_option("--backend", mo.backend, "where the SDF runs: auto or cpu (the reference)")
@@ -364,6 +423,13 @@ int main(int argc, char** argv) {
   check->add_option("--shape", co.shape, "the built-in shape the mesh was made from, as --input");
   check->add_flag("--json", co.json, "print the results as JSON");
   check->add_option("--lattice", co.lattice, "samples per axis for the IoU")->check(CLI::Range(8, 1024))->capture_default_str();
+
+  CertifyOptions certify_options;
+  auto* certify_cmd = app.add_subcommand(
+      "certify", "re-check the positivity proof: every cell type x 24 rotations x MC33 subcase, crossings from random "
+                 "and extreme corner values; every Bernstein coefficient of det J must be > 0 (exit 3 when not)");
+  certify_cmd->add_option("--eps", certify_options.eps, "crossings clamped to [eps, 1 - eps], as mesh --eps")
+      ->check(CLI::Range(0.0, 0.5))->capture_default_str();
 
   std::string convert_in, convert_out;
   auto* convert = app.add_subcommand("convert", "convert a hex mesh between .mesh, .vtu and .msh");
@@ -384,6 +450,11 @@ int main(int argc, char** argv) {
     std::optional<tbb::global_control> limit;
     if (threads > 0) limit.emplace(tbb::global_control::max_allowed_parallelism, threads);
     if (mesh->parsed()) return run_mesh(mo, quiet);
+    if (certify_cmd->parsed()) {
+      const CertifyResult r = certify(certify_options);
+      if (!quiet) fmt::print("{}", certify_report(r));
+      return r.passed() ? 0 : 3;
+    }
     if (convert->parsed()) {
       mesh_format(convert_out);
       write_hex_mesh(read_hex_mesh(convert_in), convert_out);
