@@ -26,7 +26,10 @@
 // certificate cannot tell apart, Theorem 5.2). On the transition cells of the 3-refinement
 // templates no offset can: for some crossings and rotations no position of the centre at all
 // makes every hex positive (the tests give a Farkas certificate of that on the node cell), so
-// there core/local_refinement.h refines 11 and 14 instead (cell_shape below decides).
+// there core/local_refinement.h refines 11 and 14 as before (cell_shape below decides). That
+// route is not certified on transition cells either (`mchex-gpu certify` reports negative
+// coefficients there for 11 and 14 through refinement, as for several direct subcases).
+// The uniform grid's cells are all affine, so there every 11 and 14 cell is cut with 20 hexes.
 #pragma once
 
 #include <array>
