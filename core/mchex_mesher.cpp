@@ -166,11 +166,14 @@ struct Mesher {
                              " (code " + std::to_string(device_subcases[cell]) + "), core's classify() subcase " +
                              std::string(subcase_name(cls.subcase)));
     out.stats.cases[static_cast<int>(cls.subcase)] += 1;
-    out.stats.expected_hexes += static_cast<std::size_t>(local_refinement_hexes(cls.subcase));
+    // 11 and 14 are cut directly (volume-centre offset) on affine cells, refined on the others.
+    const bool refine = needs_local_refinement(cls, xc);
+    out.stats.expected_hexes += static_cast<std::size_t>(
+        local_refinement_hexes(cls.subcase, refine ? CellShape::kGeneral : CellShape::kAffine));
     const auto& cell_edges = topo.cell_edges[cell];
     const auto& cell_faces = topo.cell_faces[cell];
     LocalPoints locals;
-    if (!needs_local_refinement(cls)) {
+    if (!refine) {
       PieceFrame frame;
       frame.global = gv;
       for (int c = 0; c < 8; ++c) frame.local[c] = static_cast<std::uint8_t>(c);
