@@ -45,6 +45,7 @@ CertifyRoute certify_route(Subcase s);
 struct CertifyEntry {  // one (type, subcase)
   std::size_t hexes = 0;         // hexes checked
   std::size_t failed_hexes = 0;  // with a coefficient <= 0
+  std::size_t moved_centres = 0; // polyhedra whose volume centre the search moved (core/repair.h)
   double min_coefficient = 0;    // min over hexes of min beta / (mean edge)^3 (dimensionless)
   bool checked = false;          // false: needs local refinement (not landed)
 };
