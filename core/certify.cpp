@@ -101,7 +101,8 @@ CellClass clamped(CellClass c, double eps) {
   return c;
 }
 
-constexpr std::size_t kWalkBelow = 16;
+constexpr std::size_t kWalkBelow = 16;   // a class with fewer samples than this is walked ...
+constexpr std::size_t kWalkTarget = 32;  // ... until it has this many (or kWalkSteps steps)
 constexpr int kWalkSteps = 256;
 
 std::vector<Sample> samples(const Pattern& p, const CertifyOptions& o, std::mt19937_64& rng) {
@@ -145,7 +146,7 @@ std::vector<Sample> samples(const Pattern& p, const CertifyOptions& o, std::mt19
     for (int c = 0; c < 8; ++c) m[c] = std::abs(p.f[c]);
     const double top = *std::max_element(m.begin(), m.end());
     for (double& x : m) x /= top;
-    for (int step = 0; step < kWalkSteps; ++step) {
+    for (int step = 0; step < kWalkSteps && out.size() < kWalkTarget; ++step) {
       std::array<double, 8> trial = m;
       for (double& x : trial) x = std::clamp(x * std::exp(std::clamp(n01(rng), -1.0, 1.0)), 1e-6, 1.0);
       const std::size_t before = out.size();
@@ -198,11 +199,10 @@ CertifyResult certify(const CertifyOptions& o) {
         for (const Polyhedron& poly : cut_cell(kUnitCubeCorners, c)) {
           const MappedSubdivision ms = subdivide_in_cell(poly, cell);
           tr.moved_centres += ms.centre_moved;
-          for (const SubdivisionHex& h : ms.hexes) {
+          for (const double scaled : ms.hex_min_scaled) {
             ++tr.hexes;
-            const double scaled = min_bernstein_scaled(h.corners);
             tr.min_coefficient = std::min(tr.min_coefficient, scaled);
-            if (!bernstein_certified(h.corners)) {
+            if (!(scaled > 0)) {
               ++tr.failed;
               if (!tr.failure) tr.failure = CertifyFailure{type, rotation, p.subcase, s, scaled};
             }

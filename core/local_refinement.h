@@ -76,6 +76,14 @@ std::array<LocalRefinementChild, kNumLocalRefinementChildren> local_refinement_c
 struct LocalRefinementTemplate {
   bool refine = false;
   std::uint8_t inner_positive = 0;
+  // Where set: the signs used when the subcase is the cell's own (the first level), while
+  // inner_positive serves a child refined at the second level. 3.2 needs it: its level-1 template
+  // 0x0F leaves case-5 frustums that no volume-centre search certifies on the edge-3 and face-3
+  // transition types, and 0x7F, which certifies there, breaks the second level of 7.2 and 7.4.2
+  // (local_refinement.cpp).
+  bool own_level = false;
+  std::uint8_t own_inner_positive = 0;
+  constexpr std::uint8_t signs(int depth) const { return depth == 0 && own_level ? own_inner_positive : inner_positive; }
 };
 using LocalRefinementTable = std::array<LocalRefinementTemplate, kNumSubcases>;
 const LocalRefinementTable& local_refinement_table();

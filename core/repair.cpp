@@ -19,9 +19,10 @@ namespace {
 constexpr double kFirstRadius = 0.1;    // trust-region half-width, in mean hex edges L
 constexpr double kMaxRadius = 0.5;
 constexpr double kLeastRadius = 1e-7;   // stop below this
+constexpr double kCertifiedRadius = 1e-3;  // once certified, stop below this
 constexpr double kDerivativeStep = 1e-6;  // central differences, in L (the coefficients are cubic)
 constexpr int kMaxIterations = 60;
-constexpr std::size_t kMaxActive = 12;  // linearized coefficients per LP (with the 6 box sides)
+constexpr std::size_t kMaxActive = 8;  // linearized coefficients per LP (with the 6 box sides)
 
 // Every scaled coefficient (beta / mean edge^3) of every hex, hex-major.
 void scaled_coefficients(const std::vector<SubdivisionHex>& hexes, std::vector<double>& out) {
@@ -98,18 +99,24 @@ MappedSubdivision subdivide_in_cell(const Polyhedron& parametric, const HexCorne
   out.hexes = midpoint_subdivide(parametric);
   for (SubdivisionHex& h : out.hexes)
     for (Vec3& x : h.corners) x = trilinear_map(cell, x);
-  bool all = true;
-  for (const SubdivisionHex& h : out.hexes) all = all && bernstein_certified(h.corners);
   std::vector<double> beta;
   auto least = [&] {
     scaled_coefficients(out.hexes, beta);
     return *std::min_element(beta.begin(), beta.end());
   };
-  if (all) {
+  // Scaled coefficients have the sign of the coefficients (the scale is a positive length cubed;
+  // a hex with all corners equal gives NaN, which counts as not certified).
+  auto finish = [&](double least_value) {
+    out.hex_min_scaled.assign(out.hexes.size(), 0);
+    for (std::size_t i = 0; i < out.hexes.size(); ++i)
+      out.hex_min_scaled[i] = *std::min_element(beta.begin() + 27 * i, beta.begin() + 27 * (i + 1));
+    out.min_scaled = least_value;
     out.certified = true;
-    out.min_scaled = least();
+    for (double v : out.hex_min_scaled) out.certified = out.certified && v > 0;
     return out;
-  }
+  };
+  const double plain_least = least();
+  if (plain_least > 0) return finish(plain_least);
   out.centre_moved = true;
   // Corner 6 of every hex is the volume centre (subdivide.h).
   auto place = [&](const Vec3& c) {
@@ -120,12 +127,14 @@ MappedSubdivision subdivide_in_cell(const Polyhedron& parametric, const HexCorne
   length /= static_cast<double>(out.hexes.size());
 
   Vec3 centre = out.hexes.front().corners[6];
-  double best = least();
+  double best = plain_least;
   std::vector<double> value = beta, plus, minus;
   std::array<std::vector<double>, 3> grad;
   double radius = kFirstRadius * length;
   const double h = kDerivativeStep * length;
   for (int it = 0; it < kMaxIterations && radius > kLeastRadius * length; ++it) {
+    // Certified and the steps already small: more would only add margin to a tiny coefficient.
+    if (best > 0 && radius < kCertifiedRadius * length) break;
     for (int axis = 0; axis < 3; ++axis) {
       Vec3 e{};
       e[axis] = h;
@@ -176,10 +185,8 @@ MappedSubdivision subdivide_in_cell(const Polyhedron& parametric, const HexCorne
     }
   }
   place(centre);
-  out.certified = true;
-  for (const SubdivisionHex& hx : out.hexes) out.certified = out.certified && bernstein_certified(hx.corners);
-  out.min_scaled = best;
-  return out;
+  least();
+  return finish(best);
 }
 
 }  // namespace mchex

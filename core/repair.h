@@ -14,8 +14,9 @@
 // volume centre of a polyhedron is no point of any other polyhedron or cell (it is corner 6 of
 // each of the polyhedron's hexes and of nothing else), so it can move freely without breaking
 // conformity. Every hex is checked; only when one is not certified, the centre (in space) is
-// moved by a deterministic compass search (fixed directions, fixed order, halving steps) to
-// maximize the least scaled coefficient over the polyhedron's hexes. The result is a pure
+// moved by a deterministic search (sequential linear programming in a trust region, see
+// repair.cpp) that maximizes the least scaled coefficient over the polyhedron's hexes (the
+// paper's Eq. 14 loss is the same aim summed over a table of cells). The result is a pure
 // function of the polyhedron and the cell, so every thread count and backend gives the same
 // mesh; cells whose plain subdivision certifies (all cubes in the measured runs) pay one check.
 // certify runs this same function, so what it certifies is what the mesher writes.
@@ -34,6 +35,7 @@ struct MappedSubdivision {
   bool centre_moved = false;          // the search ran (plain subdivision was not certified)
   bool certified = false;             // every coefficient of every hex > 0 (after the search)
   double min_scaled = 0;              // least min_bernstein_scaled over the hexes
+  std::vector<double> hex_min_scaled; // min_bernstein_scaled of each hex
 };
 
 // `parametric`: a polyhedron of cut_cell(kUnitCubeCorners, ...); `cell`: the cell's corners (VTK
