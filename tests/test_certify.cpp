@@ -145,6 +145,34 @@ TEST(certify, Subcase3_2Regression) {
   }
 }
 
+// Why certify's route covers the local-refinement cell types (the paper's 15 + 1) without listing
+// them: every cell of a grid is A(type moved by a rotation) for an affine A with det > 0
+// (core/cell_types.h), and refine_locally commutes with A (inner points are affine combinations of
+// the corners; values and signs do not depend on positions), so the leaves the mesher cuts are the
+// images under A of the leaves certify cuts, and the certificate is invariant under A (Theorem 5.2).
+TEST(certify, LocalRefinementCommutesWithAffineMaps) {
+  const Vec3 a0{0.3, -1.2, 2.0};
+  const std::array<Vec3, 3> m = {Vec3{1.7, 0.2, -0.3}, Vec3{0.4, 0.9, 0.1}, Vec3{-0.2, 0.3, 1.3}};
+  auto affine = [&](const Vec3& x) { return a0 + x.x * m[0] + x.y * m[1] + x.z * m[2]; };
+  ASSERT_GT(triple(m[0], m[1], m[2]), 0);
+  int checked = 0;
+  for (const Regression& r : k32Cells) {
+    const HexCorners cell = transform_hex(cell_types()[type_index(r.type)].corners, r.rotation);
+    HexCorners moved;
+    for (int i = 0; i < 8; ++i) moved[i] = affine(cell[i]);
+    const CellClass c = classify(r.f);
+    const LocalRefinement a = refine_locally(cell, r.f, c, 1e-10), b = refine_locally(moved, r.f, c, 1e-10);
+    ASSERT_EQ(a.cells, b.cells);
+    ASSERT_EQ(a.values, b.values);
+    ASSERT_EQ(a.points.size(), b.points.size());
+    for (std::size_t i = 0; i < a.points.size(); ++i) {
+      EXPECT_LT(norm(affine(a.points[i]) - b.points[i]), 1e-12);
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 0);
+}
+
 TEST(certify, RejectsBadEps) {
   CertifyOptions o;
   o.eps = 0.7;
