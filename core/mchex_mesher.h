@@ -28,8 +28,10 @@
 
 #include <array>
 #include <cstddef>
+#include <cstdint>
 #include <span>
 #include <string_view>
+#include <vector>
 
 #include "core/grid.h"
 #include "core/hex_complex.h"
@@ -62,12 +64,31 @@ struct MchexStats {
 // point sees the same value, and no crossing lands exactly on a corner.
 double zero_tolerance(double cell_size);
 
+// The zero rule applied to a copy of `values` (the SDF at the complex's points): the values every
+// cell is classified from. A device that classifies for the mesher (host/backend.h
+// classify_cells) is given these. Throws InputError for a size mismatch or a non-finite value;
+// `perturbed` (optional) counts the values moved.
+std::vector<double> apply_zero_rule(const HexComplex& complex, std::span<const double> values,
+                                    std::size_t* perturbed = nullptr);
+
+// A device's MC33 classification of the same values after the zero rule (host/backend.h
+// classify_cells), handed to the mesher so that the device's work is used and checked rather
+// than trusted: subcases[i] is cell i's core/mc33.h Subcase, hex_offsets the exclusive prefix sum
+// of local_refinement_hexes over the cells (cells + 1 entries). Either may be empty. A cell whose
+// subcase differs from the host's classify(), or a chunk of cells whose hexes differ from the
+// device's count, is a std::logic_error naming the cell(s): a backend that disagrees with core
+// is a bug, never a silently different mesh.
+struct DeviceClassification {
+  std::span<const std::uint8_t> subcases;
+  std::span<const std::uint64_t> hex_offsets;
+};
+
 // values: the SDF (f > 0 inside) at every point of the complex.
 // eps in (0, 0.5): crossing parameters are clamped to [eps, 1 - eps] so that no polyhedron has
 // a (near-)zero-length edge. Deterministic for any thread count.
 // Throws InputError for a bad eps, a values size mismatch or a non-finite value.
 MeshPair mesh_mchex(const HexComplex& complex, std::span<const double> values, double eps,
-                    MchexStats* stats = nullptr);
+                    MchexStats* stats = nullptr, const DeviceClassification& device = {});
 // The uniform grid (values in UniformGrid::vertex_index order) through uniform_complex().
 MeshPair mesh_mchex(const UniformGrid& grid, std::span<const double> values, double eps,
                     MchexStats* stats = nullptr);
