@@ -3,7 +3,7 @@
 // (no such polyhedra at all), are split into 7 children before cutting: "connecting its eight grid
 // points to its centroid, resulting in seven smaller children cells" (Section 5) - an inner cell
 // and 6 frustums, one on each face of the cell. The 8 inserted (inner) points sit at fixed
-// parametric positions; each gets a *virtual* value whose SIGN follows a per-subcase template,
+// positions (halfway from each corner to the centroid, kInnerPointScale); each gets a *virtual* value whose SIGN follows a per-subcase template,
 // chosen so that every child falls into a subcase that midpoint subdivision certifies and the
 // union of the children's regions has the cell's MC33 topology (Figure 7: "virtual SDF values
 // assigned to new vertices ensure each hex falls into the fourteen proven topological cases and
@@ -49,9 +49,18 @@
 
 namespace mchex {
 
-// Parametric position of the inner points: inner point i is the cell's trilinear map at corner
-// i's coordinates with 0 -> t and 1 -> 1 - t (the midpoint between corner i and the centroid,
-// in parametric space, at t = 1/4).
+// Placement of the inner points: inner point i = centroid + kInnerPointScale * (corner i -
+// centroid), the centroid being the mean of the 8 corners (paper Section 5: the children come from
+// "connecting its eight grid points to its centroid"). Taken in space, not in the parametric cube,
+// so that the inner cell is an affine image of the cell and the frustums' side faces are planar
+// (the paper's "bitter lesson": the closer to affine, the more tractable; see local_refinement.cpp
+// for the measured difference on transition cells). On a parallelepiped cell it is the trilinear
+// map at parametric 1/4 and 3/4.
+inline constexpr double kInnerPointScale = 0.5;
+// The parametric position (t and 1 - t) at which an inner point's virtual value interpolates the
+// cell's 8 values: the inner point itself on a parallelepiped cell, near it on a transition cell.
+// Only the value's magnitude comes from here (the template decides its sign), so it moves the
+// crossings on edges inside the cell, never the topology.
 inline constexpr double kInnerPointPosition = 0.25;
 
 // The 7 children as indices into [cell corners 0..7, inner points 8..15] (inner point 8 + i sits
@@ -73,6 +82,14 @@ struct LocalRefinementTemplate {
   bool refine = false;
   std::uint8_t inner_positive = 0;
   bool direct_on_affine = false;
+  // Where set: the signs used when the subcase is the cell's own (the first level), while
+  // inner_positive serves a child refined at the second level. 3.2 needs it: its level-1 template
+  // 0x0F leaves case-5 frustums that no volume-centre search certifies on the edge-3 and face-3
+  // transition types, and 0x7F, which certifies there, breaks the second level of 7.2 and 7.4.2
+  // (local_refinement.cpp).
+  bool own_level = false;
+  std::uint8_t own_inner_positive = 0;
+  constexpr std::uint8_t signs(int depth) const { return depth == 0 && own_level ? own_inner_positive : inner_positive; }
 };
 using LocalRefinementTable = std::array<LocalRefinementTemplate, kNumSubcases>;
 const LocalRefinementTable& local_refinement_table();

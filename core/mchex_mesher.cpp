@@ -19,6 +19,7 @@
 #include "core/parallel.h"
 #include "core/polyhedra.h"
 #include "core/quality.h"
+#include "core/repair.h"
 #include "core/subdivide.h"
 
 namespace mchex {
@@ -334,11 +335,16 @@ struct Mesher {
         }
       }
       auto& target = p.region_sign > 0 ? out.inside : out.outside;
-      for (const SubdivisionHex& h : midpoint_subdivide(p)) {
+      // Mapped into the cell, every hex checked, the volume centre moved where one is not
+      // certified (core/repair.h; the centre is this polyhedron's own point).
+      const MappedSubdivision mapped = subdivide_in_cell(p, xc);
+      out.stats.moved_centres += mapped.centre_moved;
+      out.stats.uncertified_polyhedra += !mapped.certified;
+      for (const SubdivisionHex& h : mapped.hexes) {
         Hex hex;
         for (int c = 0; c < 8; ++c) {
           const SubdivisionPointKey& sk = h.keys[c];
-          const Vec3 x = trilinear_map(xc, h.corners[c]);
+          const Vec3& x = h.corners[c];
           std::uint32_t id = 0;
           switch (sk.kind) {
             case SubdivisionPointKey::Kind::kVertex:
@@ -472,6 +478,8 @@ MeshPair mesh_mchex(const HexComplex& cx, std::span<const double> values, double
     stats.refined_cells += ch.stats.refined_cells;
     stats.refined_cells_two_levels += ch.stats.refined_cells_two_levels;
     stats.expected_hexes += ch.stats.expected_hexes;
+    stats.moved_centres += ch.stats.moved_centres;
+    stats.uncertified_polyhedra += ch.stats.uncertified_polyhedra;
   }
   std::vector<Hex> inside, outside;
   inside.reserve(num_in);

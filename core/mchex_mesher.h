@@ -50,6 +50,8 @@ struct MchexStats {
   std::size_t refined_cells_two_levels = 0;
   std::size_t perturbed_values = 0; // grid values moved off zero by the zero rule
   std::size_t expected_hexes = 0;   // sum over cells of local_refinement_hexes(subcase)
+  std::size_t moved_centres = 0;    // polyhedra whose volume centre core/repair.h moved
+  std::size_t uncertified_polyhedra = 0;  // polyhedra with a hex not certified even so
   std::size_t points = 0;           // distinct global points (both meshes together)
   // Wall time of the stages: numbering the complex's edges and faces, cutting + subdividing the
   // cells (parallel), and assembling the two meshes from the chunks.

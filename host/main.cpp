@@ -335,6 +335,8 @@ int run_mesh(const MeshCommand& o, bool quiet) {
     report["mchex"] = {{"eps", o.eps},
                        {"refined_cells", mchex_stats.refined_cells},
                        {"refined_cells_two_levels", mchex_stats.refined_cells_two_levels},
+                       {"moved_volume_centres", mchex_stats.moved_centres},
+                       {"uncertified_polyhedra", mchex_stats.uncertified_polyhedra},
                        {"perturbed_zero_values", mchex_stats.perturbed_values},
                        {"points", mchex_stats.points},
                        {"seconds", {{"topology", mchex_stats.seconds_topology},
