@@ -133,6 +133,15 @@ struct OpenclBackend::Impl {
   std::map<std::string, cl::Kernel> kernels;  // made once per program (PoCL: ~ms each)
   bool host_unified = false;  // CL_DEVICE_HOST_UNIFIED_MEMORY: buffers may live in host memory
 
+  // The output buffer of the last signed_distance call (when it was one chunk on a device with its
+  // own memory) and the host array it was read into: ClassifyOptions::values_from_last_sdf.
+  cl::Buffer resident;
+  const double* resident_data = nullptr;
+  std::size_t resident_size = 0;
+  bool resident_matches(std::span<const double> v) const {
+    return resident_data && resident_data == v.data() && resident_size == v.size();
+  }
+
   // The device scene of the last surface.
   SurfaceKey scene_key;
   std::vector<cl::Buffer> scene;  // nodes, slot_triangle, slot_corners, slot_features, face, edge, vertex normals
@@ -177,7 +186,7 @@ struct OpenclBackend::Impl {
     platform = it->first;
     device = it->second;
     info = describe(platform, device);
-    host_unified = device.getInfo<CL_DEVICE_HOST_UNIFIED_MEMORY>() == CL_TRUE;
+    host_unified = options.zero_copy && device.getInfo<CL_DEVICE_HOST_UNIFIED_MEMORY>() == CL_TRUE;
   }
 
   std::string source_text() const {
@@ -350,8 +359,9 @@ void OpenclBackend::reset_profile() { impl_->profile = {}; }
 
 void OpenclBackend::signed_distance(const SdfSource& source, std::span<const Vec3> points, std::span<double> values) {
   if (points.size() != values.size()) throw std::invalid_argument("signed_distance: batch size mismatch");
-  if (points.empty()) return;
   Impl& m = *impl_;
+  m.resident_data = nullptr;
+  if (points.empty()) return;
   if (source.surface && source.surface->triangles.empty()) {
     // As core/sdf.cpp: no triangle, nothing is inside.
     std::fill(values.begin(), values.end(), -INFINITY);
@@ -388,6 +398,11 @@ void OpenclBackend::signed_distance(const SdfSource& source, std::span<const Vec
       }
       m.read(out, &values[first], count);
     }
+    if (points.size() <= n && !m.host_unified) {
+      m.resident = out;
+      m.resident_data = values.data();
+      m.resident_size = values.size();
+    }
   } catch (const cl::Error& e) {
     fail(e, "signed distance");
   }
@@ -421,45 +436,52 @@ void OpenclBackend::refinement_error(std::span<const std::array<double, kChildLa
   }
 }
 
-void OpenclBackend::classify_cells(const HexComplex& complex, std::span<const double> values, std::span<CellCode> codes,
-                                   std::span<std::uint64_t> offsets) {
+void OpenclBackend::classify_cells(const HexComplex& complex, std::span<const double> values,
+                                   const CellClassification& out, const ClassifyOptions& options) {
+  check_classify_sizes(complex, values, out, options);
   const std::size_t cells = complex.cells.size();
-  if (values.size() != complex.points.size() || codes.size() != cells || offsets.size() != cells + 1)
-    throw std::invalid_argument("classify_cells: batch size mismatch");
-  // core's classify() refuses non-finite values; so does this backend, before any dispatch.
-  for (double v : values)
-    if (!std::isfinite(v)) throw InputError("MC33 classify: a corner value is not finite");
-  offsets[0] = 0;
+  out.offsets[0] = 0;
   if (cells == 0) return;
   Impl& m = *impl_;
   constexpr cl_uint kBlock = 256;  // cells per work item of the prefix sum
+  const bool uniform = options.uniform_cells_per_axis > 0;
+  const bool want_words = !out.words.empty();
   try {
-    const std::size_t n = std::min(m.chunk(8 * sizeof(std::uint32_t)), cells);
+    // Per cell: 1 subcase byte, 8 offset bytes, 8 word bytes when asked for, 32 corner bytes
+    // unless uniform; the chunk is limited by the largest of these buffers.
+    const std::size_t n = std::min(m.chunk(uniform ? sizeof(cl_ulong) : 8 * sizeof(std::uint32_t)), cells);
     const std::size_t max_blocks = (n + kBlock - 1) / kBlock;
     // The value window is limited by the allocation size only (max_chunk counts cells).
     const std::size_t window_limit = std::min<std::size_t>(m.max_alloc() / sizeof(double), std::size_t(1) << 31);
     // A device that shares the host's memory (PoCL on CPUs) reads the caller's arrays and writes
     // the results in place (CL_MEM_USE_HOST_PTR, synchronised by map/unmap): no copies. Others
-    // get the arrays written to and read back from device buffers.
+    // get device buffers, and the values stay there when signed_distance left them (resident).
     const bool zero_copy = m.host_unified;
     const bool whole = values.size() <= window_limit;  // every chunk reads the one value buffer
-    cl::Buffer cell_buf, code_buf, offset_buf;
+    cl::Buffer cell_buf, subcase_buf, word_buf, offset_buf;
+    const cl::Buffer dummy(m.context, CL_MEM_READ_WRITE, 16);
+    const cl::Buffer bad(m.context, CL_MEM_READ_WRITE, sizeof(cl_uint));
+    const cl_uint zero = 0;
+    m.queue.enqueueFillBuffer(bad, zero, 0, sizeof zero);
     if (!zero_copy) {
-      cell_buf = cl::Buffer(m.context, CL_MEM_READ_ONLY, 8 * sizeof(std::uint32_t) * n);
-      code_buf = cl::Buffer(m.context, CL_MEM_READ_WRITE, 2 * sizeof(std::uint32_t) * n);
+      if (!uniform) cell_buf = cl::Buffer(m.context, CL_MEM_READ_ONLY, 8 * sizeof(std::uint32_t) * n);
+      subcase_buf = cl::Buffer(m.context, CL_MEM_READ_WRITE, n);
+      if (want_words) word_buf = cl::Buffer(m.context, CL_MEM_WRITE_ONLY, 2 * sizeof(std::uint32_t) * n);
       offset_buf = cl::Buffer(m.context, CL_MEM_WRITE_ONLY, sizeof(cl_ulong) * n);
     }
     cl::Buffer sums(m.context, CL_MEM_READ_WRITE, sizeof(cl_ulong) * (max_blocks + 1));
     cl::Buffer value_buf;
     std::size_t value_capacity = 0;
     if (whole) {
-      value_buf = zero_copy ? m.host_buffer(CL_MEM_READ_ONLY, values.data(), values.size())
-                            : cl::Buffer(m.context, CL_MEM_READ_ONLY, sizeof(double) * values.size());
-      if (!zero_copy) m.write(value_buf, values.data(), values.size());
+      if (zero_copy) value_buf = m.host_buffer(CL_MEM_READ_ONLY, values.data(), values.size());
+      else if (options.values_from_last_sdf && m.resident_matches(values)) value_buf = m.resident;
+      else {
+        value_buf = cl::Buffer(m.context, CL_MEM_READ_ONLY, sizeof(double) * values.size());
+        m.write(value_buf, values.data(), values.size());
+      }
     }
     cl::Kernel &classify = m.kernel("classify"), &block_sums = m.kernel("hex_block_sums"),
                &scan = m.kernel("hex_scan_sums"), &block_offsets = m.kernel("hex_block_offsets");
-    std::vector<std::uint32_t> words(2 * n);
     static_assert(sizeof(cl_ulong) == sizeof(std::uint64_t) && sizeof(CellCorners) == 8 * sizeof(std::uint32_t));
     std::uint64_t total = 0;
     for (std::size_t first = 0; first < cells;) {
@@ -488,22 +510,30 @@ void OpenclBackend::classify_cells(const HexComplex& complex, std::span<const do
         }
       }
       if (zero_copy) {
-        cell_buf = m.host_buffer(CL_MEM_READ_ONLY, complex.cells[first].data(), 8 * count);
-        code_buf = m.host_buffer(CL_MEM_READ_WRITE, words.data(), 2 * count);
-        offset_buf = m.host_buffer(CL_MEM_WRITE_ONLY, reinterpret_cast<cl_ulong*>(&offsets[first]), count);
-      } else {
+        if (!uniform) cell_buf = m.host_buffer(CL_MEM_READ_ONLY, complex.cells[first].data(), 8 * count);
+        subcase_buf = m.host_buffer(CL_MEM_READ_WRITE, &out.subcases[first], count);
+        if (want_words) word_buf = m.host_buffer(CL_MEM_WRITE_ONLY, &out.words[2 * first], 2 * count);
+        offset_buf = m.host_buffer(CL_MEM_WRITE_ONLY, reinterpret_cast<cl_ulong*>(&out.offsets[first]), count);
+      } else if (!uniform) {
         m.write(cell_buf, complex.cells[first].data(), 8 * count);
       }
-      classify.setArg(0, m.configs);
-      classify.setArg(1, cell_buf);
-      classify.setArg(2, value_buf);
-      classify.setArg(3, cl_uint(lo));
-      classify.setArg(4, code_buf);
-      classify.setArg(5, cl_uint(count));
+      cl_uint arg = 0;
+      classify.setArg(arg++, m.configs);
+      classify.setArg(arg++, uniform ? dummy : cell_buf);
+      classify.setArg(arg++, value_buf);
+      classify.setArg(arg++, cl_uint(lo));
+      classify.setArg(arg++, cl_uint(first));
+      classify.setArg(arg++, cl_uint(options.uniform_cells_per_axis));
+      classify.setArg(arg++, options.zero_tolerance);
+      classify.setArg(arg++, subcase_buf);
+      classify.setArg(arg++, want_words ? word_buf : dummy);
+      classify.setArg(arg++, cl_uint(want_words));
+      classify.setArg(arg++, bad);
+      classify.setArg(arg++, cl_uint(count));
       m.run("classify", classify, count);
 
       const cl_uint blocks = cl_uint((count + kBlock - 1) / kBlock);
-      block_sums.setArg(0, code_buf);
+      block_sums.setArg(0, subcase_buf);
       block_sums.setArg(1, cl_uint(count));
       block_sums.setArg(2, kBlock);
       block_sums.setArg(3, sums);
@@ -512,7 +542,7 @@ void OpenclBackend::classify_cells(const HexComplex& complex, std::span<const do
       scan.setArg(1, blocks);
       scan.setArg(2, cl_ulong(total));
       m.run("hex_scan_sums", scan, 1, 1);
-      block_offsets.setArg(0, code_buf);
+      block_offsets.setArg(0, subcase_buf);
       block_offsets.setArg(1, cl_uint(count));
       block_offsets.setArg(2, kBlock);
       block_offsets.setArg(3, sums);
@@ -520,31 +550,31 @@ void OpenclBackend::classify_cells(const HexComplex& complex, std::span<const do
       m.run("hex_block_offsets", block_offsets, blocks, 8);
 
       if (zero_copy) {
-        // The results are already in words / offsets; mapping makes them visible to the host.
-        m.sync_to_host(code_buf, 2 * count * sizeof(std::uint32_t));
+        // The results are already in the caller's arrays; mapping makes them visible to the host.
+        m.sync_to_host(subcase_buf, count);
+        if (want_words) m.sync_to_host(word_buf, 2 * count * sizeof(std::uint32_t));
         m.sync_to_host(offset_buf, count * sizeof(cl_ulong));
       } else {
-        m.read(code_buf, words.data(), 2 * count);
-        m.read(offset_buf, reinterpret_cast<cl_ulong*>(&offsets[first]), count);
+        m.read(subcase_buf, &out.subcases[first], count);
+        if (want_words) m.read(word_buf, &out.words[2 * first], 2 * count);
+        m.read(offset_buf, reinterpret_cast<cl_ulong*>(&out.offsets[first]), count);
       }
       cl_ulong chunk_total = 0;
       cl::Event e;
       m.queue.enqueueReadBuffer(sums, CL_TRUE, sizeof(cl_ulong) * blocks, sizeof(cl_ulong), &chunk_total, nullptr, &e);
       m.record("read", e);
       total = chunk_total;
-      parallel_for(count, [&](std::size_t i) { codes[first + i] = decode_cell_words(words[2 * i], words[2 * i + 1]); });
       first += count;
     }
+    cl_uint bad_value = 0;
+    m.queue.enqueueReadBuffer(bad, CL_TRUE, 0, sizeof bad_value, &bad_value);
     m.queue.finish();  // the unmaps, before the host buffers are released
-    offsets[cells] = total;
+    // core's classify() refuses non-finite values; the kernel flagged them.
+    if (bad_value) throw InputError("MC33 classify: a corner value is not finite");
+    out.offsets[cells] = total;
   } catch (const cl::Error& e) {
     fail(e, "MC33 classification");
   }
-  for (const CellCode& c : codes)
-    if (c.symmetry == kNoCubeSymmetry)
-      // As core's classify(): unreachable for finite values (the exact face test never yields
-      // one of case 13's impossible face configurations).
-      throw std::logic_error("MC33 classify: no symmetry maps the cell onto its representative");
 }
 
 std::vector<DeviceInfo> list_opencl_devices() {

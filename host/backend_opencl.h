@@ -27,6 +27,10 @@ struct OpenclOptions {
   // Largest number of points / cells per dispatch (0: as many as the device's allocation limit
   // allows). Tests make it small to cross chunk boundaries.
   std::size_t max_chunk = 0;
+  // Use the caller's arrays in place (CL_MEM_USE_HOST_PTR) when the device shares the host's
+  // memory (CL_DEVICE_HOST_UNIFIED_MEMORY, e.g. PoCL). false: device buffers and copies, as on a
+  // discrete GPU (tests run that path on PoCL with it).
+  bool zero_copy = true;
 };
 
 // Device time per kernel (from OpenCL profiling events) and host<->device transfer time.
@@ -50,8 +54,8 @@ class OpenclBackend : public Backend {
   void signed_distance(const SdfSource& source, std::span<const Vec3> points, std::span<double> values) override;
   void refinement_error(std::span<const std::array<double, kChildLatticePoints>> lattice,
                         std::span<const double> sizes, std::span<double> errors) override;
-  void classify_cells(const HexComplex& complex, std::span<const double> values, std::span<CellCode> codes,
-                      std::span<std::uint64_t> offsets) override;
+  void classify_cells(const HexComplex& complex, std::span<const double> values, const CellClassification& out,
+                      const ClassifyOptions& options = {}) override;
 
   // Whether the program came from the binary cache, and the cache file ("" when not caching).
   bool program_from_cache() const;

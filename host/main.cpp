@@ -280,12 +280,15 @@ int run_mesh(const MeshCommand& o, bool quiet) {
   if (o.method == "mchex" && backend->device().backend != "cpu") {
     const HexComplex& cx = adaptive ? agrid->complex : uniform.emplace(uniform_complex(grid));
     clock.run("classify", [&] {
-      const std::vector<double> ruled = apply_zero_rule(cx, values);
-      std::vector<CellCode> codes(cx.cells.size());
+      // The device applies the zero rule itself, reads the values the SDF left on it, and computes
+      // a uniform grid's corner ids (host/backend.h ClassifyOptions).
+      ClassifyOptions co;
+      co.zero_tolerance = zero_tolerance_of(cx);
+      co.uniform_cells_per_axis = adaptive ? 0 : grid.cells_per_axis();
+      co.values_from_last_sdf = true;
+      device_subcases.resize(cx.cells.size());
       device_offsets.resize(cx.cells.size() + 1);
-      backend->classify_cells(cx, ruled, codes, device_offsets);
-      device_subcases.resize(codes.size());
-      for (std::size_t i = 0; i < codes.size(); ++i) device_subcases[i] = static_cast<std::uint8_t>(codes[i].subcase);
+      backend->classify_cells(cx, values, {device_subcases, device_offsets}, co);
     });
   }
   auto run_method = [&](const auto& where) {

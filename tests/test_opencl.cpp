@@ -24,6 +24,7 @@
 #include "core/hex_complex.h"
 #include "core/local_refinement.h"
 #include "core/mc33.h"
+#include "core/mchex_mesher.h"
 #include "core/refinement_error.h"
 #include "core/sdf.h"
 #include "core/shapes.h"
@@ -321,8 +322,8 @@ void expect_same_classification(Backend& backend, const CellBatch& batch, const 
   const std::size_t n = batch.complex.cells.size();
   std::vector<CellCode> ref(n), got(n);
   std::vector<std::uint64_t> ref_off(n + 1), got_off(n + 1);
-  make_cpu_backend()->classify_cells(batch.complex, batch.values, ref, ref_off);
-  backend.classify_cells(batch.complex, batch.values, got, got_off);
+  classify_cells_codes(*make_cpu_backend(), batch.complex, batch.values, ref, ref_off);
+  classify_cells_codes(backend, batch.complex, batch.values, got, got_off);
   std::size_t mismatches = 0;
   for (std::size_t i = 0; i < n && mismatches < 5; ++i)
     if (!(ref[i] == got[i])) {
@@ -436,13 +437,79 @@ TEST(Opencl, ClassificationOfAGridAcrossChunks) {
   expect_same_classification(b, batch, "two-holed grid, chunks of 777");
 }
 
+// The mesher's call (host/main.cpp): raw SDF values with the zero rule applied on the device,
+// corner ids computed on the device for a uniform grid, only the subcase bytes and offsets back;
+// and the values the SDF left on the device reused (ClassifyOptions::values_from_last_sdf, which
+// only a device with its own buffers has: zero_copy off runs that path on PoCL). Every field equals
+// core's classification of apply_zero_rule's values.
+TEST(Opencl, UniformGridWithTheZeroRuleOnTheDevice) {
+  const UniformGrid grid(padded_cube(ShapeSdf(ShapeKind::kTwoHoled).bounds(), 0.1), 3);
+  const HexComplex complex = uniform_complex(grid);
+  std::vector<double> values(complex.points.size());
+  ShapeSdf(ShapeKind::kTwoHoled).evaluate(complex.points, values);
+  const double tiny = zero_tolerance_of(complex);
+  // Values the zero rule moves (0, -0, +-tiny/2) and ones it keeps (+-tiny exactly), next to cut cells.
+  std::size_t moved = 0;
+  const double specials[] = {0.0, -0.0, 0.5 * tiny, -0.5 * tiny, tiny, -tiny};
+  for (std::size_t p = 0; p < values.size(); ++p)
+    if (std::abs(values[p]) < 2 * grid.cell_size() && p % 7 == 0) values[p] = specials[(p / 7) % 6];
+  const std::vector<double> ruled = apply_zero_rule(complex, values, &moved);
+  ASSERT_GT(moved, 20u);
+  const std::size_t n = complex.cells.size();
+  std::vector<CellCode> ref(n);
+  std::vector<std::uint64_t> ref_off(n + 1);
+  classify_cells_codes(*make_cpu_backend(), complex, ruled, ref, ref_off);
+  std::vector<std::uint8_t> ref_subcases(n);
+  for (std::size_t i = 0; i < n; ++i) ref_subcases[i] = static_cast<std::uint8_t>(ref[i].subcase);
+  ClassifyOptions co;
+  co.zero_tolerance = tiny;
+  co.uniform_cells_per_axis = grid.cells_per_axis();
+  for (const bool zero_copy : {true, false})
+    for (const std::size_t chunk : {std::size_t(0), std::size_t(1000)}) {
+      SCOPED_TRACE(std::string(zero_copy ? "zero copy" : "copies") + ", chunk " + std::to_string(chunk));
+      OpenclOptions o = pocl();
+      o.zero_copy = zero_copy;
+      o.max_chunk = chunk;
+      OpenclBackend b(o);
+      std::vector<CellCode> got(n);
+      std::vector<std::uint64_t> got_off(n + 1);
+      classify_cells_codes(b, complex, values, got, got_off, co);
+      EXPECT_TRUE(got == ref);
+      EXPECT_EQ(got_off, ref_off);
+      std::vector<std::uint8_t> subcases(n);
+      std::vector<std::uint64_t> offsets(n + 1);
+      b.classify_cells(complex, values, {subcases, offsets}, co);
+      EXPECT_EQ(subcases, ref_subcases);
+      EXPECT_EQ(offsets, ref_off);
+      // The SDF's own output, left on the device, classified without a second upload.
+      std::vector<double> sdf(complex.points.size());
+      SdfSource two;
+      two.shape = ShapeKind::kTwoHoled;
+      b.signed_distance(two, complex.points, sdf);
+      ClassifyOptions resident = co;
+      resident.values_from_last_sdf = true;
+      b.classify_cells(complex, sdf, {subcases, offsets}, resident);
+      std::vector<CellCode> direct(n);
+      std::vector<std::uint64_t> direct_off(n + 1);
+      classify_cells_codes(*make_cpu_backend(), complex, apply_zero_rule(complex, sdf), direct, direct_off);
+      for (std::size_t i = 0; i < n; ++i) ASSERT_EQ(subcases[i], static_cast<std::uint8_t>(direct[i].subcase)) << i;
+      EXPECT_EQ(offsets, direct_off);
+    }
+  // A complex that is not the promised grid is refused.
+  ClassifyOptions wrong = co;
+  wrong.uniform_cells_per_axis = grid.cells_per_axis() + 1;
+  std::vector<std::uint8_t> subcases(n);
+  std::vector<std::uint64_t> offsets(n + 1);
+  EXPECT_THROW(device().classify_cells(complex, values, {subcases, offsets}, wrong), std::invalid_argument);
+}
+
 TEST(Opencl, NonFiniteValueIsAnInputError) {
   CellBatch b;
   b.add({1, -1, 1, -1, 1, -1, 1, std::numeric_limits<double>::quiet_NaN()});
   std::vector<CellCode> codes(1);
   std::vector<std::uint64_t> offsets(2);
-  EXPECT_THROW(device().classify_cells(b.complex, b.values, codes, offsets), InputError);
-  EXPECT_THROW(make_cpu_backend()->classify_cells(b.complex, b.values, codes, offsets), InputError);
+  EXPECT_THROW(classify_cells_codes(device(), b.complex, b.values, codes, offsets), InputError);
+  EXPECT_THROW(classify_cells_codes(*make_cpu_backend(), b.complex, b.values, codes, offsets), InputError);
 }
 
 TEST(Opencl, MissingPlatformIsAnInputError) {
