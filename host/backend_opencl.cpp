@@ -19,6 +19,10 @@
 #include "core/device_scene.h"
 #include "core/error.h"
 #include "core/parallel.h"
+#include "core/refinement_error.h"
+#include "core/sdf.h"
+#include "core/shapes.h"
+#include "host/backend_cpu.h"
 
 namespace mchex::embedded {
 extern const char* const kOpenclSources[];
@@ -57,7 +61,6 @@ DeviceInfo describe(const cl::Platform& p, const cl::Device& d) {
   info.global_memory_bytes = d.getInfo<CL_DEVICE_GLOBAL_MEM_SIZE>();
   info.compute_units = d.getInfo<CL_DEVICE_MAX_COMPUTE_UNITS>();
   info.version = trim(d.getInfo<CL_DEVICE_VERSION>()) + ", driver " + trim(d.getInfo<CL_DRIVER_VERSION>());
-  if (!info.fp64) info.note = "no fp64 (cl_khr_fp64): the opencl backend needs it and does not use this device";
   return info;
 }
 
@@ -118,6 +121,29 @@ SurfaceKey key_of(const TriangleSurface* s) {
 
 }  // namespace
 
+namespace {
+
+// kernels/sdf_fp32.h's candidates -> core's value: SurfaceSdf's rule (least squared distance by
+// core/sdf.h closest_point_on_triangle, the lowest triangle id among equal ones, the sign of the
+// closest feature's pseudonormal) over the candidate triangles, which hold its answer.
+double value_from_candidates(const TriangleSurface& s, const Pseudonormals& normals, std::span<const uint32_t> slot_triangle,
+                             Vec3 p, const std::uint32_t* slots, std::uint32_t count) {
+  ClosestPoint best{p, std::numeric_limits<double>::infinity(), -1};
+  std::uint32_t best_t = 0;
+  for (std::uint32_t k = 0; k < count; ++k) {
+    const std::uint32_t t = slot_triangle[slots[k]];
+    const auto& tri = s.triangles[t];
+    const ClosestPoint cp = closest_point_on_triangle(p, s.vertices[tri[0]], s.vertices[tri[1]], s.vertices[tri[2]]);
+    if (cp.squared_distance < best.squared_distance || (cp.squared_distance == best.squared_distance && t < best_t)) {
+      best = cp;
+      best_t = t;
+    }
+  }
+  return pseudonormal_signed_value(p, best.point, best.squared_distance, normals.of(best_t, best.region, s));
+}
+
+}  // namespace
+
 struct OpenclBackend::Impl {
   OpenclOptions options;
   DeviceInfo info;
@@ -132,6 +158,19 @@ struct OpenclBackend::Impl {
   cl::Buffer configs;
   std::map<std::string, cl::Kernel> kernels;  // made once per program (PoCL: ~ms each)
   bool host_unified = false;  // CL_DEVICE_HOST_UNIFIED_MEMORY: buffers may live in host memory
+  bool fp32 = false;          // the single-precision path (kernels/sdf_fp32.h)
+  Fp32Stats fp32_stats;
+
+  // The fp32 path's scene of the last surface: DeviceScene's nodes with DeviceScene32's float
+  // corners and slacks on the device; on the host what turns candidates into core's values.
+  struct Scene32 {
+    SurfaceKey key;
+    std::vector<cl::Buffer> buffers;  // nodes, node_slack, slot_corners32, slot_slack
+    std::vector<uint32_t> slot_triangle;
+    std::unique_ptr<Pseudonormals> normals;
+    std::unique_ptr<SurfaceSdf> whole;  // core's SDF for overflowing points, made when first needed
+    float scale = 0;
+  } scene32;
 
   // The output buffer of the last signed_distance call (when it was one chunk on a device with its
   // own memory) and the host array it was read into: ClassifyOptions::values_from_last_sdf.
@@ -167,25 +206,25 @@ struct OpenclBackend::Impl {
       any_platform = true;
       for (const cl::Device& d : devices_of(p)) {
         seen += (seen.empty() ? "" : ", ") + trim(d.getInfo<CL_DEVICE_NAME>());
-        if (has_fp64(d)) usable.emplace_back(p, d);
+        usable.emplace_back(p, d);
       }
     }
     if (!any_platform)
       throw InputError(options.platform.empty() ? "opencl backend: no OpenCL platform found (is an ICD such as PoCL installed?)"
                                                 : "opencl backend: no OpenCL platform named '" + options.platform + "'");
-    if (usable.empty())
-      throw InputError("opencl backend: no OpenCL device with fp64 (cl_khr_fp64) among: " +
-                       (seen.empty() ? std::string("no devices") : seen));
-    auto it = usable.begin();
-    if (options.prefer_gpu)
-      for (auto u = usable.begin(); u != usable.end(); ++u)
-        if (u->second.getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_GPU) {
-          it = u;
-          break;
-        }
+    if (usable.empty()) throw InputError("opencl backend: the OpenCL platform has no devices");
+    // A GPU first (when preferred), then a device with fp64 (the direct path) before one without.
+    auto rank = [&](const cl::Device& d) {
+      return (options.prefer_gpu && (d.getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_GPU) ? 0 : 2) + (has_fp64(d) ? 0 : 1);
+    };
+    auto it = std::min_element(usable.begin(), usable.end(),
+                               [&](const auto& a, const auto& b) { return rank(a.second) < rank(b.second); });
     platform = it->first;
     device = it->second;
     info = describe(platform, device);
+    const char* force = std::getenv("MCHEX_FORCE_FP32");
+    fp32 = !info.fp64 || options.force_fp32 || (force && *force && std::string(force) != "0");
+    info.precision = fp32 ? "fp32" : "fp64";
     host_unified = options.zero_copy && device.getInfo<CL_DEVICE_HOST_UNIFIED_MEMORY>() == CL_TRUE;
   }
 
@@ -203,8 +242,9 @@ struct OpenclBackend::Impl {
   }
 
   void build_program() {
-    // -cl-std=CL1.2; no fast-math flags: the kernels must round like the CPU reference.
-    const std::string build = "-cl-std=CL1.2 " + options.build_options;
+    // -cl-std=CL1.2; no fast-math flags: the kernels must round like the CPU reference (and the
+    // fp32 path's error bounds assume IEEE rounding). -DMCHEX_FP32: no double anywhere.
+    const std::string build = "-cl-std=CL1.2 " + std::string(fp32 ? "-DMCHEX_FP32 " : "") + options.build_options;
     const std::string source = source_text();
     const fs::path dir = options.cache_dir.empty() ? default_cache_dir() : fs::path(options.cache_dir);
     std::uint64_t key = fnv1a(source);
@@ -318,6 +358,75 @@ struct OpenclBackend::Impl {
                       const_cast<T*>(v.empty() ? reinterpret_cast<const T*>(&scene_scale) : v.data()));
   }
 
+  void upload_scene32(const TriangleSurface& s) {
+    const SurfaceKey key = key_of(&s);
+    if (key == scene32.key && !scene32.buffers.empty()) return;
+    const DeviceScene d = DeviceScene::build(s);
+    const DeviceScene32 d32 = DeviceScene32::build(d);
+    scene32 = Scene32{};
+    scene32.buffers.push_back(constant_buffer(d.nodes));
+    scene32.buffers.push_back(constant_buffer(d32.node_slack));
+    scene32.buffers.push_back(constant_buffer(d32.slot_corners));
+    scene32.buffers.push_back(constant_buffer(d32.slot_slack));
+    scene32.slot_triangle = d.slot_triangle;
+    scene32.normals = std::make_unique<Pseudonormals>(s);
+    // Rounded up, so that the kernel's W bounds every coordinate magnitude.
+    scene32.scale = std::nextafter(float(d.scale), INFINITY);
+    scene32.key = key;
+  }
+
+  // The fp32 path of signed_distance for a surface (kernels/sdf_fp32.h).
+  void surface_sdf32(const TriangleSurface& s, std::span<const Vec3> points, std::span<double> values) {
+    upload_scene32(s);
+    constexpr std::size_t kWords = kFp32Candidates + 1;
+    const std::size_t n = std::min(chunk(kWords * sizeof(std::uint32_t)), points.size());
+    cl::Buffer in(context, CL_MEM_READ_ONLY, 3 * sizeof(float) * n);
+    cl::Buffer out(context, CL_MEM_WRITE_ONLY, kWords * sizeof(std::uint32_t) * n);
+    std::vector<float> p32(3 * n);
+    std::vector<std::uint32_t> cand(kWords * n);
+    std::vector<std::size_t> whole;  // points the host evaluates with SurfaceSdf
+    const cl_uint per_item = info.type == "gpu" ? 1 : 16;
+    cl::Kernel& k = kernel("sdf_surface32");
+    for (std::size_t first = 0; first < points.size(); first += n) {
+      const std::size_t count = std::min(n, points.size() - first);
+      parallel_for(count, [&](std::size_t i) {
+        for (int c = 0; c < 3; ++c) p32[3 * i + c] = float(points[first + i][c]);
+      });
+      write(in, p32.data(), 3 * count);
+      cl_uint arg = 0;
+      for (const cl::Buffer& b : scene32.buffers) k.setArg(arg++, b);
+      k.setArg(arg++, in);
+      k.setArg(arg++, out);
+      k.setArg(arg++, cl_uint(count));
+      k.setArg(arg++, per_item);
+      k.setArg(arg++, scene32.scale);
+      run("sdf_surface32", k, (count + per_item - 1) / per_item, 8);
+      read(out, cand.data(), kWords * count);
+      std::uint64_t candidates = 0;
+      for (std::size_t i = 0; i < count; ++i) {
+        const std::uint32_t c = cand[kWords * i];
+        if (c > kWords - 1) whole.push_back(first + i);
+        else candidates += c;
+      }
+      fp32_stats.candidates += candidates;
+      parallel_for(count, [&](std::size_t i) {
+        const std::uint32_t c = cand[kWords * i];
+        if (c <= kWords - 1)
+          values[first + i] = value_from_candidates(s, *scene32.normals, scene32.slot_triangle, points[first + i],
+                                                    &cand[kWords * i + 1], c);
+      });
+    }
+    fp32_stats.points += points.size();
+    fp32_stats.host_points += whole.size();
+    if (whole.empty()) return;
+    if (!scene32.whole) scene32.whole = std::make_unique<SurfaceSdf>(s);
+    std::vector<Vec3> wp(whole.size());
+    std::vector<double> wv(whole.size());
+    for (std::size_t i = 0; i < whole.size(); ++i) wp[i] = points[whole[i]];
+    scene32.whole->evaluate(wp, wv);
+    for (std::size_t i = 0; i < whole.size(); ++i) values[whole[i]] = wv[i];
+  }
+
   void upload_scene(const TriangleSurface& s) {
     const SurfaceKey key = key_of(&s);
     if (key == scene_key && !scene.empty()) return;
@@ -355,7 +464,11 @@ const DeviceInfo& OpenclBackend::device() const { return impl_->info; }
 bool OpenclBackend::program_from_cache() const { return impl_->from_cache; }
 const std::string& OpenclBackend::cache_file() const { return impl_->cache_path; }
 const OpenclProfile& OpenclBackend::profile() const { return impl_->profile; }
-void OpenclBackend::reset_profile() { impl_->profile = {}; }
+const Fp32Stats& OpenclBackend::fp32_stats() const { return impl_->fp32_stats; }
+void OpenclBackend::reset_profile() {
+  impl_->profile = {};
+  impl_->fp32_stats = {};
+}
 
 void OpenclBackend::signed_distance(const SdfSource& source, std::span<const Vec3> points, std::span<double> values) {
   if (points.size() != values.size()) throw std::invalid_argument("signed_distance: batch size mismatch");
@@ -369,6 +482,13 @@ void OpenclBackend::signed_distance(const SdfSource& source, std::span<const Vec
   }
   try {
     const bool surface = source.surface != nullptr;
+    if (m.fp32) {
+      // Analytic shapes cost a few operations per point, all of which decide the value: there is
+      // nothing a float kernel could leave out, so the fp32 path evaluates them on the host.
+      if (surface) m.surface_sdf32(*source.surface, points, values);
+      else ShapeSdf(source.shape).evaluate(points, values);
+      return;
+    }
     if (surface) m.upload_scene(*source.surface);
     const std::size_t n = m.chunk(3 * sizeof(double));
     cl::Buffer in(m.context, CL_MEM_READ_ONLY, 3 * sizeof(double) * std::min(n, points.size()));
@@ -414,6 +534,12 @@ void OpenclBackend::refinement_error(std::span<const std::array<double, kChildLa
     throw std::invalid_argument("refinement_error: batch size mismatch");
   if (lattice.empty()) return;
   Impl& m = *impl_;
+  if (m.fp32) {
+    // Every operation of the error measure decides its value (it is compared with a threshold):
+    // on the fp32 path it is core's, on the host.
+    parallel_for(lattice.size(), [&](std::size_t i) { errors[i] = mchex::refinement_error(lattice[i], sizes[i]); });
+    return;
+  }
   try {
     const std::size_t n = std::min(m.chunk(sizeof(lattice[0])), lattice.size());
     cl::Buffer in(m.context, CL_MEM_READ_ONLY, sizeof(lattice[0]) * n);
@@ -443,6 +569,11 @@ void OpenclBackend::classify_cells(const HexComplex& complex, std::span<const do
   out.offsets[0] = 0;
   if (cells == 0) return;
   Impl& m = *impl_;
+  if (m.fp32) {
+    // Not yet on the device in single precision: core's classification on the host.
+    make_cpu_backend()->classify_cells(complex, values, out, options);
+    return;
+  }
   constexpr cl_uint kBlock = 256;  // cells per work item of the prefix sum
   const bool uniform = options.uniform_cells_per_axis > 0;
   const bool want_words = !out.words.empty();

@@ -165,6 +165,7 @@ struct VulkanBackend::Impl {
       throw InputError("backend 'vulkan': device '" + chosen->name +
                        "' lacks shaderInt64, which the device prefix sum needs");
     info = device_info(*chosen);
+    info.precision = "fp64";
     device.emplace(instance, *chosen, options.cache_dir);
     max_chunk = options.max_chunk;
 

@@ -318,6 +318,7 @@ int run_mesh(const MeshCommand& o, bool quiet) {
        {{"name", backend->device().backend},
         {"platform", backend->device().platform},
         {"device", backend->device().name},
+        {"precision", backend->device().precision},
         {"threads", tbb::info::default_concurrency()}}},
       {"grid", grid_json},
       {"elements",
@@ -428,7 +429,7 @@ int run_devices(bool as_json) {
                    {"fp64", d.fp64},
                    {"max_buffer_bytes", d.max_buffer_bytes},
                    {"global_memory_bytes", d.global_memory_bytes},
-                   {"compute_units", d.compute_units},
+                   {"compute_units", d.compute_units ? json(d.compute_units) : json(nullptr)},
                    {"version", d.version},
                    {"usable", d.note.empty()},
                    {"note", d.note}});
@@ -440,7 +441,8 @@ int run_devices(bool as_json) {
   for (const DeviceInfo& d : list) {
     auto mib = [](std::uint64_t b) { return b ? fmt::format("{} MiB", b >> 20) : std::string("-"); };
     fmt::print("{:<8} {:<30} {:<36} {:<5} {:<4} {:>5} {:>12} {:>12}\n", d.backend, d.platform, d.name, d.type,
-               d.fp64 ? "yes" : "no", d.compute_units, mib(d.max_buffer_bytes), mib(d.global_memory_bytes));
+               d.fp64 ? "yes" : "no", d.compute_units ? std::to_string(d.compute_units) : std::string("-"),
+               mib(d.max_buffer_bytes), mib(d.global_memory_bytes));
     if (!d.version.empty()) fmt::print("         {}\n", d.version);
     if (!d.note.empty()) fmt::print("         not usable: {}\n", d.note);
   }

@@ -16,6 +16,7 @@
 //     order.
 #ifndef MCHEX_CLASSIFY_H
 #define MCHEX_CLASSIFY_H
+#ifndef MCHEX_FP32  // double precision throughout (kernels/dialect.h)
 
 #ifdef __OPENCL_C_VERSION__
 #define CLASSIFY_PARAMS_ GLOBAL_RO uint *configs,
@@ -275,4 +276,5 @@ INLINE uint uniform_corner_offset(uint n, int c) {
   return CAST(uint, kCubeCorners[3 * c]) + m * (CAST(uint, kCubeCorners[3 * c + 1]) + m * CAST(uint, kCubeCorners[3 * c + 2]));
 }
 
+#endif  // MCHEX_FP32
 #endif

@@ -8,6 +8,7 @@
 // triangle (grid order makes that seed nearly always the answer; the result does not depend on
 // it). Sizes are 32-bit: the host dispatches chunks that fit the device's allocation limit.
 
+#ifndef MCHEX_FP32
 __kernel void sdf_surface(SCENE_PARAMS_ __global const double *points, __global double *values, uint n,
                           uint per_item, double scale) {
   uint first = (uint)get_global_id(0) * per_item;
@@ -70,6 +71,28 @@ __kernel void classify(CLASSIFY_PARAMS_ __global const uint *cells, __global con
     codes[2 * i + 1] = w.w1;
   }
 }
+
+#else
+// The single-precision surface SDF (kernels/sdf_fp32.h): per point, the number of candidate slots
+// (MCHEX_FP32_CANDIDATES + 1: overflow, the host evaluates the point itself) and the slots, in
+// MCHEX_FP32_CANDIDATES + 1 words. points: the double points rounded to float by the host.
+__kernel void sdf_surface32(SCENE32_PARAMS_ __global const float *points, __global uint *candidates, uint n,
+                            uint per_item, float scale) {
+  uint first = (uint)get_global_id(0) * per_item;
+  if (first >= n) return;
+  uint last = min(n, first + per_item);
+  uint seed = 0u;
+  for (uint i = first; i < last; ++i) {
+    float3 p = (float3)(points[3 * i], points[3 * i + 1], points[3 * i + 2]);
+    Candidates32 s = surface_candidates32(SCENE32_ARGS_ p, seed, scale);
+    uint out = (MCHEX_FP32_CANDIDATES + 1) * i;
+    candidates[out] = s.overflow != 0 ? (uint)(MCHEX_FP32_CANDIDATES + 1) : (uint)s.count;
+    for (int k = 0; k < MCHEX_FP32_CANDIDATES; ++k) candidates[out + 1 + (uint)k] = k < s.count ? s.slot[k] : 0u;
+    seed = s.nearest;
+  }
+}
+
+#endif
 
 // Exclusive prefix sum of cell_hexes over the classified cells, in three passes: per-block sums
 // (one work item per block of consecutive cells), a scan of the block sums (one work item; there

@@ -512,6 +512,63 @@ TEST(Opencl, NonFiniteValueIsAnInputError) {
   EXPECT_THROW(classify_cells_codes(*make_cpu_backend(), b.complex, b.values, codes, offsets), InputError);
 }
 
+// ---- The fp32 path (kernels/sdf_fp32.h), forced on PoCL -----------------------------------
+
+namespace {
+
+OpenclBackend& fp32_device() {
+  static OpenclBackend b([] {
+    OpenclOptions o = pocl();
+    o.force_fp32 = true;
+    return o;
+  }());
+  return b;
+}
+
+}  // namespace
+
+TEST(OpenclFp32, RunsTheSinglePrecisionProgram) {
+  EXPECT_EQ(fp32_device().device().precision, "fp32");
+  EXPECT_EQ(device().device().precision, "fp64");
+}
+
+// Single precision finds the candidate triangles, the host computes the values in double: equal to
+// core bit for bit on points at vertices, on edges, inside faces, +-1e-12 and +-1e-6 of the
+// diagonal off faces (values inside the float guard band), exact ties (every vertex is equally
+// near all its triangles) and far points; the UV sphere's poles have 30 triangles around one
+// vertex (more than the kernel's candidate list: those points go to the host whole).
+TEST(OpenclFp32, SurfaceSdfEqualsReferenceBitForBit) {
+  for (const auto& [name, surface] : {std::pair{"torus", tessellate(ShapeKind::kTorus, 48)},
+                                      std::pair{"sphere", tessellate(ShapeKind::kSphere, 30)},
+                                      std::pair{"gearwheel", gearwheel()}}) {
+    SCOPED_TRACE(name);
+    std::vector<Vec3> pts = adversarial_points(surface, 20000, 17);
+    // Values at +-1e-10 (the mesher's zero tolerance scale) off the faces.
+    const double diag = surface.bounds().diagonal();
+    for (std::size_t t = 0; t < surface.triangles.size(); t += 5) {
+      const auto& tri = surface.triangles[t];
+      const Vec3 a = surface.vertices[tri[0]], b = surface.vertices[tri[1]], c = surface.vertices[tri[2]];
+      const Vec3 n = normalized(cross(b - a, c - a));
+      for (double off : {1e-10, -1e-10}) pts.push_back((a + b + c) / 3.0 + off * diag * n);
+    }
+    std::vector<double> ref(pts.size()), got(pts.size());
+    SurfaceSdf(surface).evaluate(pts, ref);
+    SdfSource src;
+    src.surface = &surface;
+    fp32_device().reset_profile();
+    fp32_device().signed_distance(src, pts, got);
+    const long i = first_difference(ref, got);
+    EXPECT_EQ(i, -1) << "point " << i << ": cpu " << (i >= 0 ? ref[i] : 0) << " fp32 path " << (i >= 0 ? got[i] : 0);
+    const Fp32Stats& st = fp32_device().fp32_stats();
+    EXPECT_EQ(st.points, pts.size());
+    // The device really decided most points: the host evaluated few whole.
+    EXPECT_LT(st.host_points, pts.size() / 4);
+    std::printf("[ fp32 path ] %s: %zu points, %.2f candidates per point, %llu (%.2f%%) evaluated whole on the host\n",
+                name, pts.size(), double(st.candidates) / double(pts.size() - st.host_points),
+                (unsigned long long)st.host_points, 100.0 * double(st.host_points) / double(pts.size()));
+  }
+}
+
 TEST(Opencl, MissingPlatformIsAnInputError) {
   OpenclOptions o;
   o.platform = "no such platform";
@@ -529,13 +586,14 @@ std::string slurp(const fs::path& p) {
   return s.str();
 }
 
-void expect_same_mesh_files(const std::string& input_args, const std::string& tag) {
+// env: prepended to the opencl run's command (MCHEX_FORCE_FP32=1: the fp32 path).
+void expect_same_mesh_files(const std::string& input_args, const std::string& tag, const std::string& env = "") {
   const fs::path dir = scratch("cli-" + tag);
   std::string files[2][2];
   for (int k = 0; k < 2; ++k) {
     const std::string backend = k ? "opencl" : "cpu";
     const fs::path in = dir / (backend + "-inside.mesh"), out = dir / (backend + "-outside.mesh");
-    const std::string cmd = std::string("XDG_CACHE_HOME=") + (fs::temp_directory_path() / "mchex_test_opencl_cli_cache").string() + " " + MCHEX_BINARY +
+    const std::string cmd = (k ? env + " " : std::string()) + "XDG_CACHE_HOME=" + (fs::temp_directory_path() / "mchex_test_opencl_cli_cache").string() + " " + MCHEX_BINARY +
                             " --quiet mesh " + input_args + " --backend " + backend + " -o " + in.string() +
                             " --outside " + out.string();
     ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
@@ -557,6 +615,14 @@ TEST(OpenclCli, ShapeMeshIsByteIdenticalToCpu) {
 TEST(OpenclCli, ModelMeshIsByteIdenticalToCpu) {
   const fs::path gear = fs::path(MCHEX_TEST_DATA) / "npm/node_modules/stl-models/objects/gearwheel.bin.stl";
   expect_same_mesh_files(gear.string() + " --depth 3 --method mchex", "gearwheel");
+}
+
+// The fp32 path end to end: the surface SDF from float candidates and host doubles, the shape's
+// values on the host; the meshes are the cpu reference's byte for byte.
+TEST(OpenclCli, Fp32PathMeshIsByteIdenticalToCpu) {
+  const fs::path gear = fs::path(MCHEX_TEST_DATA) / "npm/node_modules/stl-models/objects/gearwheel.bin.stl";
+  expect_same_mesh_files(gear.string() + " --depth 3 --method mchex", "gearwheel-fp32", "MCHEX_FORCE_FP32=1");
+  expect_same_mesh_files("--shape two-holed --depth 3 --method mchex", "two-holed-fp32", "MCHEX_FORCE_FP32=1");
 }
 
 TEST(OpenclCli, UnknownBackendExitsOne) {
