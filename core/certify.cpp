@@ -171,7 +171,7 @@ CertifyResult certify(const CertifyOptions& o) {
       };
       for (const Sample& smp : samples(p, o, rng)) {
         const CellClass c = clamped(smp.cls, o.eps);
-        if (!needs_local_refinement(smp.cls)) {
+        if (!needs_local_refinement(smp.cls, corners)) {  // as the mesher routes it
           check(corners, c, c.crossing);
           continue;
         }

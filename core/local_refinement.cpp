@@ -54,10 +54,11 @@ std::array<Vec3, 16> level_points(const std::array<Vec3, 8>& corners) {
 // Refined: the subcases whose direct cut fails the Bernstein certificate on the unit cube for
 // some crossings (3.2, 6.2, 7.2, 7.3, 10.2, 11, 12.2, 13.2, 13.3, 13.4, 14; see
 // test_polyhedra.cpp) and the six tunnel subcases. Unlike the paper's 17 (Figure 7), 7.4.1 and
-// 13.5.1 certify directly here and are not refined, and 11 and 14 (the paper's "Case 12",
-// which it fixes with a volume-centre offset, Eq. 14) are refined instead: the offset is not
-// implemented (yet), and refinement certifies them at a cost of 104 hexes a cell instead of 20.
-// Cut directly on a frustum child, 11 and 14 fail for about a quarter of sampled cells
+// 13.5.1 certify directly here and are not refined. 11 and 14 (the paper's "Case 12", which it
+// fixes with a volume-centre offset, Eq. 14) are cut directly with the offset on affine cells
+// (core/volume_centre_offset.h: 20 hexes a cell) and refined on the others (104 hexes), where no
+// offset certifies them: for some crossings no centre at all does on the templates' transition
+// cells. Cut directly on a frustum child, 11 and 14 fail for about a quarter of sampled cells
 // (DISABLED_DirectSubcasesPerGeometry), so no template may leave them as leaves either.
 // Except in 3.2 the inner points all take one sign: the inner cell then is empty and every
 // frustum is a case of its outer face alone (the frustum's 4 inner points share a sign, so none
@@ -73,6 +74,9 @@ constexpr LocalRefinementTable make_table() {
   set(S::k6_2, 0xFF);
   set(S::k11, 0x00);
   set(S::k14, 0x00);
+  // ... on general cells only: on affine ones the volume-centre offset certifies them directly.
+  t[static_cast<int>(S::k11)].direct_on_affine = true;
+  t[static_cast<int>(S::k14)].direct_on_affine = true;
   set(S::k4_1_2, 0xFF);   // the tunnel's sign fills the inner cell
   // Two levels: some frustums are 3.2 or 6.2 cells and are refined again.
   set(S::k7_2, 0x00);
@@ -226,6 +230,16 @@ const LocalRefinementTable& local_refinement_table() { return kTable; }
 
 bool needs_local_refinement(Subcase s) { return kTable[static_cast<int>(s)].refine; }
 bool needs_local_refinement(const CellClass& c) { return needs_local_refinement(c.subcase); }
+bool needs_local_refinement(Subcase s, CellShape shape) {
+  const LocalRefinementTemplate& t = kTable[static_cast<int>(s)];
+  return t.refine && !(shape == CellShape::kAffine && t.direct_on_affine);
+}
+bool needs_local_refinement(const CellClass& c, const std::array<Vec3, 8>& corners) {
+  // The shape test only where it can change the answer.
+  const LocalRefinementTemplate& t = kTable[static_cast<int>(c.subcase)];
+  if (!t.refine || !t.direct_on_affine) return t.refine;
+  return needs_local_refinement(c.subcase, cell_shape(corners));
+}
 
 LocalRefinement refine_locally(const std::array<Vec3, 8>& corners, const std::array<double, 8>& f,
                                const CellClass& c, double zero_tolerance,
@@ -254,6 +268,16 @@ std::vector<std::array<Vec3, 8>> local_refinement_children(const std::array<Vec3
 }
 
 int local_refinement_hexes(Subcase s) { return subcase_plan(s).hexes; }
+int local_refinement_hexes(Subcase s, CellShape shape) {
+  if (!needs_local_refinement(s, shape)) {
+    // Cut directly: 8 + 2 * cut edges (Theorem 4.1), on the representative's sign pattern.
+    const std::uint8_t m = subcase_info(s).positive_mask;
+    int cut = 0;
+    for (const auto& e : kCubeEdges) cut += (m >> e[0] & 1) != (m >> e[1] & 1);
+    return 8 + 2 * cut;
+  }
+  return local_refinement_hexes(s);
+}
 int local_refinement_levels(Subcase s) { return subcase_plan(s).levels; }
 
 }  // namespace mchex

@@ -45,6 +45,7 @@
 
 #include "core/geometry.h"
 #include "core/mc33.h"
+#include "core/volume_centre_offset.h"
 
 namespace mchex {
 
@@ -64,17 +65,26 @@ std::array<LocalRefinementChild, kNumLocalRefinementChildren> local_refinement_c
 
 // Per subcase: whether its cells are refined, and the template - the signs of the 8 inner points
 // on the subcase's canonical representative (bit i: inner point next to corner i is positive).
+// `direct_on_affine`: on an affine cell (CellShape::kAffine, core/volume_centre_offset.h) the
+// subcase is cut directly, its volume centres moved by the offset of Section 5 / Eq. 14, and
+// refined only on the other cells (11 and 14: the offset certifies on parallelepipeds, and no
+// offset can on the templates' transition cells).
 struct LocalRefinementTemplate {
   bool refine = false;
   std::uint8_t inner_positive = 0;
+  bool direct_on_affine = false;
 };
 using LocalRefinementTable = std::array<LocalRefinementTemplate, kNumSubcases>;
 const LocalRefinementTable& local_refinement_table();
 
 // True when cut_cell + midpoint_subdivide of this class is not certified for every s (or the
-// subcase has a tunnel): such a cell goes through refine_locally.
+// subcase has a tunnel): such a cell goes through refine_locally. Without a shape: on a general
+// cell (the table's `refine`); with one, or the cell's corners, the shape's answer (11 and 14 are
+// cut directly on affine cells).
 bool needs_local_refinement(const CellClass& c);
 bool needs_local_refinement(Subcase s);
+bool needs_local_refinement(Subcase s, CellShape shape);
+bool needs_local_refinement(const CellClass& c, const std::array<Vec3, 8>& corners);
 
 struct LocalRefinement {
   std::vector<Vec3> points;    // [0, 8): the cell's corners as given; then the inserted points
@@ -98,9 +108,10 @@ LocalRefinement refine_locally(const std::array<Vec3, 8>& corners, const std::ar
 std::vector<std::array<Vec3, 8>> local_refinement_children(const std::array<Vec3, 8>& corners);
 
 // Hexes that midpoint subdivision makes from one cell of subcase s: 8 + 2 * cut edges for a cell
-// cut directly, the sum over the leaves for a refined one (a pure function of the subcase, see
-// above). The mesher's count pass uses it.
-int local_refinement_hexes(Subcase s);
+// cut directly, the sum over the leaves for a refined one (a pure function of the subcase and the
+// cell's shape, see above). The mesher's count pass uses it.
+int local_refinement_hexes(Subcase s);  // on a general cell
+int local_refinement_hexes(Subcase s, CellShape shape);
 // How many refinement levels subcase s uses (0 when it is cut directly).
 int local_refinement_levels(Subcase s);
 

@@ -106,6 +106,9 @@ struct ChunkOutput {
   std::vector<Hex> inside, outside;
   std::vector<Vec3> locals;
   MchexStats stats;
+  // The count a device computes from subcases alone (local_refinement_hexes on a general cell):
+  // what the device's prefix sum is checked against. Affine 11/14 cells make fewer hexes.
+  std::uint64_t subcase_hexes = 0;
 };
 
 // A cell to cut, as the mesher names its parts: the cell of the complex itself, or one child of
@@ -166,11 +169,15 @@ struct Mesher {
                              " (code " + std::to_string(device_subcases[cell]) + "), core's classify() subcase " +
                              std::string(subcase_name(cls.subcase)));
     out.stats.cases[static_cast<int>(cls.subcase)] += 1;
-    out.stats.expected_hexes += static_cast<std::size_t>(local_refinement_hexes(cls.subcase));
+    // 11 and 14 are cut directly (volume-centre offset) on affine cells, refined on the others.
+    const bool refine = needs_local_refinement(cls, xc);
+    out.stats.expected_hexes += static_cast<std::size_t>(
+        local_refinement_hexes(cls.subcase, refine ? CellShape::kGeneral : CellShape::kAffine));
+    out.subcase_hexes += static_cast<std::uint64_t>(local_refinement_hexes(cls.subcase));
     const auto& cell_edges = topo.cell_edges[cell];
     const auto& cell_faces = topo.cell_faces[cell];
     LocalPoints locals;
-    if (!needs_local_refinement(cls)) {
+    if (!refine) {
       PieceFrame frame;
       frame.global = gv;
       for (int c = 0; c < 8; ++c) frame.local[c] = static_cast<std::uint8_t>(c);
@@ -438,14 +445,14 @@ MeshPair mesh_mchex(const HexComplex& cx, std::span<const double> values, double
       const std::size_t end = std::min(cx.cells.size(), (ch + 1) * kChunk);
       for (std::size_t c = ch * kChunk; c < end; ++c) mesher.mesh_cell(static_cast<std::uint32_t>(c), chunks[ch]);
       if (device.hex_offsets.empty()) continue;
-      // The device's prefix sum is where this chunk's hexes start; its count must be what the
-      // cells really gave.
+      // The device counts from subcases alone (it does not see the cells' shapes): its sum over
+      // the chunk must be the subcase count of what the cells were, and bounds what they made.
       const std::uint64_t expected = device.hex_offsets[end] - device.hex_offsets[ch * kChunk];
       const std::uint64_t made = chunks[ch].inside.size() + chunks[ch].outside.size();
-      if (made != expected)
+      if (chunks[ch].subcase_hexes != expected || made > expected)
         throw std::logic_error("mesh_mchex: cells " + std::to_string(ch * kChunk) + " to " + std::to_string(end - 1) +
-                               " made " + std::to_string(made) + " hexes, the device's prefix sum says " +
-                               std::to_string(expected));
+                               " made " + std::to_string(made) + " hexes (" + std::to_string(chunks[ch].subcase_hexes) +
+                               " by their subcases), the device's prefix sum says " + std::to_string(expected));
     }
   });
 

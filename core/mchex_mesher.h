@@ -75,10 +75,11 @@ std::vector<double> apply_zero_rule(const HexComplex& complex, std::span<const d
 // A device's MC33 classification of the same values after the zero rule (host/backend.h
 // classify_cells), handed to the mesher so that the device's work is used and checked rather
 // than trusted: subcases[i] is cell i's core/mc33.h Subcase, hex_offsets the exclusive prefix sum
-// of local_refinement_hexes over the cells (cells + 1 entries). Either may be empty. A cell whose
-// subcase differs from the host's classify(), or a chunk of cells whose hexes differ from the
-// device's count, is a std::logic_error naming the cell(s): a backend that disagrees with core
-// is a bug, never a silently different mesh.
+// of local_refinement_hexes(subcase) over the cells (cells + 1 entries; the count on a general
+// cell, an upper bound: the device does not see the shapes, and an affine cell of 11 or 14 is cut
+// directly into fewer). Either may be empty. A cell whose subcase differs from the host's
+// classify(), or a chunk whose subcase count differs from the device's, is a std::logic_error
+// naming the cell(s): a backend that disagrees with core is a bug, never a silently different mesh.
 struct DeviceClassification {
   std::span<const std::uint8_t> subcases;
   std::span<const std::uint64_t> hex_offsets;
