@@ -81,6 +81,37 @@ DeviceScene DeviceScene::build(const TriangleSurface& s) {
   return out;
 }
 
+DeviceScene32 DeviceScene32::build(const DeviceScene& d) {
+  DeviceScene32 out;
+  const std::size_t n = d.slots();
+  out.slot_corners.resize(9 * n);
+  for (std::size_t i = 0; i < 9 * n; ++i) out.slot_corners[i] = float(d.slot_corners[i]);
+  out.slot_slack.resize(n);
+  constexpr double kDegenerate = 1e30;
+  for (std::size_t k = 0; k < n; ++k) {
+    const double* c = &d.slot_corners[9 * k];
+    const Vec3 a{c[0], c[1], c[2]}, b{c[3], c[4], c[5]}, cc{c[6], c[7], c[8]};
+    const Vec3 ab = b - a, ac = cc - a;
+    const double ab2 = dot(ab, ab), ac2 = dot(ac, ac), cross2 = squared_norm(cross(ab, ac));
+    // 1 + 2^-40 covers this double evaluation's own rounding.
+    double s = 12 * std::ldexp(1.0, -41) * ab2 * ac2 / (std::sqrt(std::min(ab2, ac2)) * cross2) * (1 + std::ldexp(1.0, -40));
+    if (!(s < kDegenerate)) s = kDegenerate;
+    out.slot_slack[k] = std::nextafter(float(s), INFINITY);
+  }
+  // Depth-first layout (core/bvh.h): children come after their parent.
+  out.node_slack.assign(d.nodes.size(), 0.0f);
+  for (std::size_t i = d.nodes.size(); i-- > 0;) {
+    const BvhNode& node = d.nodes[i];
+    float s = 0;
+    if (node.count > 0)
+      for (uint32_t k = node.index; k < node.index + node.count; ++k) s = std::max(s, out.slot_slack[k]);
+    else
+      s = std::max(out.node_slack[i + 1], out.node_slack[node.index]);
+    out.node_slack[i] = s;
+  }
+  return out;
+}
+
 std::size_t DeviceScene::bytes() const {
   return nodes.size() * sizeof(BvhNode) + slot_triangle.size() * 4 + slot_features.size() * 4 +
          8 * (slot_corners.size() + face_normals.size() + edge_normals.size() + vertex_normals.size());

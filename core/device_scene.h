@@ -65,6 +65,22 @@ struct DeviceScene {
   std::size_t bytes() const;
 };
 
+// What kernels/sdf_fp32.h needs besides DeviceScene's nodes, for a device without fp64: the
+// corners rounded to float, and per slot / per node the slack that bounds how far core's double
+// closest_point_on_triangle can be from the true distance (kernels/sdf_fp32.h derives it):
+// slot_slack = 12 2^-41 |ab|^2 |ac|^2 / (min(|ab|, |ac|) |ab x ac|^2), rounded up to float (a
+// degenerate triangle gets 1e30); node_slack the largest slot_slack below the node.
+// Candidate slots per point that kernels/sdf_fp32.h returns (more: the host evaluates the point
+// whole); a point's record is kFp32Candidates + 1 words (count, slots).
+inline constexpr int kFp32Candidates = 8;
+
+struct DeviceScene32 {
+  std::vector<float> slot_corners;  // 9 per slot, the double corners rounded to nearest
+  std::vector<float> slot_slack;
+  std::vector<float> node_slack;
+  static DeviceScene32 build(const DeviceScene& scene);
+};
+
 // ---- Packed layouts shared with device code (emitted into the generated kernel headers) ------
 
 // MC33 lookup of core/mc33.h mc33_config(mask, face_joins) as one 32-bit word per index

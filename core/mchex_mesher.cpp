@@ -392,16 +392,12 @@ std::string_view mchex_case_name(int slot) {
 
 double zero_tolerance(double cell_size) { return 1e-10 * cell_size; }
 
-namespace {
-
 double zero_tolerance_of(const HexComplex& cx) {
   double smallest = std::numeric_limits<double>::infinity();
   for (double h : cx.cell_size) smallest = std::min(smallest, h);
   if (!std::isfinite(smallest)) smallest = cx.box.empty() ? 1.0 : cx.box.diagonal();
   return zero_tolerance(smallest);
 }
-
-}  // namespace
 
 std::vector<double> apply_zero_rule(const HexComplex& cx, std::span<const double> values, std::size_t* perturbed) {
   if (values.size() != cx.points.size())

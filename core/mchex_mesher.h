@@ -63,6 +63,9 @@ struct MchexStats {
 // outside", as in core/mc33.h. It is applied once to the point values, so every cell sharing a
 // point sees the same value, and no crossing lands exactly on a corner.
 double zero_tolerance(double cell_size);
+// The tolerance the mesher uses for a complex: zero_tolerance of its smallest cell size (of the
+// box's diagonal when the complex has no cell sizes).
+double zero_tolerance_of(const HexComplex& complex);
 
 // The zero rule applied to a copy of `values` (the SDF at the complex's points): the values every
 // cell is classified from. A device that classifies for the mesher (host/backend.h

@@ -1,5 +1,6 @@
 #include "host/backend_cpu.h"
 
+#include <cmath>
 #include <stdexcept>
 
 #include <tbb/info.h>
@@ -35,6 +36,7 @@ class CpuBackend final : public Backend {
     info_.name = "Embree + TBB";
     info_.type = "cpu";
     info_.fp64 = true;
+    info_.precision = "fp64";
     info_.compute_units = uint32_t(tbb::info::default_concurrency());
   }
   const DeviceInfo& device() const override { return info_; }
@@ -58,22 +60,31 @@ class CpuBackend final : public Backend {
     parallel_for(lattice.size(), [&](std::size_t i) { errors[i] = mchex::refinement_error(lattice[i], sizes[i]); });
   }
 
-  void classify_cells(const HexComplex& complex, std::span<const double> values, std::span<CellCode> codes,
-                      std::span<std::uint64_t> offsets) override {
+  void classify_cells(const HexComplex& complex, std::span<const double> values, const CellClassification& out,
+                      const ClassifyOptions& options = {}) override {
+    check_classify_sizes(complex, values, out, options);
     const std::size_t n = complex.cells.size();
-    if (values.size() != complex.points.size() || codes.size() != n || offsets.size() != n + 1)
-      throw std::invalid_argument("classify_cells: batch size mismatch");
+    const double tiny = options.zero_tolerance;
     parallel_for(n, [&](std::size_t i) {
       std::array<double, 8> f;
-      for (int c = 0; c < 8; ++c) f[c] = values[complex.cells[i][c]];
-      codes[i] = encode_cell(classify(f));
+      for (int c = 0; c < 8; ++c) {
+        const double v = values[complex.cells[i][c]];
+        f[c] = std::abs(v) < tiny ? -tiny : v;  // core/mchex_mesher.h apply_zero_rule (NaN passes)
+      }
+      const CellClass cls = classify(f);
+      out.subcases[i] = static_cast<std::uint8_t>(cls.subcase);
+      if (!out.words.empty()) {
+        const auto w = encode_cell_words(encode_cell(cls));
+        out.words[2 * i] = w[0];
+        out.words[2 * i + 1] = w[1];
+      }
     });
     std::uint64_t run = 0;
     for (std::size_t i = 0; i < n; ++i) {
-      offsets[i] = run;
-      run += std::uint64_t(local_refinement_hexes(codes[i].subcase));
+      out.offsets[i] = run;
+      run += std::uint64_t(local_refinement_hexes(static_cast<Subcase>(out.subcases[i])));
     }
-    offsets[n] = run;
+    out.offsets[n] = run;
   }
 
  private:

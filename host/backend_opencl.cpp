@@ -19,6 +19,10 @@
 #include "core/device_scene.h"
 #include "core/error.h"
 #include "core/parallel.h"
+#include "core/refinement_error.h"
+#include "core/sdf.h"
+#include "core/shapes.h"
+#include "host/backend_cpu.h"
 
 namespace mchex::embedded {
 extern const char* const kOpenclSources[];
@@ -57,7 +61,6 @@ DeviceInfo describe(const cl::Platform& p, const cl::Device& d) {
   info.global_memory_bytes = d.getInfo<CL_DEVICE_GLOBAL_MEM_SIZE>();
   info.compute_units = d.getInfo<CL_DEVICE_MAX_COMPUTE_UNITS>();
   info.version = trim(d.getInfo<CL_DEVICE_VERSION>()) + ", driver " + trim(d.getInfo<CL_DRIVER_VERSION>());
-  if (!info.fp64) info.note = "no fp64 (cl_khr_fp64): the opencl backend needs it and does not use this device";
   return info;
 }
 
@@ -118,6 +121,29 @@ SurfaceKey key_of(const TriangleSurface* s) {
 
 }  // namespace
 
+namespace {
+
+// kernels/sdf_fp32.h's candidates -> core's value: SurfaceSdf's rule (least squared distance by
+// core/sdf.h closest_point_on_triangle, the lowest triangle id among equal ones, the sign of the
+// closest feature's pseudonormal) over the candidate triangles, which hold its answer.
+double value_from_candidates(const TriangleSurface& s, const Pseudonormals& normals, std::span<const uint32_t> slot_triangle,
+                             Vec3 p, const std::uint32_t* slots, std::uint32_t count) {
+  ClosestPoint best{p, std::numeric_limits<double>::infinity(), -1};
+  std::uint32_t best_t = 0;
+  for (std::uint32_t k = 0; k < count; ++k) {
+    const std::uint32_t t = slot_triangle[slots[k]];
+    const auto& tri = s.triangles[t];
+    const ClosestPoint cp = closest_point_on_triangle(p, s.vertices[tri[0]], s.vertices[tri[1]], s.vertices[tri[2]]);
+    if (cp.squared_distance < best.squared_distance || (cp.squared_distance == best.squared_distance && t < best_t)) {
+      best = cp;
+      best_t = t;
+    }
+  }
+  return pseudonormal_signed_value(p, best.point, best.squared_distance, normals.of(best_t, best.region, s));
+}
+
+}  // namespace
+
 struct OpenclBackend::Impl {
   OpenclOptions options;
   DeviceInfo info;
@@ -132,6 +158,28 @@ struct OpenclBackend::Impl {
   cl::Buffer configs;
   std::map<std::string, cl::Kernel> kernels;  // made once per program (PoCL: ~ms each)
   bool host_unified = false;  // CL_DEVICE_HOST_UNIFIED_MEMORY: buffers may live in host memory
+  bool fp32 = false;          // the single-precision path (kernels/sdf_fp32.h)
+  Fp32Stats fp32_stats;
+
+  // The fp32 path's scene of the last surface: DeviceScene's nodes with DeviceScene32's float
+  // corners and slacks on the device; on the host what turns candidates into core's values.
+  struct Scene32 {
+    SurfaceKey key;
+    std::vector<cl::Buffer> buffers;  // nodes, node_slack, slot_corners32, slot_slack
+    std::vector<uint32_t> slot_triangle;
+    std::unique_ptr<Pseudonormals> normals;
+    std::unique_ptr<SurfaceSdf> whole;  // core's SDF for overflowing points, made when first needed
+    float scale = 0;
+  } scene32;
+
+  // The output buffer of the last signed_distance call (when it was one chunk on a device with its
+  // own memory) and the host array it was read into: ClassifyOptions::values_from_last_sdf.
+  cl::Buffer resident;
+  const double* resident_data = nullptr;
+  std::size_t resident_size = 0;
+  bool resident_matches(std::span<const double> v) const {
+    return resident_data && resident_data == v.data() && resident_size == v.size();
+  }
 
   // The device scene of the last surface.
   SurfaceKey scene_key;
@@ -158,26 +206,26 @@ struct OpenclBackend::Impl {
       any_platform = true;
       for (const cl::Device& d : devices_of(p)) {
         seen += (seen.empty() ? "" : ", ") + trim(d.getInfo<CL_DEVICE_NAME>());
-        if (has_fp64(d)) usable.emplace_back(p, d);
+        usable.emplace_back(p, d);
       }
     }
     if (!any_platform)
       throw InputError(options.platform.empty() ? "opencl backend: no OpenCL platform found (is an ICD such as PoCL installed?)"
                                                 : "opencl backend: no OpenCL platform named '" + options.platform + "'");
-    if (usable.empty())
-      throw InputError("opencl backend: no OpenCL device with fp64 (cl_khr_fp64) among: " +
-                       (seen.empty() ? std::string("no devices") : seen));
-    auto it = usable.begin();
-    if (options.prefer_gpu)
-      for (auto u = usable.begin(); u != usable.end(); ++u)
-        if (u->second.getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_GPU) {
-          it = u;
-          break;
-        }
+    if (usable.empty()) throw InputError("opencl backend: the OpenCL platform has no devices");
+    // A GPU first (when preferred), then a device with fp64 (the direct path) before one without.
+    auto rank = [&](const cl::Device& d) {
+      return (options.prefer_gpu && (d.getInfo<CL_DEVICE_TYPE>() & CL_DEVICE_TYPE_GPU) ? 0 : 2) + (has_fp64(d) ? 0 : 1);
+    };
+    auto it = std::min_element(usable.begin(), usable.end(),
+                               [&](const auto& a, const auto& b) { return rank(a.second) < rank(b.second); });
     platform = it->first;
     device = it->second;
     info = describe(platform, device);
-    host_unified = device.getInfo<CL_DEVICE_HOST_UNIFIED_MEMORY>() == CL_TRUE;
+    const char* force = std::getenv("MCHEX_FORCE_FP32");
+    fp32 = !info.fp64 || options.force_fp32 || (force && *force && std::string(force) != "0");
+    info.precision = fp32 ? "fp32" : "fp64";
+    host_unified = options.zero_copy && device.getInfo<CL_DEVICE_HOST_UNIFIED_MEMORY>() == CL_TRUE;
   }
 
   std::string source_text() const {
@@ -194,8 +242,9 @@ struct OpenclBackend::Impl {
   }
 
   void build_program() {
-    // -cl-std=CL1.2; no fast-math flags: the kernels must round like the CPU reference.
-    const std::string build = "-cl-std=CL1.2 " + options.build_options;
+    // -cl-std=CL1.2; no fast-math flags: the kernels must round like the CPU reference (and the
+    // fp32 path's error bounds assume IEEE rounding). -DMCHEX_FP32: no double anywhere.
+    const std::string build = "-cl-std=CL1.2 " + std::string(fp32 ? "-DMCHEX_FP32 " : "") + options.build_options;
     const std::string source = source_text();
     const fs::path dir = options.cache_dir.empty() ? default_cache_dir() : fs::path(options.cache_dir);
     std::uint64_t key = fnv1a(source);
@@ -309,6 +358,75 @@ struct OpenclBackend::Impl {
                       const_cast<T*>(v.empty() ? reinterpret_cast<const T*>(&scene_scale) : v.data()));
   }
 
+  void upload_scene32(const TriangleSurface& s) {
+    const SurfaceKey key = key_of(&s);
+    if (key == scene32.key && !scene32.buffers.empty()) return;
+    const DeviceScene d = DeviceScene::build(s);
+    const DeviceScene32 d32 = DeviceScene32::build(d);
+    scene32 = Scene32{};
+    scene32.buffers.push_back(constant_buffer(d.nodes));
+    scene32.buffers.push_back(constant_buffer(d32.node_slack));
+    scene32.buffers.push_back(constant_buffer(d32.slot_corners));
+    scene32.buffers.push_back(constant_buffer(d32.slot_slack));
+    scene32.slot_triangle = d.slot_triangle;
+    scene32.normals = std::make_unique<Pseudonormals>(s);
+    // Rounded up, so that the kernel's W bounds every coordinate magnitude.
+    scene32.scale = std::nextafter(float(d.scale), INFINITY);
+    scene32.key = key;
+  }
+
+  // The fp32 path of signed_distance for a surface (kernels/sdf_fp32.h).
+  void surface_sdf32(const TriangleSurface& s, std::span<const Vec3> points, std::span<double> values) {
+    upload_scene32(s);
+    constexpr std::size_t kWords = kFp32Candidates + 1;
+    const std::size_t n = std::min(chunk(kWords * sizeof(std::uint32_t)), points.size());
+    cl::Buffer in(context, CL_MEM_READ_ONLY, 3 * sizeof(float) * n);
+    cl::Buffer out(context, CL_MEM_WRITE_ONLY, kWords * sizeof(std::uint32_t) * n);
+    std::vector<float> p32(3 * n);
+    std::vector<std::uint32_t> cand(kWords * n);
+    std::vector<std::size_t> whole;  // points the host evaluates with SurfaceSdf
+    const cl_uint per_item = info.type == "gpu" ? 1 : 16;
+    cl::Kernel& k = kernel("sdf_surface32");
+    for (std::size_t first = 0; first < points.size(); first += n) {
+      const std::size_t count = std::min(n, points.size() - first);
+      parallel_for(count, [&](std::size_t i) {
+        for (int c = 0; c < 3; ++c) p32[3 * i + c] = float(points[first + i][c]);
+      });
+      write(in, p32.data(), 3 * count);
+      cl_uint arg = 0;
+      for (const cl::Buffer& b : scene32.buffers) k.setArg(arg++, b);
+      k.setArg(arg++, in);
+      k.setArg(arg++, out);
+      k.setArg(arg++, cl_uint(count));
+      k.setArg(arg++, per_item);
+      k.setArg(arg++, scene32.scale);
+      run("sdf_surface32", k, (count + per_item - 1) / per_item, 8);
+      read(out, cand.data(), kWords * count);
+      std::uint64_t candidates = 0;
+      for (std::size_t i = 0; i < count; ++i) {
+        const std::uint32_t c = cand[kWords * i];
+        if (c > kWords - 1) whole.push_back(first + i);
+        else candidates += c;
+      }
+      fp32_stats.candidates += candidates;
+      parallel_for(count, [&](std::size_t i) {
+        const std::uint32_t c = cand[kWords * i];
+        if (c <= kWords - 1)
+          values[first + i] = value_from_candidates(s, *scene32.normals, scene32.slot_triangle, points[first + i],
+                                                    &cand[kWords * i + 1], c);
+      });
+    }
+    fp32_stats.points += points.size();
+    fp32_stats.host_points += whole.size();
+    if (whole.empty()) return;
+    if (!scene32.whole) scene32.whole = std::make_unique<SurfaceSdf>(s);
+    std::vector<Vec3> wp(whole.size());
+    std::vector<double> wv(whole.size());
+    for (std::size_t i = 0; i < whole.size(); ++i) wp[i] = points[whole[i]];
+    scene32.whole->evaluate(wp, wv);
+    for (std::size_t i = 0; i < whole.size(); ++i) values[whole[i]] = wv[i];
+  }
+
   void upload_scene(const TriangleSurface& s) {
     const SurfaceKey key = key_of(&s);
     if (key == scene_key && !scene.empty()) return;
@@ -346,12 +464,17 @@ const DeviceInfo& OpenclBackend::device() const { return impl_->info; }
 bool OpenclBackend::program_from_cache() const { return impl_->from_cache; }
 const std::string& OpenclBackend::cache_file() const { return impl_->cache_path; }
 const OpenclProfile& OpenclBackend::profile() const { return impl_->profile; }
-void OpenclBackend::reset_profile() { impl_->profile = {}; }
+const Fp32Stats& OpenclBackend::fp32_stats() const { return impl_->fp32_stats; }
+void OpenclBackend::reset_profile() {
+  impl_->profile = {};
+  impl_->fp32_stats = {};
+}
 
 void OpenclBackend::signed_distance(const SdfSource& source, std::span<const Vec3> points, std::span<double> values) {
   if (points.size() != values.size()) throw std::invalid_argument("signed_distance: batch size mismatch");
-  if (points.empty()) return;
   Impl& m = *impl_;
+  m.resident_data = nullptr;
+  if (points.empty()) return;
   if (source.surface && source.surface->triangles.empty()) {
     // As core/sdf.cpp: no triangle, nothing is inside.
     std::fill(values.begin(), values.end(), -INFINITY);
@@ -359,6 +482,13 @@ void OpenclBackend::signed_distance(const SdfSource& source, std::span<const Vec
   }
   try {
     const bool surface = source.surface != nullptr;
+    if (m.fp32) {
+      // Analytic shapes cost a few operations per point, all of which decide the value: there is
+      // nothing a float kernel could leave out, so the fp32 path evaluates them on the host.
+      if (surface) m.surface_sdf32(*source.surface, points, values);
+      else ShapeSdf(source.shape).evaluate(points, values);
+      return;
+    }
     if (surface) m.upload_scene(*source.surface);
     const std::size_t n = m.chunk(3 * sizeof(double));
     cl::Buffer in(m.context, CL_MEM_READ_ONLY, 3 * sizeof(double) * std::min(n, points.size()));
@@ -388,6 +518,11 @@ void OpenclBackend::signed_distance(const SdfSource& source, std::span<const Vec
       }
       m.read(out, &values[first], count);
     }
+    if (points.size() <= n && !m.host_unified) {
+      m.resident = out;
+      m.resident_data = values.data();
+      m.resident_size = values.size();
+    }
   } catch (const cl::Error& e) {
     fail(e, "signed distance");
   }
@@ -399,6 +534,12 @@ void OpenclBackend::refinement_error(std::span<const std::array<double, kChildLa
     throw std::invalid_argument("refinement_error: batch size mismatch");
   if (lattice.empty()) return;
   Impl& m = *impl_;
+  if (m.fp32) {
+    // Every operation of the error measure decides its value (it is compared with a threshold):
+    // on the fp32 path it is core's, on the host.
+    parallel_for(lattice.size(), [&](std::size_t i) { errors[i] = mchex::refinement_error(lattice[i], sizes[i]); });
+    return;
+  }
   try {
     const std::size_t n = std::min(m.chunk(sizeof(lattice[0])), lattice.size());
     cl::Buffer in(m.context, CL_MEM_READ_ONLY, sizeof(lattice[0]) * n);
@@ -421,45 +562,57 @@ void OpenclBackend::refinement_error(std::span<const std::array<double, kChildLa
   }
 }
 
-void OpenclBackend::classify_cells(const HexComplex& complex, std::span<const double> values, std::span<CellCode> codes,
-                                   std::span<std::uint64_t> offsets) {
+void OpenclBackend::classify_cells(const HexComplex& complex, std::span<const double> values,
+                                   const CellClassification& out, const ClassifyOptions& options) {
+  check_classify_sizes(complex, values, out, options);
   const std::size_t cells = complex.cells.size();
-  if (values.size() != complex.points.size() || codes.size() != cells || offsets.size() != cells + 1)
-    throw std::invalid_argument("classify_cells: batch size mismatch");
-  // core's classify() refuses non-finite values; so does this backend, before any dispatch.
-  for (double v : values)
-    if (!std::isfinite(v)) throw InputError("MC33 classify: a corner value is not finite");
-  offsets[0] = 0;
+  out.offsets[0] = 0;
   if (cells == 0) return;
   Impl& m = *impl_;
+  if (m.fp32) {
+    // Not yet on the device in single precision: core's classification on the host.
+    make_cpu_backend()->classify_cells(complex, values, out, options);
+    return;
+  }
   constexpr cl_uint kBlock = 256;  // cells per work item of the prefix sum
+  const bool uniform = options.uniform_cells_per_axis > 0;
+  const bool want_words = !out.words.empty();
   try {
-    const std::size_t n = std::min(m.chunk(8 * sizeof(std::uint32_t)), cells);
+    // Per cell: 1 subcase byte, 8 offset bytes, 8 word bytes when asked for, 32 corner bytes
+    // unless uniform; the chunk is limited by the largest of these buffers.
+    const std::size_t n = std::min(m.chunk(uniform ? sizeof(cl_ulong) : 8 * sizeof(std::uint32_t)), cells);
     const std::size_t max_blocks = (n + kBlock - 1) / kBlock;
     // The value window is limited by the allocation size only (max_chunk counts cells).
     const std::size_t window_limit = std::min<std::size_t>(m.max_alloc() / sizeof(double), std::size_t(1) << 31);
     // A device that shares the host's memory (PoCL on CPUs) reads the caller's arrays and writes
     // the results in place (CL_MEM_USE_HOST_PTR, synchronised by map/unmap): no copies. Others
-    // get the arrays written to and read back from device buffers.
+    // get device buffers, and the values stay there when signed_distance left them (resident).
     const bool zero_copy = m.host_unified;
     const bool whole = values.size() <= window_limit;  // every chunk reads the one value buffer
-    cl::Buffer cell_buf, code_buf, offset_buf;
+    cl::Buffer cell_buf, subcase_buf, word_buf, offset_buf;
+    const cl::Buffer dummy(m.context, CL_MEM_READ_WRITE, 16);
+    const cl::Buffer bad(m.context, CL_MEM_READ_WRITE, sizeof(cl_uint));
+    const cl_uint zero = 0;
+    m.queue.enqueueFillBuffer(bad, zero, 0, sizeof zero);
     if (!zero_copy) {
-      cell_buf = cl::Buffer(m.context, CL_MEM_READ_ONLY, 8 * sizeof(std::uint32_t) * n);
-      code_buf = cl::Buffer(m.context, CL_MEM_READ_WRITE, 2 * sizeof(std::uint32_t) * n);
+      if (!uniform) cell_buf = cl::Buffer(m.context, CL_MEM_READ_ONLY, 8 * sizeof(std::uint32_t) * n);
+      subcase_buf = cl::Buffer(m.context, CL_MEM_READ_WRITE, n);
+      if (want_words) word_buf = cl::Buffer(m.context, CL_MEM_WRITE_ONLY, 2 * sizeof(std::uint32_t) * n);
       offset_buf = cl::Buffer(m.context, CL_MEM_WRITE_ONLY, sizeof(cl_ulong) * n);
     }
     cl::Buffer sums(m.context, CL_MEM_READ_WRITE, sizeof(cl_ulong) * (max_blocks + 1));
     cl::Buffer value_buf;
     std::size_t value_capacity = 0;
     if (whole) {
-      value_buf = zero_copy ? m.host_buffer(CL_MEM_READ_ONLY, values.data(), values.size())
-                            : cl::Buffer(m.context, CL_MEM_READ_ONLY, sizeof(double) * values.size());
-      if (!zero_copy) m.write(value_buf, values.data(), values.size());
+      if (zero_copy) value_buf = m.host_buffer(CL_MEM_READ_ONLY, values.data(), values.size());
+      else if (options.values_from_last_sdf && m.resident_matches(values)) value_buf = m.resident;
+      else {
+        value_buf = cl::Buffer(m.context, CL_MEM_READ_ONLY, sizeof(double) * values.size());
+        m.write(value_buf, values.data(), values.size());
+      }
     }
     cl::Kernel &classify = m.kernel("classify"), &block_sums = m.kernel("hex_block_sums"),
                &scan = m.kernel("hex_scan_sums"), &block_offsets = m.kernel("hex_block_offsets");
-    std::vector<std::uint32_t> words(2 * n);
     static_assert(sizeof(cl_ulong) == sizeof(std::uint64_t) && sizeof(CellCorners) == 8 * sizeof(std::uint32_t));
     std::uint64_t total = 0;
     for (std::size_t first = 0; first < cells;) {
@@ -488,22 +641,30 @@ void OpenclBackend::classify_cells(const HexComplex& complex, std::span<const do
         }
       }
       if (zero_copy) {
-        cell_buf = m.host_buffer(CL_MEM_READ_ONLY, complex.cells[first].data(), 8 * count);
-        code_buf = m.host_buffer(CL_MEM_READ_WRITE, words.data(), 2 * count);
-        offset_buf = m.host_buffer(CL_MEM_WRITE_ONLY, reinterpret_cast<cl_ulong*>(&offsets[first]), count);
-      } else {
+        if (!uniform) cell_buf = m.host_buffer(CL_MEM_READ_ONLY, complex.cells[first].data(), 8 * count);
+        subcase_buf = m.host_buffer(CL_MEM_READ_WRITE, &out.subcases[first], count);
+        if (want_words) word_buf = m.host_buffer(CL_MEM_WRITE_ONLY, &out.words[2 * first], 2 * count);
+        offset_buf = m.host_buffer(CL_MEM_WRITE_ONLY, reinterpret_cast<cl_ulong*>(&out.offsets[first]), count);
+      } else if (!uniform) {
         m.write(cell_buf, complex.cells[first].data(), 8 * count);
       }
-      classify.setArg(0, m.configs);
-      classify.setArg(1, cell_buf);
-      classify.setArg(2, value_buf);
-      classify.setArg(3, cl_uint(lo));
-      classify.setArg(4, code_buf);
-      classify.setArg(5, cl_uint(count));
+      cl_uint arg = 0;
+      classify.setArg(arg++, m.configs);
+      classify.setArg(arg++, uniform ? dummy : cell_buf);
+      classify.setArg(arg++, value_buf);
+      classify.setArg(arg++, cl_uint(lo));
+      classify.setArg(arg++, cl_uint(first));
+      classify.setArg(arg++, cl_uint(options.uniform_cells_per_axis));
+      classify.setArg(arg++, options.zero_tolerance);
+      classify.setArg(arg++, subcase_buf);
+      classify.setArg(arg++, want_words ? word_buf : dummy);
+      classify.setArg(arg++, cl_uint(want_words));
+      classify.setArg(arg++, bad);
+      classify.setArg(arg++, cl_uint(count));
       m.run("classify", classify, count);
 
       const cl_uint blocks = cl_uint((count + kBlock - 1) / kBlock);
-      block_sums.setArg(0, code_buf);
+      block_sums.setArg(0, subcase_buf);
       block_sums.setArg(1, cl_uint(count));
       block_sums.setArg(2, kBlock);
       block_sums.setArg(3, sums);
@@ -512,7 +673,7 @@ void OpenclBackend::classify_cells(const HexComplex& complex, std::span<const do
       scan.setArg(1, blocks);
       scan.setArg(2, cl_ulong(total));
       m.run("hex_scan_sums", scan, 1, 1);
-      block_offsets.setArg(0, code_buf);
+      block_offsets.setArg(0, subcase_buf);
       block_offsets.setArg(1, cl_uint(count));
       block_offsets.setArg(2, kBlock);
       block_offsets.setArg(3, sums);
@@ -520,31 +681,31 @@ void OpenclBackend::classify_cells(const HexComplex& complex, std::span<const do
       m.run("hex_block_offsets", block_offsets, blocks, 8);
 
       if (zero_copy) {
-        // The results are already in words / offsets; mapping makes them visible to the host.
-        m.sync_to_host(code_buf, 2 * count * sizeof(std::uint32_t));
+        // The results are already in the caller's arrays; mapping makes them visible to the host.
+        m.sync_to_host(subcase_buf, count);
+        if (want_words) m.sync_to_host(word_buf, 2 * count * sizeof(std::uint32_t));
         m.sync_to_host(offset_buf, count * sizeof(cl_ulong));
       } else {
-        m.read(code_buf, words.data(), 2 * count);
-        m.read(offset_buf, reinterpret_cast<cl_ulong*>(&offsets[first]), count);
+        m.read(subcase_buf, &out.subcases[first], count);
+        if (want_words) m.read(word_buf, &out.words[2 * first], 2 * count);
+        m.read(offset_buf, reinterpret_cast<cl_ulong*>(&out.offsets[first]), count);
       }
       cl_ulong chunk_total = 0;
       cl::Event e;
       m.queue.enqueueReadBuffer(sums, CL_TRUE, sizeof(cl_ulong) * blocks, sizeof(cl_ulong), &chunk_total, nullptr, &e);
       m.record("read", e);
       total = chunk_total;
-      parallel_for(count, [&](std::size_t i) { codes[first + i] = decode_cell_words(words[2 * i], words[2 * i + 1]); });
       first += count;
     }
+    cl_uint bad_value = 0;
+    m.queue.enqueueReadBuffer(bad, CL_TRUE, 0, sizeof bad_value, &bad_value);
     m.queue.finish();  // the unmaps, before the host buffers are released
-    offsets[cells] = total;
+    // core's classify() refuses non-finite values; the kernel flagged them.
+    if (bad_value) throw InputError("MC33 classify: a corner value is not finite");
+    out.offsets[cells] = total;
   } catch (const cl::Error& e) {
     fail(e, "MC33 classification");
   }
-  for (const CellCode& c : codes)
-    if (c.symmetry == kNoCubeSymmetry)
-      // As core's classify(): unreachable for finite values (the exact face test never yields
-      // one of case 13's impossible face configurations).
-      throw std::logic_error("MC33 classify: no symmetry maps the cell onto its representative");
 }
 
 std::vector<DeviceInfo> list_opencl_devices() {

@@ -1,5 +1,6 @@
-// The opencl backend: kernels/*.cl (OpenCL C 1.2, double precision) on any OpenCL device with
-// cl_khr_fp64 (PoCL on this machine's CPUs). The program is built from source once per device,
+// The opencl backend: kernels/*.cl (OpenCL C 1.2) on any OpenCL device (PoCL on this machine's
+// CPUs): in double precision where the device has cl_khr_fp64, else (or forced) the fp32 path of
+// kernels/sdf_fp32.h with the values computed on the host in double. The program is built from source once per device,
 // driver and source text, and its binary kept on disk (see OpenclOptions::cache_dir), so a second
 // run does not recompile. Large batches go in chunks within the device's largest allocation.
 #pragma once
@@ -27,6 +28,22 @@ struct OpenclOptions {
   // Largest number of points / cells per dispatch (0: as many as the device's allocation limit
   // allows). Tests make it small to cross chunk boundaries.
   std::size_t max_chunk = 0;
+  // Use the caller's arrays in place (CL_MEM_USE_HOST_PTR) when the device shares the host's
+  // memory (CL_DEVICE_HOST_UNIFIED_MEMORY, e.g. PoCL). false: device buffers and copies, as on a
+  // discrete GPU (tests run that path on PoCL with it).
+  bool zero_copy = true;
+  // Run the single-precision kernels even on a device with fp64 (tests: the fp32 path on PoCL).
+  // The environment variable MCHEX_FORCE_FP32=1 does the same. A device without fp64 always
+  // runs them.
+  bool force_fp32 = false;
+};
+
+// The fp32 path's division of work (kernels/sdf_fp32.h): points whose value the host computed
+// from the device's candidate triangles, and points the host evaluated whole with core's
+// SurfaceSdf (more than MCHEX_FP32_CANDIDATES candidates). Analytic shapes, refinement errors and
+// classification run on the host in double on this path and are not counted here.
+struct Fp32Stats {
+  std::uint64_t points = 0, candidates = 0, host_points = 0;
 };
 
 // Device time per kernel (from OpenCL profiling events) and host<->device transfer time.
@@ -50,14 +67,15 @@ class OpenclBackend : public Backend {
   void signed_distance(const SdfSource& source, std::span<const Vec3> points, std::span<double> values) override;
   void refinement_error(std::span<const std::array<double, kChildLatticePoints>> lattice,
                         std::span<const double> sizes, std::span<double> errors) override;
-  void classify_cells(const HexComplex& complex, std::span<const double> values, std::span<CellCode> codes,
-                      std::span<std::uint64_t> offsets) override;
+  void classify_cells(const HexComplex& complex, std::span<const double> values, const CellClassification& out,
+                      const ClassifyOptions& options = {}) override;
 
   // Whether the program came from the binary cache, and the cache file ("" when not caching).
   bool program_from_cache() const;
   const std::string& cache_file() const;
   const OpenclProfile& profile() const;
   void reset_profile();
+  const Fp32Stats& fp32_stats() const;
 
   struct Impl;
 

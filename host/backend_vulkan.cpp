@@ -92,6 +92,12 @@ struct VulkanBackend::Impl {
   };
   std::optional<Scene> scene;
 
+  // The output buffer of the last signed_distance call when it was one chunk, and the host array
+  // it was copied into (ClassifyOptions::values_from_last_sdf).
+  std::optional<vk::Buffer> resident;
+  const double* resident_data = nullptr;
+  std::size_t resident_size = 0;
+
   const Scene& scene_of(const TriangleSurface& s) {
     if (scene && scene->surface == &s && scene->vertices == s.vertices.data() &&
         scene->triangles == s.triangles.data() && scene->num_vertices == s.vertices.size() &&
@@ -159,12 +165,13 @@ struct VulkanBackend::Impl {
       throw InputError("backend 'vulkan': device '" + chosen->name +
                        "' lacks shaderInt64, which the device prefix sum needs");
     info = device_info(*chosen);
+    info.precision = "fp64";
     device.emplace(instance, *chosen, options.cache_dir);
     max_chunk = options.max_chunk;
 
     const auto start = std::chrono::steady_clock::now();
     refinement = device->make_pipeline(spirv::refinement_error, 3, 4);
-    classify = device->make_pipeline(spirv::classify, 5, 8);
+    classify = device->make_pipeline(spirv::classify, 7, 24);
     scan_blocks = device->make_pipeline(spirv::scan_blocks, 3, 4);
     scan_totals = device->make_pipeline(spirv::scan_totals, 1, 16);
     scan_add = device->make_pipeline(spirv::scan_add, 2, 4);
@@ -227,6 +234,8 @@ void VulkanBackend::signed_distance(const SdfSource& source, std::span<const Vec
   if (points.size() != values.size()) throw std::invalid_argument("SDF batch size mismatch");
   Impl& m = *impl_;
   const std::size_t n = points.size();
+  m.resident.reset();
+  m.resident_data = nullptr;
   if (n == 0) return;
   if (source.surface && source.surface->triangles.empty()) {
     // core/sdf.cpp: an empty surface has nothing inside.
@@ -256,6 +265,11 @@ void VulkanBackend::signed_distance(const SdfSource& source, std::span<const Vec
     }
     timed(m.profile.download, [&] { std::memcpy(values.data() + begin, out.data(), count * sizeof(double)); });
   }
+  if (chunk == n) {
+    m.resident.emplace(std::move(out));
+    m.resident_data = values.data();
+    m.resident_size = n;
+  }
 }
 
 void VulkanBackend::refinement_error(std::span<const std::array<double, kChildLatticePoints>> lattice,
@@ -282,33 +296,39 @@ void VulkanBackend::refinement_error(std::span<const std::array<double, kChildLa
 }
 
 void VulkanBackend::classify_cells(const HexComplex& complex, std::span<const double> values,
-                                   std::span<CellCode> codes, std::span<std::uint64_t> offsets) {
+                                   const CellClassification& out, const ClassifyOptions& options) {
   Impl& m = *impl_;
+  check_classify_sizes(complex, values, out, options);
   const std::size_t cells = complex.cells.size();
-  if (values.size() != complex.points.size() || codes.size() != cells || offsets.size() != cells + 1)
-    throw std::invalid_argument("classify_cells: batch size mismatch");
-  // core's classify() refuses a cell with a non-finite corner value; so does this, with its
-  // message (checked on the host: a device has no exceptions).
-  if (!std::all_of(values.begin(), values.end(), [](double v) { return std::isfinite(v); }))
-    for (const CellCorners& c : complex.cells)
-      for (std::uint32_t p : c)
-        if (!std::isfinite(values[p])) throw InputError("MC33 classify: a corner value is not finite");
-  offsets[0] = 0;
+  out.offsets[0] = 0;
   if (cells == 0) return;
+  const bool uniform = options.uniform_cells_per_axis > 0;
+  const bool want_words = !out.words.empty();
 
   const vk::PhysicalDevice& d = m.device->physical();
   // Point values bound whole when they fit one storage buffer (and the test cap does not ask
   // for chunks), else gathered per cell on the host, 8 per cell.
   const bool gathered = values.size() * sizeof(double) > d.max_storage_buffer_range ||
                         (m.max_chunk && values.size() > m.max_chunk);
-  const std::size_t chunk =
-      std::min(cells, m.chunk_for(gathered ? 8 * sizeof(double) : sizeof(CellCorners), kGroup));
-  vk::Buffer value_buf = m.device->make_buffer((gathered ? 8 * chunk : values.size()) * sizeof(double));
-  if (!gathered)
-    timed(m.profile.upload, [&] { std::memcpy(value_buf.data(), values.data(), values.size() * sizeof(double)); });
-  vk::Buffer cell_buf = m.device->make_buffer(chunk * sizeof(CellCorners));
-  vk::Buffer code_buf = m.device->make_buffer(chunk * 2 * sizeof(std::uint32_t));
+  // Chunks a multiple of 4 cells, so that a word of four subcase bytes never straddles two.
+  std::size_t chunk = std::min(cells, m.chunk_for(gathered ? 8 * sizeof(double) : sizeof(CellCorners), kGroup));
+  if (chunk < cells) chunk = std::max<std::size_t>(4, chunk / 4 * 4);
+  vk::Buffer value_buf;
+  const vk::Buffer* values_bound = &value_buf;
+  if (!gathered && options.values_from_last_sdf && m.resident && m.resident_data == values.data() &&
+      m.resident_size == values.size()) {
+    values_bound = &*m.resident;  // the last SDF's output, still on the device
+  } else {
+    value_buf = m.device->make_buffer((gathered ? 8 * chunk : values.size()) * sizeof(double));
+    if (!gathered)
+      timed(m.profile.upload, [&] { std::memcpy(value_buf.data(), values.data(), values.size() * sizeof(double)); });
+  }
+  vk::Buffer cell_buf = m.device->make_buffer(uniform || gathered ? 4 : chunk * sizeof(CellCorners));
+  vk::Buffer code_buf = m.device->make_buffer(want_words ? chunk * 2 * sizeof(std::uint32_t) : 4);
   vk::Buffer count_buf = m.device->make_buffer(chunk * sizeof(std::uint32_t));
+  vk::Buffer subcase_buf = m.device->make_buffer((chunk + 3) / 4 * sizeof(std::uint32_t));
+  vk::Buffer bad_buf = m.device->make_buffer(sizeof(std::uint32_t));
+  *mapped<std::uint32_t>(bad_buf) = 0;
   vk::Buffer offset_buf = m.device->make_buffer(chunk * sizeof(std::uint64_t));
   const std::size_t blocks = (chunk + kScanBlock - 1) / kScanBlock;
   vk::Buffer total_buf = m.device->make_buffer(blocks * sizeof(std::uint64_t));
@@ -317,16 +337,23 @@ void VulkanBackend::classify_cells(const HexComplex& complex, std::span<const do
   for (std::size_t begin = 0; begin < cells; begin += chunk) {
     const std::size_t count = std::min(chunk, cells - begin);
     timed(m.profile.upload, [&] {
+      std::memset(subcase_buf.data(), 0, (count + 3) / 4 * sizeof(std::uint32_t));
       if (gathered) {
         double* v = mapped<double>(value_buf);
         for (std::size_t i = 0; i < count; ++i)
           for (int c = 0; c < 8; ++c) v[8 * i + c] = values[complex.cells[begin + i][c]];
-      } else {
+      } else if (!uniform) {
         std::memcpy(cell_buf.data(), complex.cells.data() + begin, count * sizeof(CellCorners));
       }
     });
-    const std::uint32_t push[2] = {static_cast<std::uint32_t>(count), gathered ? 1u : 0u};
-    m.run(m.classify, {{&value_buf}, {&cell_buf}, {&m.configs}, {&code_buf}, {&count_buf}}, push, count, kGroup);
+    struct {
+      std::uint32_t cells, first, uniform_n, flags;
+      double zero_tolerance;
+    } push{static_cast<std::uint32_t>(count), static_cast<std::uint32_t>(begin),
+           gathered ? 0u : options.uniform_cells_per_axis, (gathered ? 1u : 0u) | (want_words ? 2u : 0u),
+           options.zero_tolerance};
+    m.run(m.classify, {{values_bound}, {&cell_buf}, {&m.configs}, {&code_buf}, {&count_buf}, {&subcase_buf}, {&bad_buf}},
+          &push, count, kGroup);
 
     // Exclusive prefix sum of the counts (shaders/scan_*.comp), continuing from the chunks before.
     const std::uint32_t n32 = static_cast<std::uint32_t>(count);
@@ -340,13 +367,15 @@ void VulkanBackend::classify_cells(const HexComplex& complex, std::span<const do
     m.run(m.scan_add, {{&offset_buf}, {&total_buf}}, &n32, count, kScanGroup);
 
     timed(m.profile.download, [&] {
-      const std::uint32_t* w = mapped<std::uint32_t>(code_buf);
-      for (std::size_t i = 0; i < count; ++i) codes[begin + i] = decode_cell_words(w[2 * i], w[2 * i + 1]);
-      std::memcpy(offsets.data() + begin, offset_buf.data(), count * sizeof(std::uint64_t));
+      std::memcpy(out.subcases.data() + begin, subcase_buf.data(), count);
+      if (want_words) std::memcpy(out.words.data() + 2 * begin, code_buf.data(), 2 * count * sizeof(std::uint32_t));
+      std::memcpy(out.offsets.data() + begin, offset_buf.data(), count * sizeof(std::uint64_t));
     });
-    carry = offsets[begin + count - 1] + mapped<std::uint32_t>(count_buf)[count - 1];
+    carry = out.offsets[begin + count - 1] + mapped<std::uint32_t>(count_buf)[count - 1];
   }
-  offsets[cells] = carry;
+  // core's classify() refuses a cell with a non-finite corner value; the shader flagged them.
+  if (*mapped<std::uint32_t>(bad_buf)) throw InputError("MC33 classify: a corner value is not finite");
+  out.offsets[cells] = carry;
 }
 
 std::vector<DeviceInfo> list_vulkan_devices() {

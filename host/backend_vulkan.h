@@ -46,8 +46,8 @@ class VulkanBackend : public Backend {
                        std::span<double> values) override;
   void refinement_error(std::span<const std::array<double, kChildLatticePoints>> lattice,
                         std::span<const double> sizes, std::span<double> errors) override;
-  void classify_cells(const HexComplex& complex, std::span<const double> values,
-                      std::span<CellCode> codes, std::span<std::uint64_t> offsets) override;
+  void classify_cells(const HexComplex& complex, std::span<const double> values, const CellClassification& out,
+                      const ClassifyOptions& options = {}) override;
 
   // The pipeline cache: its file, how many bytes of it were loaded at creation, and the seconds
   // spent creating the pipelines (compilation, or a cache hit).

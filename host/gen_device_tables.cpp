@@ -118,6 +118,7 @@ std::vector<Define> defines() {
       {"MCHEX_CHILD_LATTICE_POINTS", kChildLatticePoints, "core/refinement_error.h"},
       {"MCHEX_SLOT_CORNER_DOUBLES", 9, "core/device_scene.h slot_corners per slot"},
       {"MCHEX_SLOT_FEATURE_WORDS", 6, "core/device_scene.h slot_features per slot"},
+      {"MCHEX_FP32_CANDIDATES", kFp32Candidates, "core/device_scene.h: candidate slots per point, kernels/sdf_fp32.h"},
   };
 }
 

@@ -280,12 +280,15 @@ int run_mesh(const MeshCommand& o, bool quiet) {
   if (o.method == "mchex" && backend->device().backend != "cpu") {
     const HexComplex& cx = adaptive ? agrid->complex : uniform.emplace(uniform_complex(grid));
     clock.run("classify", [&] {
-      const std::vector<double> ruled = apply_zero_rule(cx, values);
-      std::vector<CellCode> codes(cx.cells.size());
+      // The device applies the zero rule itself, reads the values the SDF left on it, and computes
+      // a uniform grid's corner ids (host/backend.h ClassifyOptions).
+      ClassifyOptions co;
+      co.zero_tolerance = zero_tolerance_of(cx);
+      co.uniform_cells_per_axis = adaptive ? 0 : grid.cells_per_axis();
+      co.values_from_last_sdf = true;
+      device_subcases.resize(cx.cells.size());
       device_offsets.resize(cx.cells.size() + 1);
-      backend->classify_cells(cx, ruled, codes, device_offsets);
-      device_subcases.resize(codes.size());
-      for (std::size_t i = 0; i < codes.size(); ++i) device_subcases[i] = static_cast<std::uint8_t>(codes[i].subcase);
+      backend->classify_cells(cx, values, {device_subcases, device_offsets}, co);
     });
   }
   auto run_method = [&](const auto& where) {
@@ -315,6 +318,7 @@ int run_mesh(const MeshCommand& o, bool quiet) {
        {{"name", backend->device().backend},
         {"platform", backend->device().platform},
         {"device", backend->device().name},
+        {"precision", backend->device().precision},
         {"threads", tbb::info::default_concurrency()}}},
       {"grid", grid_json},
       {"elements",
@@ -427,7 +431,7 @@ int run_devices(bool as_json) {
                    {"fp64", d.fp64},
                    {"max_buffer_bytes", d.max_buffer_bytes},
                    {"global_memory_bytes", d.global_memory_bytes},
-                   {"compute_units", d.compute_units},
+                   {"compute_units", d.compute_units ? json(d.compute_units) : json(nullptr)},
                    {"version", d.version},
                    {"usable", d.note.empty()},
                    {"note", d.note}});
@@ -439,7 +443,8 @@ int run_devices(bool as_json) {
   for (const DeviceInfo& d : list) {
     auto mib = [](std::uint64_t b) { return b ? fmt::format("{} MiB", b >> 20) : std::string("-"); };
     fmt::print("{:<8} {:<30} {:<36} {:<5} {:<4} {:>5} {:>12} {:>12}\n", d.backend, d.platform, d.name, d.type,
-               d.fp64 ? "yes" : "no", d.compute_units, mib(d.max_buffer_bytes), mib(d.global_memory_bytes));
+               d.fp64 ? "yes" : "no", d.compute_units ? std::to_string(d.compute_units) : std::string("-"),
+               mib(d.max_buffer_bytes), mib(d.global_memory_bytes));
     if (!d.version.empty()) fmt::print("         {}\n", d.version);
     if (!d.note.empty()) fmt::print("         not usable: {}\n", d.note);
   }

@@ -94,8 +94,28 @@ Instance::Instance() {
   for (VkPhysicalDevice h : handles) {
     PhysicalDevice d;
     d.handle = h;
+    // Compute units are not a core Vulkan property; two vendor extensions state them:
+    // VK_NV_shader_sm_builtins (streaming multiprocessors) and VK_AMD_shader_core_properties
+    // (shader engines x arrays per engine x compute units per array). Otherwise 0 (unknown).
+    std::uint32_t num_extensions = 0;
+    vkEnumerateDeviceExtensionProperties(h, nullptr, &num_extensions, nullptr);
+    std::vector<VkExtensionProperties> extensions(num_extensions);
+    if (num_extensions) vkEnumerateDeviceExtensionProperties(h, nullptr, &num_extensions, extensions.data());
+    auto has_extension = [&](const char* name) {
+      for (const VkExtensionProperties& e : extensions)
+        if (std::strcmp(e.extensionName, name) == 0) return true;
+      return false;
+    };
+    VkPhysicalDeviceShaderSMBuiltinsPropertiesNV nv_sm{};
+    nv_sm.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SHADER_SM_BUILTINS_PROPERTIES_NV;
+    VkPhysicalDeviceShaderCorePropertiesAMD amd_core{};
+    amd_core.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SHADER_CORE_PROPERTIES_AMD;
+    void* vendor = nullptr;
+    if (has_extension(VK_NV_SHADER_SM_BUILTINS_EXTENSION_NAME)) vendor = &nv_sm;
+    else if (has_extension(VK_AMD_SHADER_CORE_PROPERTIES_EXTENSION_NAME)) vendor = &amd_core;
     VkPhysicalDeviceDriverProperties driver{};
     driver.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES;
+    driver.pNext = vendor;
     VkPhysicalDeviceIDProperties ids{};
     ids.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ID_PROPERTIES;
     ids.pNext = &driver;
@@ -123,6 +143,10 @@ Instance::Instance() {
     }
     d.max_work_group_invocations = p.limits.maxComputeWorkGroupInvocations;
     d.max_push_constants_size = p.limits.maxPushConstantsSize;
+    if (vendor == &nv_sm) d.compute_units = nv_sm.shaderSMCount;
+    if (vendor == &amd_core)
+      d.compute_units = amd_core.shaderEngineCount * amd_core.shaderArraysPerEngineCount *
+                        amd_core.computeUnitsPerShaderArray;
     VkPhysicalDeviceFeatures features{};
     vkGetPhysicalDeviceFeatures(h, &features);
     d.shader_float64 = features.shaderFloat64;

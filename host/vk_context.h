@@ -38,7 +38,9 @@ struct PhysicalDevice {
   std::uint32_t max_push_constants_size = 0;
   std::vector<VkMemoryHeap> heaps;
   int compute_queue_family = -1;  // -1: the device has no compute queue
-  std::uint32_t compute_units = 0;  // not a Vulkan property: 0 (unknown)
+  // Not a core Vulkan property: NVIDIA's SM count (VK_NV_shader_sm_builtins) or AMD's compute
+  // units (VK_AMD_shader_core_properties) where the driver has them, else 0 (unknown).
+  std::uint32_t compute_units = 0;
 
   std::string type_name() const;  // "cpu" | "gpu" | "other"
 };

@@ -16,6 +16,7 @@
 //     order.
 #ifndef MCHEX_CLASSIFY_H
 #define MCHEX_CLASSIFY_H
+#ifndef MCHEX_FP32  // double precision throughout (kernels/dialect.h)
 
 #ifdef __OPENCL_C_VERSION__
 #define CLASSIFY_PARAMS_ GLOBAL_RO uint *configs,
@@ -186,11 +187,20 @@ INLINE int component_of(int adj[8], int c) {
 }
 
 // core/mc33.cpp classify() without crossings and regions (the host derives those from the values
-// and the code). Values must be finite (the host checks).
-INLINE CellWords classify_cell(CLASSIFY_PARAMS_ CellValues v) {
-  int mask = 0;
-  for (int c = 0; c < 8; ++c)
-    if (v.f[c] > 0.0) mask |= 1 << c;
+// and the code), for a cell whose sign pattern (bit c: f[c] > 0) is `mask`. Values must be finite
+// (the host checks). A cell with one sign everywhere (mask 0 or 255, nearly every cell of a grid)
+// takes the short way: no edge is cut, no face is ambiguous and the subcase has no tunnel partner,
+// so the loops below would change nothing.
+INLINE CellWords classify_pattern(CLASSIFY_PARAMS_ CellValues v, int mask) {
+  if (mask == 0 || mask == 255) {
+    uint e = configs[mask * 64];
+    int pre = CAST(int, (e >> MCHEX_CONFIG_PREFERRED_SHIFT) & 255u);
+    CellWords u;
+    u.w0 = CAST(uint, CAST(int, e & 255u) | (mask << MCHEX_CODE_SIGN_SHIFT) | (1 << MCHEX_CODE_TUNNEL_SHIFT) |
+                          (pre << MCHEX_CODE_INVERTED_SHIFT));
+    u.w1 = (e >> (pre != 0 ? MCHEX_CONFIG_MAP1_SHIFT : MCHEX_CONFIG_MAP0_SHIFT)) & 255u;
+    return u;
+  }
   int cut = 0;
   for (int e = 0; e < 12; ++e)
     if (((mask >> kCubeEdges[2 * e]) & 1) != ((mask >> kCubeEdges[2 * e + 1]) & 1)) cut |= 1 << e;
@@ -240,9 +250,31 @@ INLINE CellWords classify_cell(CLASSIFY_PARAMS_ CellValues v) {
   return words;
 }
 
+INLINE CellWords classify_cell(CLASSIFY_PARAMS_ CellValues v) {
+  int mask = 0;
+  for (int c = 0; c < 8; ++c)
+    if (v.f[c] > 0.0) mask |= 1 << c;
+  return classify_pattern(CLASSIFY_ARGS_ v, mask);
+}
+
 // Hexes the mesher makes from the cell (core/local_refinement.h local_refinement_hexes: 8 + 2 * cut
 // edges for a cell cut directly, the sum over its leaves for one refined locally), a function of
 // the subcase alone, so the prefix sum of these is where each cell's hexes start in the output.
 INLINE uint cell_hexes(CellWords w) { return CAST(uint, kSubcaseHexes[w.w0 & 255u]); }
 
+// The uniform grid's point numbering (core/grid.h UniformGrid: cells x fastest, points
+// i + (n+1)(j + (n+1)k), corners as UniformGrid::cell_corners), so a uniform complex needs no
+// corner list on the device: cell `cell`'s corner 0, then corner c at a fixed offset from it.
+INLINE uint uniform_cell_base(uint cell, uint n) {
+  uint i = cell % n;
+  uint rest = cell / n;
+  return i + (n + 1u) * ((rest % n) + (n + 1u) * (rest / n));
+}
+
+INLINE uint uniform_corner_offset(uint n, int c) {
+  uint m = n + 1u;
+  return CAST(uint, kCubeCorners[3 * c]) + m * (CAST(uint, kCubeCorners[3 * c + 1]) + m * CAST(uint, kCubeCorners[3 * c + 2]));
+}
+
+#endif  // MCHEX_FP32
 #endif

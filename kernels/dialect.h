@@ -23,8 +23,13 @@
 #ifndef MCHEX_DIALECT_H
 #define MCHEX_DIALECT_H
 
+// MCHEX_FP32 (a device without fp64, or the forced single-precision path): no double anywhere;
+// kernels/sdf_fp32.h finds candidate triangles in float and the host computes the values in
+// double. Without it, every header computes in double as core does.
 #ifdef __OPENCL_C_VERSION__
+#ifndef MCHEX_FP32
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
+#endif
 #pragma OPENCL FP_CONTRACT OFF
 #define EXACT
 #define STRUCT(name) \

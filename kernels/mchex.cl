@@ -8,6 +8,7 @@
 // triangle (grid order makes that seed nearly always the answer; the result does not depend on
 // it). Sizes are 32-bit: the host dispatches chunks that fit the device's allocation limit.
 
+#ifndef MCHEX_FP32
 __kernel void sdf_surface(SCENE_PARAMS_ __global const double *points, __global double *values, uint n,
                           uint per_item, double scale) {
   uint first = (uint)get_global_id(0) * per_item;
@@ -37,33 +38,72 @@ __kernel void refinement_error(__global const double *lattice, __global const do
   errors[i] = refinement_error_of(L, sizes[i]);
 }
 
-// values holds the points [value_base, ...) that this chunk's cells use.
-__kernel void classify(CLASSIFY_PARAMS_ __global const uint *cells, __global const double *values,
-                       uint value_base, __global uint *codes, uint n) {
+// MC33 classification of the cells [first, first + n) of the complex (host/backend.h
+// classify_cells). Corner point ids come from `cells` (8 per cell of the chunk), or, when
+// uniform_n > 0, from the uniform grid's numbering (no corner list at all); values holds the
+// points [value_base, ...) that the chunk's cells use. zero_tolerance > 0 applies the mesher's
+// zero rule (core/mchex_mesher.h apply_zero_rule: |f| < t becomes -t) to each corner value as it
+// is read, so the host need not make a ruled copy. Writes one byte per cell (its Subcase: all the
+// mesher needs), the packed CellCode words when want_words != 0, and sets bad[0] when a corner
+// value is not finite (the host turns that into core's InputError).
+__kernel void classify(CLASSIFY_PARAMS_ __global const uint *cells, __global const double *values, uint value_base,
+                       uint first, uint uniform_n, double zero_tolerance, __global uchar *subcases,
+                       __global uint *codes, uint want_words, __global uint *bad, uint n) {
   uint i = (uint)get_global_id(0);
   if (i >= n) return;
   CellValues v;
-  for (int c = 0; c < 8; ++c) v.f[c] = values[cells[8 * i + (uint)c] - value_base];
-  CellWords w = classify_cell(CLASSIFY_ARGS_ v);
-  codes[2 * i] = w.w0;
-  codes[2 * i + 1] = w.w1;
+  int mask = 0;
+  bool finite = true;
+  uint base = uniform_n > 0u ? uniform_cell_base(first + i, uniform_n) : 0u;
+  for (int c = 0; c < 8; ++c) {
+    uint p = uniform_n > 0u ? base + uniform_corner_offset(uniform_n, c) : cells[8 * i + (uint)c];
+    double f = values[p - value_base];
+    finite = finite && isfinite(f);
+    f = fabs(f) < zero_tolerance ? -zero_tolerance : f;
+    v.f[c] = f;
+    if (f > 0.0) mask |= 1 << c;
+  }
+  if (!finite) bad[0] = 1u;
+  CellWords w = classify_pattern(CLASSIFY_ARGS_ v, mask);
+  subcases[i] = (uchar)(w.w0 & 255u);
+  if (want_words != 0u) {
+    codes[2 * i] = w.w0;
+    codes[2 * i + 1] = w.w1;
+  }
 }
+
+#else
+// The single-precision surface SDF (kernels/sdf_fp32.h): per point, the number of candidate slots
+// (MCHEX_FP32_CANDIDATES + 1: overflow, the host evaluates the point itself) and the slots, in
+// MCHEX_FP32_CANDIDATES + 1 words. points: the double points rounded to float by the host.
+__kernel void sdf_surface32(SCENE32_PARAMS_ __global const float *points, __global uint *candidates, uint n,
+                            uint per_item, float scale) {
+  uint first = (uint)get_global_id(0) * per_item;
+  if (first >= n) return;
+  uint last = min(n, first + per_item);
+  uint seed = 0u;
+  for (uint i = first; i < last; ++i) {
+    float3 p = (float3)(points[3 * i], points[3 * i + 1], points[3 * i + 2]);
+    Candidates32 s = surface_candidates32(SCENE32_ARGS_ p, seed, scale);
+    uint out = (MCHEX_FP32_CANDIDATES + 1) * i;
+    candidates[out] = s.overflow != 0 ? (uint)(MCHEX_FP32_CANDIDATES + 1) : (uint)s.count;
+    for (int k = 0; k < MCHEX_FP32_CANDIDATES; ++k) candidates[out + 1 + (uint)k] = k < s.count ? s.slot[k] : 0u;
+    seed = s.nearest;
+  }
+}
+
+#endif
 
 // Exclusive prefix sum of cell_hexes over the classified cells, in three passes: per-block sums
 // (one work item per block of consecutive cells), a scan of the block sums (one work item; there
 // are few blocks) starting at `base` (the previous chunks' total), and per-block offsets.
-__kernel void hex_block_sums(__global const uint *codes, uint n, uint block, __global ulong *sums) {
+__kernel void hex_block_sums(__global const uchar *subcases, uint n, uint block, __global ulong *sums) {
   uint b = (uint)get_global_id(0);
   uint first = b * block;
   if (first >= n) return;
   uint last = min(n, first + block);
-  ulong s = 0;
-  for (uint i = first; i < last; ++i) {
-    CellWords w;
-    w.w0 = codes[2 * i];
-    w.w1 = codes[2 * i + 1];
-    s += cell_hexes(w);
-  }
+  uint s = 0;  // block * max hexes per cell < 2^32
+  for (uint i = first; i < last; ++i) s += (uint)kSubcaseHexes[subcases[i]];
   sums[b] = s;
 }
 
@@ -78,7 +118,7 @@ __kernel void hex_scan_sums(__global ulong *sums, uint blocks, ulong base) {
   sums[blocks] = run;
 }
 
-__kernel void hex_block_offsets(__global const uint *codes, uint n, uint block, __global const ulong *sums,
+__kernel void hex_block_offsets(__global const uchar *subcases, uint n, uint block, __global const ulong *sums,
                                 __global ulong *offsets) {
   uint b = (uint)get_global_id(0);
   uint first = b * block;
@@ -87,9 +127,6 @@ __kernel void hex_block_offsets(__global const uint *codes, uint n, uint block, 
   ulong run = sums[b];
   for (uint i = first; i < last; ++i) {
     offsets[i] = run;
-    CellWords w;
-    w.w0 = codes[2 * i];
-    w.w1 = codes[2 * i + 1];
-    run += cell_hexes(w);
+    run += (ulong)kSubcaseHexes[subcases[i]];
   }
 }

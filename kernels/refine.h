@@ -3,6 +3,7 @@
 // the CPU's bit for bit.
 #ifndef MCHEX_REFINE_H
 #define MCHEX_REFINE_H
+#ifndef MCHEX_FP32  // double precision throughout (kernels/dialect.h)
 
 #ifdef __OPENCL_C_VERSION__
 #define MCHEX_DOUBLE_INFINITY CAST(double, INFINITY)
@@ -52,4 +53,5 @@ INLINE double refinement_error_of(ChildLattice L, double size) {
   return worst;
 }
 
+#endif  // MCHEX_FP32
 #endif

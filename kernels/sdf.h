@@ -19,6 +19,7 @@
 // vertex_normals (double, 3 per edge / vertex).
 #ifndef MCHEX_SDF_H
 #define MCHEX_SDF_H
+#ifndef MCHEX_FP32  // double precision throughout (kernels/dialect.h)
 
 #ifdef __OPENCL_C_VERSION__
 #define DVEC3 double3
@@ -264,4 +265,5 @@ INLINE double shape_sdf(int kind, DVEC3 p) {
   return r;
 }
 
+#endif  // MCHEX_FP32
 #endif

@@ -9,12 +9,18 @@
 //           JIT-compiles a shader at its first dispatch).
 //
 //   bench_backends [--grid N] [--segments S] [--depth D] [--repeat R] [--platform NAME]
-//                  [--vulkan-device NAME] [--backends cpu,opencl,vulkan]
+//                  [--vulkan-device NAME] [--backends cpu,opencl,vulkan] [--kernels K1,K2,...]
 //
 // Workloads: surface SDF at the N^3 points of a grid over the tessellated torus (2 S x 0.4 S
 // triangles; S = 256 gives 52,224), analytic-shape SDF (torus) on the same points, refinement
 // error of 100,000 cells of the two-holed shape, and MC33 classification + hex prefix sum of the
-// uniform depth-D complex of the two-holed shape. Prints a table and one JSON line.
+// uniform depth-D complex of the two-holed shape (depth 4: 531,441 cells; 5: 14,348,907) in three
+// forms: "classify+scan" the mesher's call (subcase bytes and offsets from the raw values, zero
+// rule and corner ids on the device), "classify+scan codes" every field of every cell decoded from
+// the words (the tests' call, corner list uploaded), and "sdf+classify" the shape's SDF at the
+// complex's points followed by classification from the values the SDF left on the device.
+// --kernels picks some of these by name. Prints a table and one JSON line.
+#include <algorithm>
 #include <bit>
 #include <cstdio>
 #include <cstring>
@@ -30,6 +36,7 @@
 
 #include "core/grid.h"
 #include "core/hex_complex.h"
+#include "core/mchex_mesher.h"
 #include "core/refinement_error.h"
 #include "core/shapes.h"
 #include "host/backend.h"
@@ -64,12 +71,13 @@ struct Measured {
 struct Outputs {
   std::vector<double> doubles;
   std::vector<CellCode> codes;
+  std::vector<std::uint8_t> subcases;
   std::vector<std::uint64_t> offsets;
   bool operator==(const Outputs& o) const {
     if (doubles.size() != o.doubles.size()) return false;
     for (std::size_t i = 0; i < doubles.size(); ++i)
       if (std::bit_cast<std::uint64_t>(doubles[i]) != std::bit_cast<std::uint64_t>(o.doubles[i])) return false;
-    return codes == o.codes && offsets == o.offsets;
+    return codes == o.codes && subcases == o.subcases && offsets == o.offsets;
   }
 };
 
@@ -84,7 +92,7 @@ std::vector<std::string> split(const std::string& s) {
 
 int main(int argc, char** argv) {
   int grid = 82, segments = 256, depth = 4, repeat = 3;
-  std::string platform, vulkan_device, wanted = "cpu,opencl,vulkan";
+  std::string platform, vulkan_device, wanted = "cpu,opencl,vulkan", only;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i];
     if (a == "--grid") grid = std::atoi(argv[i + 1]);
@@ -94,6 +102,7 @@ int main(int argc, char** argv) {
     else if (a == "--platform") platform = argv[i + 1];
     else if (a == "--vulkan-device") vulkan_device = argv[i + 1];
     else if (a == "--backends") wanted = argv[i + 1];
+    else if (a == "--kernels") only = argv[i + 1];
     else {
       std::fprintf(stderr, "bench_backends: unknown option %s\n", argv[i]);
       return 1;
@@ -125,7 +134,9 @@ int main(int argc, char** argv) {
       w.sizes.push_back(h);
     }
   }
-  w.complex = uniform_complex(UniformGrid(padded_cube(two_holed.bounds(), 0.1), depth));
+  const UniformGrid ugrid(padded_cube(two_holed.bounds(), 0.1), depth);
+  const std::uint32_t uniform_n = ugrid.cells_per_axis();
+  w.complex = uniform_complex(ugrid);
   w.values.resize(w.complex.points.size());
   two_holed.evaluate(w.complex.points, w.values);
 
@@ -134,18 +145,20 @@ int main(int argc, char** argv) {
     std::unique_ptr<Backend> backend;
   };
   std::vector<Named> backends;
-  OpenclBackend* ocl = nullptr;
+  std::map<std::string, OpenclBackend*> ocls;
   VulkanBackend* vk = nullptr;
   nlohmann::json unavailable = nlohmann::json::object();
   for (const std::string& name : split(wanted)) {
     try {
       if (name == "cpu") {
         backends.push_back({name, make_cpu_backend()});
-      } else if (name == "opencl") {
+      } else if (name == "opencl" || name == "opencl-fp32") {
+        // opencl-fp32: the single-precision path (kernels/sdf_fp32.h) forced on the same device.
         OpenclOptions o;
         o.platform = platform;
+        o.force_fp32 = name == "opencl-fp32";
         auto b = std::make_unique<OpenclBackend>(o);
-        ocl = b.get();
+        ocls[name] = b.get();
         backends.push_back({name, std::move(b)});
       } else if (name == "vulkan") {
         VulkanOptions o;
@@ -169,11 +182,16 @@ int main(int argc, char** argv) {
   }
 
   const std::size_t n_points = w.points.size(), n_cells = w.complex.cells.size();
-  const std::vector<std::string> kernels = {"sdf_surface", "sdf_shape", "refinement_error", "classify+scan"};
+  std::vector<std::string> kernels = {"sdf_surface", "sdf_shape", "refinement_error", "classify+scan",
+                                      "classify+scan codes", "sdf+classify"};
+  if (!only.empty()) kernels = split(only);
+  auto wanted_kernel = [&](const std::string& k) { return std::find(kernels.begin(), kernels.end(), k) != kernels.end(); };
   const std::map<std::string, std::size_t> items = {{"sdf_surface", n_points},
                                                      {"sdf_shape", n_points},
                                                      {"refinement_error", w.lattice.size()},
-                                                     {"classify+scan", n_cells}};
+                                                     {"classify+scan", n_cells},
+                                                     {"classify+scan codes", n_cells},
+                                                     {"sdf+classify", n_cells}};
   std::map<std::string, std::map<std::string, Measured>> results;  // kernel -> backend -> measured
   std::map<std::string, Outputs> reference;                        // kernel -> cpu outputs
   for (auto& [name, b] : backends) {
@@ -181,7 +199,7 @@ int main(int argc, char** argv) {
     surface.surface = &w.surface;
     SdfSource shape;
     shape.shape = ShapeKind::kTorus;
-    {
+    if (wanted_kernel("sdf_surface")) {
       // The device scene (BVH, pseudonormals) is built once per surface: not part of the rate.
       std::vector<double> out(16);
       b->signed_distance(surface, std::span(w.points).first(16), out);
@@ -192,14 +210,21 @@ int main(int argc, char** argv) {
       m.cold = seconds_of([&] { out = run(); });
       m.best = 1e300;
       for (int r = 0; r < repeat; ++r) {
-        if (ocl && name == "opencl") ocl->reset_profile();
+        OpenclBackend* ocl = ocls.count(name) ? ocls[name] : nullptr;
+        if (ocl) ocl->reset_profile();
         const VulkanBackend::Profile before = vk && name == "vulkan" ? vk->profile() : VulkanBackend::Profile{};
         const double s = seconds_of([&] { out = run(); });
         if (s >= m.best) continue;
         m.best = s;
         m.profile.clear();
-        if (ocl && name == "opencl")
+        if (ocl) {
           for (const auto& [k, e] : ocl->profile().kernels) m.profile[k] = e.seconds;
+          const Fp32Stats& st = ocl->fp32_stats();
+          if (st.points) {
+            m.profile["fp32: points the host evaluated whole (count)"] = double(st.host_points);
+            m.profile["fp32: candidates per point (mean)"] = double(st.candidates) / double(st.points - st.host_points);
+          }
+        }
         if (vk && name == "vulkan") {
           const VulkanBackend::Profile after = vk->profile();
           m.profile["upload"] = after.upload - before.upload;
@@ -211,31 +236,66 @@ int main(int argc, char** argv) {
       else m.equal = out == reference[kernel];
       results[kernel][name] = m;
     };
-    measure("sdf_surface", [&] {
-      Outputs o;
-      o.doubles.resize(n_points);
-      b->signed_distance(surface, w.points, o.doubles);
-      return o;
-    });
-    measure("sdf_shape", [&] {
-      Outputs o;
-      o.doubles.resize(n_points);
-      b->signed_distance(shape, w.points, o.doubles);
-      return o;
-    });
-    measure("refinement_error", [&] {
-      Outputs o;
-      o.doubles.resize(w.lattice.size());
-      b->refinement_error(w.lattice, w.sizes, o.doubles);
-      return o;
-    });
-    measure("classify+scan", [&] {
-      Outputs o;
-      o.codes.resize(n_cells);
-      o.offsets.resize(n_cells + 1);
-      b->classify_cells(w.complex, w.values, o.codes, o.offsets);
-      return o;
-    });
+    if (wanted_kernel("sdf_surface"))
+      measure("sdf_surface", [&] {
+        Outputs o;
+        o.doubles.resize(n_points);
+        b->signed_distance(surface, w.points, o.doubles);
+        return o;
+      });
+    if (wanted_kernel("sdf_shape"))
+      measure("sdf_shape", [&] {
+        Outputs o;
+        o.doubles.resize(n_points);
+        b->signed_distance(shape, w.points, o.doubles);
+        return o;
+      });
+    if (wanted_kernel("refinement_error"))
+      measure("refinement_error", [&] {
+        Outputs o;
+        o.doubles.resize(w.lattice.size());
+        b->refinement_error(w.lattice, w.sizes, o.doubles);
+        return o;
+      });
+    // What the mesher needs (a subcase byte per cell and the offsets), from the raw SDF values with
+    // the zero rule and the uniform grid's corner ids on the device: host/main.cpp's call.
+    ClassifyOptions co;
+    co.zero_tolerance = zero_tolerance_of(w.complex);
+    co.uniform_cells_per_axis = uniform_n;
+    if (wanted_kernel("classify+scan"))
+      measure("classify+scan", [&] {
+        Outputs o;
+        o.subcases.resize(n_cells);
+        o.offsets.resize(n_cells + 1);
+        b->classify_cells(w.complex, w.values, {o.subcases, o.offsets}, co);
+        return o;
+      });
+    // Every field of every cell (the words, decoded), from the corner list: what the tests compare.
+    if (wanted_kernel("classify+scan codes"))
+      measure("classify+scan codes", [&] {
+        Outputs o;
+        o.codes.resize(n_cells);
+        o.offsets.resize(n_cells + 1);
+        classify_cells_codes(*b, w.complex, w.values, o.codes, o.offsets, {co.zero_tolerance, 0, false});
+        return o;
+      });
+    // The SDF of the analytic shape at the complex's points, then classification from the values
+    // the SDF left on the device (ClassifyOptions::values_from_last_sdf): the whole device part of
+    // `mesh --shape two-holed --method mchex`.
+    if (wanted_kernel("sdf+classify"))
+      measure("sdf+classify", [&] {
+        Outputs o;
+        std::vector<double> v(w.complex.points.size());
+        SdfSource two;
+        two.shape = ShapeKind::kTwoHoled;
+        b->signed_distance(two, w.complex.points, v);
+        ClassifyOptions resident = co;
+        resident.values_from_last_sdf = true;
+        o.subcases.resize(n_cells);
+        o.offsets.resize(n_cells + 1);
+        b->classify_cells(w.complex, v, {o.subcases, o.offsets}, resident);
+        return o;
+      });
   }
 
   std::printf("bench_backends: %zu surface triangles, %zu points, %zu refinement cells, %zu MC cells, %d CPU threads\n",
@@ -289,7 +349,7 @@ int main(int argc, char** argv) {
       double accounted = 0;
       for (const auto& [part, s] : m.profile) {
         std::printf(" %s %.4f", part.c_str(), s);
-        accounted += s;
+        if (part.rfind("fp32:", 0) != 0) accounted += s;  // counts, not seconds
       }
       std::printf("  | host-side and launch %.4f\n", m.best - accounted);
       j["profile_s"][name][kernel] = m.profile;

@@ -125,7 +125,7 @@ TEST(BackendCpu, ClassifyCellsIsCoreClassify) {
   ShapeSdf(ShapeKind::kTorus).evaluate(complex.points, values);
   std::vector<CellCode> codes(complex.cells.size());
   std::vector<std::uint64_t> offsets(complex.cells.size() + 1);
-  cpu->classify_cells(complex, values, codes, offsets);
+  classify_cells_codes(*cpu, complex, values, codes, offsets);
   std::uint64_t run = 0;
   std::size_t cut = 0;
   for (std::size_t i = 0; i < complex.cells.size(); ++i) {
@@ -177,7 +177,7 @@ TEST(BackendCpu, MesherChecksADeviceClassification) {
   const std::vector<double> ruled = apply_zero_rule(complex, values);
   std::vector<CellCode> codes(complex.cells.size());
   std::vector<std::uint64_t> offsets(complex.cells.size() + 1);
-  cpu->classify_cells(complex, ruled, codes, offsets);
+  classify_cells_codes(*cpu, complex, ruled, codes, offsets);
   std::vector<std::uint8_t> subcases(codes.size());
   for (std::size_t i = 0; i < codes.size(); ++i) subcases[i] = static_cast<std::uint8_t>(codes[i].subcase);
 

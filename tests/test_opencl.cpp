@@ -24,6 +24,7 @@
 #include "core/hex_complex.h"
 #include "core/local_refinement.h"
 #include "core/mc33.h"
+#include "core/mchex_mesher.h"
 #include "core/refinement_error.h"
 #include "core/sdf.h"
 #include "core/shapes.h"
@@ -321,8 +322,8 @@ void expect_same_classification(Backend& backend, const CellBatch& batch, const 
   const std::size_t n = batch.complex.cells.size();
   std::vector<CellCode> ref(n), got(n);
   std::vector<std::uint64_t> ref_off(n + 1), got_off(n + 1);
-  make_cpu_backend()->classify_cells(batch.complex, batch.values, ref, ref_off);
-  backend.classify_cells(batch.complex, batch.values, got, got_off);
+  classify_cells_codes(*make_cpu_backend(), batch.complex, batch.values, ref, ref_off);
+  classify_cells_codes(backend, batch.complex, batch.values, got, got_off);
   std::size_t mismatches = 0;
   for (std::size_t i = 0; i < n && mismatches < 5; ++i)
     if (!(ref[i] == got[i])) {
@@ -436,13 +437,136 @@ TEST(Opencl, ClassificationOfAGridAcrossChunks) {
   expect_same_classification(b, batch, "two-holed grid, chunks of 777");
 }
 
+// The mesher's call (host/main.cpp): raw SDF values with the zero rule applied on the device,
+// corner ids computed on the device for a uniform grid, only the subcase bytes and offsets back;
+// and the values the SDF left on the device reused (ClassifyOptions::values_from_last_sdf, which
+// only a device with its own buffers has: zero_copy off runs that path on PoCL). Every field equals
+// core's classification of apply_zero_rule's values.
+TEST(Opencl, UniformGridWithTheZeroRuleOnTheDevice) {
+  const UniformGrid grid(padded_cube(ShapeSdf(ShapeKind::kTwoHoled).bounds(), 0.1), 3);
+  const HexComplex complex = uniform_complex(grid);
+  std::vector<double> values(complex.points.size());
+  ShapeSdf(ShapeKind::kTwoHoled).evaluate(complex.points, values);
+  const double tiny = zero_tolerance_of(complex);
+  // Values the zero rule moves (0, -0, +-tiny/2) and ones it keeps (+-tiny exactly), next to cut cells.
+  std::size_t moved = 0;
+  const double specials[] = {0.0, -0.0, 0.5 * tiny, -0.5 * tiny, tiny, -tiny};
+  for (std::size_t p = 0; p < values.size(); ++p)
+    if (std::abs(values[p]) < 2 * grid.cell_size() && p % 7 == 0) values[p] = specials[(p / 7) % 6];
+  const std::vector<double> ruled = apply_zero_rule(complex, values, &moved);
+  ASSERT_GT(moved, 20u);
+  const std::size_t n = complex.cells.size();
+  std::vector<CellCode> ref(n);
+  std::vector<std::uint64_t> ref_off(n + 1);
+  classify_cells_codes(*make_cpu_backend(), complex, ruled, ref, ref_off);
+  std::vector<std::uint8_t> ref_subcases(n);
+  for (std::size_t i = 0; i < n; ++i) ref_subcases[i] = static_cast<std::uint8_t>(ref[i].subcase);
+  ClassifyOptions co;
+  co.zero_tolerance = tiny;
+  co.uniform_cells_per_axis = grid.cells_per_axis();
+  for (const bool zero_copy : {true, false})
+    for (const std::size_t chunk : {std::size_t(0), std::size_t(1000)}) {
+      SCOPED_TRACE(std::string(zero_copy ? "zero copy" : "copies") + ", chunk " + std::to_string(chunk));
+      OpenclOptions o = pocl();
+      o.zero_copy = zero_copy;
+      o.max_chunk = chunk;
+      OpenclBackend b(o);
+      std::vector<CellCode> got(n);
+      std::vector<std::uint64_t> got_off(n + 1);
+      classify_cells_codes(b, complex, values, got, got_off, co);
+      EXPECT_TRUE(got == ref);
+      EXPECT_EQ(got_off, ref_off);
+      std::vector<std::uint8_t> subcases(n);
+      std::vector<std::uint64_t> offsets(n + 1);
+      b.classify_cells(complex, values, {subcases, offsets}, co);
+      EXPECT_EQ(subcases, ref_subcases);
+      EXPECT_EQ(offsets, ref_off);
+      // The SDF's own output, left on the device, classified without a second upload.
+      std::vector<double> sdf(complex.points.size());
+      SdfSource two;
+      two.shape = ShapeKind::kTwoHoled;
+      b.signed_distance(two, complex.points, sdf);
+      ClassifyOptions resident = co;
+      resident.values_from_last_sdf = true;
+      b.classify_cells(complex, sdf, {subcases, offsets}, resident);
+      std::vector<CellCode> direct(n);
+      std::vector<std::uint64_t> direct_off(n + 1);
+      classify_cells_codes(*make_cpu_backend(), complex, apply_zero_rule(complex, sdf), direct, direct_off);
+      for (std::size_t i = 0; i < n; ++i) ASSERT_EQ(subcases[i], static_cast<std::uint8_t>(direct[i].subcase)) << i;
+      EXPECT_EQ(offsets, direct_off);
+    }
+  // A complex that is not the promised grid is refused.
+  ClassifyOptions wrong = co;
+  wrong.uniform_cells_per_axis = grid.cells_per_axis() + 1;
+  std::vector<std::uint8_t> subcases(n);
+  std::vector<std::uint64_t> offsets(n + 1);
+  EXPECT_THROW(device().classify_cells(complex, values, {subcases, offsets}, wrong), std::invalid_argument);
+}
+
 TEST(Opencl, NonFiniteValueIsAnInputError) {
   CellBatch b;
   b.add({1, -1, 1, -1, 1, -1, 1, std::numeric_limits<double>::quiet_NaN()});
   std::vector<CellCode> codes(1);
   std::vector<std::uint64_t> offsets(2);
-  EXPECT_THROW(device().classify_cells(b.complex, b.values, codes, offsets), InputError);
-  EXPECT_THROW(make_cpu_backend()->classify_cells(b.complex, b.values, codes, offsets), InputError);
+  EXPECT_THROW(classify_cells_codes(device(), b.complex, b.values, codes, offsets), InputError);
+  EXPECT_THROW(classify_cells_codes(*make_cpu_backend(), b.complex, b.values, codes, offsets), InputError);
+}
+
+// ---- The fp32 path (kernels/sdf_fp32.h), forced on PoCL -----------------------------------
+
+namespace {
+
+OpenclBackend& fp32_device() {
+  static OpenclBackend b([] {
+    OpenclOptions o = pocl();
+    o.force_fp32 = true;
+    return o;
+  }());
+  return b;
+}
+
+}  // namespace
+
+TEST(OpenclFp32, RunsTheSinglePrecisionProgram) {
+  EXPECT_EQ(fp32_device().device().precision, "fp32");
+  EXPECT_EQ(device().device().precision, "fp64");
+}
+
+// Single precision finds the candidate triangles, the host computes the values in double: equal to
+// core bit for bit on points at vertices, on edges, inside faces, +-1e-12 and +-1e-6 of the
+// diagonal off faces (values inside the float guard band), exact ties (every vertex is equally
+// near all its triangles) and far points; the UV sphere's poles have 30 triangles around one
+// vertex (more than the kernel's candidate list: those points go to the host whole).
+TEST(OpenclFp32, SurfaceSdfEqualsReferenceBitForBit) {
+  for (const auto& [name, surface] : {std::pair{"torus", tessellate(ShapeKind::kTorus, 48)},
+                                      std::pair{"sphere", tessellate(ShapeKind::kSphere, 30)},
+                                      std::pair{"gearwheel", gearwheel()}}) {
+    SCOPED_TRACE(name);
+    std::vector<Vec3> pts = adversarial_points(surface, 20000, 17);
+    // Values at +-1e-10 (the mesher's zero tolerance scale) off the faces.
+    const double diag = surface.bounds().diagonal();
+    for (std::size_t t = 0; t < surface.triangles.size(); t += 5) {
+      const auto& tri = surface.triangles[t];
+      const Vec3 a = surface.vertices[tri[0]], b = surface.vertices[tri[1]], c = surface.vertices[tri[2]];
+      const Vec3 n = normalized(cross(b - a, c - a));
+      for (double off : {1e-10, -1e-10}) pts.push_back((a + b + c) / 3.0 + off * diag * n);
+    }
+    std::vector<double> ref(pts.size()), got(pts.size());
+    SurfaceSdf(surface).evaluate(pts, ref);
+    SdfSource src;
+    src.surface = &surface;
+    fp32_device().reset_profile();
+    fp32_device().signed_distance(src, pts, got);
+    const long i = first_difference(ref, got);
+    EXPECT_EQ(i, -1) << "point " << i << ": cpu " << (i >= 0 ? ref[i] : 0) << " fp32 path " << (i >= 0 ? got[i] : 0);
+    const Fp32Stats& st = fp32_device().fp32_stats();
+    EXPECT_EQ(st.points, pts.size());
+    // The device really decided most points: the host evaluated few whole.
+    EXPECT_LT(st.host_points, pts.size() / 4);
+    std::printf("[ fp32 path ] %s: %zu points, %.2f candidates per point, %llu (%.2f%%) evaluated whole on the host\n",
+                name, pts.size(), double(st.candidates) / double(pts.size() - st.host_points),
+                (unsigned long long)st.host_points, 100.0 * double(st.host_points) / double(pts.size()));
+  }
 }
 
 TEST(Opencl, MissingPlatformIsAnInputError) {
@@ -462,13 +586,14 @@ std::string slurp(const fs::path& p) {
   return s.str();
 }
 
-void expect_same_mesh_files(const std::string& input_args, const std::string& tag) {
+// env: prepended to the opencl run's command (MCHEX_FORCE_FP32=1: the fp32 path).
+void expect_same_mesh_files(const std::string& input_args, const std::string& tag, const std::string& env = "") {
   const fs::path dir = scratch("cli-" + tag);
   std::string files[2][2];
   for (int k = 0; k < 2; ++k) {
     const std::string backend = k ? "opencl" : "cpu";
     const fs::path in = dir / (backend + "-inside.mesh"), out = dir / (backend + "-outside.mesh");
-    const std::string cmd = std::string("XDG_CACHE_HOME=") + (fs::temp_directory_path() / "mchex_test_opencl_cli_cache").string() + " " + MCHEX_BINARY +
+    const std::string cmd = (k ? env + " " : std::string()) + "XDG_CACHE_HOME=" + (fs::temp_directory_path() / "mchex_test_opencl_cli_cache").string() + " " + MCHEX_BINARY +
                             " --quiet mesh " + input_args + " --backend " + backend + " -o " + in.string() +
                             " --outside " + out.string();
     ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
@@ -490,6 +615,14 @@ TEST(OpenclCli, ShapeMeshIsByteIdenticalToCpu) {
 TEST(OpenclCli, ModelMeshIsByteIdenticalToCpu) {
   const fs::path gear = fs::path(MCHEX_TEST_DATA) / "npm/node_modules/stl-models/objects/gearwheel.bin.stl";
   expect_same_mesh_files(gear.string() + " --depth 3 --method mchex", "gearwheel");
+}
+
+// The fp32 path end to end: the surface SDF from float candidates and host doubles, the shape's
+// values on the host; the meshes are the cpu reference's byte for byte.
+TEST(OpenclCli, Fp32PathMeshIsByteIdenticalToCpu) {
+  const fs::path gear = fs::path(MCHEX_TEST_DATA) / "npm/node_modules/stl-models/objects/gearwheel.bin.stl";
+  expect_same_mesh_files(gear.string() + " --depth 3 --method mchex", "gearwheel-fp32", "MCHEX_FORCE_FP32=1");
+  expect_same_mesh_files("--shape two-holed --depth 3 --method mchex", "two-holed-fp32", "MCHEX_FORCE_FP32=1");
 }
 
 TEST(OpenclCli, UnknownBackendExitsOne) {

@@ -28,6 +28,7 @@
 #include "core/hex_complex.h"
 #include "core/local_refinement.h"
 #include "core/mc33.h"
+#include "core/mchex_mesher.h"
 #include "core/refinement_error.h"
 #include "core/sdf.h"
 #include "core/shapes.h"
@@ -136,7 +137,7 @@ struct Classified {
 Classified run_classify(Backend& b, const HexComplex& complex, const std::vector<double>& values) {
   Classified out{std::vector<CellCode>(complex.cells.size()),
                  std::vector<std::uint64_t>(complex.cells.size() + 1)};
-  b.classify_cells(complex, values, out.codes, out.offsets);
+  classify_cells_codes(b, complex, values, out.codes, out.offsets);
   return out;
 }
 
@@ -292,18 +293,62 @@ TEST(vulkan, ClassifyOnASharedGridChunkedAndGatheredEqualsWhole) {
   EXPECT_GE(small.dispatches(), 4 * ((complex.cells.size() + 999) / 1000));
 }
 
+// The mesher's call (host/main.cpp): raw SDF values with the zero rule applied on the device,
+// corner ids computed on the device for a uniform grid, only the subcase bytes and offsets back,
+// and the values the SDF left on the device reused (ClassifyOptions::values_from_last_sdf). Every
+// field equals core's classification of apply_zero_rule's values.
+TEST(vulkan, ClassifyAUniformGridWithTheZeroRuleOnTheDevice) {
+  const UniformGrid grid(padded_cube(ShapeSdf(ShapeKind::kTwoHoled).bounds(), 0.1), 3);
+  const HexComplex complex = uniform_complex(grid);
+  std::vector<double> values(complex.points.size());
+  ShapeSdf(ShapeKind::kTwoHoled).evaluate(complex.points, values);
+  const double tiny = zero_tolerance_of(complex);
+  std::size_t moved = 0;
+  const double specials[] = {0.0, -0.0, 0.5 * tiny, -0.5 * tiny, tiny, -tiny};
+  for (std::size_t p = 0; p < values.size(); ++p)
+    if (std::abs(values[p]) < 2 * grid.cell_size() && p % 7 == 0) values[p] = specials[(p / 7) % 6];
+  const std::vector<double> ruled = apply_zero_rule(complex, values, &moved);
+  ASSERT_GT(moved, 20u);
+  const std::size_t n = complex.cells.size();
+  ClassifyOptions co;
+  co.zero_tolerance = tiny;
+  co.uniform_cells_per_axis = grid.cells_per_axis();
+  for (const std::size_t chunk : {std::size_t(0), std::size_t(1000)}) {
+    SCOPED_TRACE("chunk " + std::to_string(chunk));
+    VulkanBackend b(lavapipe_options(chunk));
+    std::vector<CellCode> codes(n);
+    std::vector<std::uint64_t> offsets(n + 1);
+    classify_cells_codes(b, complex, values, codes, offsets, co);
+    expect_same_as_reference(complex, ruled, codes, offsets);
+    std::vector<std::uint8_t> subcases(n);
+    std::vector<std::uint64_t> offsets2(n + 1);
+    b.classify_cells(complex, values, {subcases, offsets2}, co);
+    for (std::size_t i = 0; i < n; ++i) ASSERT_EQ(subcases[i], static_cast<std::uint8_t>(codes[i].subcase)) << i;
+    EXPECT_EQ(offsets2, offsets);
+    // The SDF's own output, left on the device, classified without a second upload.
+    std::vector<double> sdf(complex.points.size());
+    SdfSource two;
+    two.shape = ShapeKind::kTwoHoled;
+    b.signed_distance(two, complex.points, sdf);
+    ClassifyOptions resident = co;
+    resident.values_from_last_sdf = true;
+    classify_cells_codes(b, complex, sdf, codes, offsets, resident);
+    expect_same_as_reference(complex, apply_zero_rule(complex, sdf), codes, offsets);
+  }
+}
+
 TEST(vulkan, ClassifyRefusesNonFiniteValuesLikeTheReference) {
   HexComplex complex = separate_cells(2);
   std::vector<double> values(16, 1.0);
   values[11] = std::numeric_limits<double>::quiet_NaN();
   std::vector<CellCode> codes(2);
   std::vector<std::uint64_t> offsets(3);
-  EXPECT_THROW(lavapipe().classify_cells(complex, values, codes, offsets), InputError);
+  EXPECT_THROW(classify_cells_codes(lavapipe(), complex, values, codes, offsets), InputError);
   // A non-finite value at a point no cell uses is not an error (the reference never sees it).
   complex.points.push_back({});
   values.assign(17, 1.0);
   values[16] = std::numeric_limits<double>::infinity();
-  EXPECT_NO_THROW(lavapipe().classify_cells(complex, values, codes, offsets));
+  EXPECT_NO_THROW(classify_cells_codes(lavapipe(), complex, values, codes, offsets));
   EXPECT_EQ(offsets[2], 16u);
 }
 
