@@ -4,6 +4,7 @@
 #include <bit>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 #include <string>
 
@@ -136,7 +137,7 @@ bool Octree::is_marked(int level, std::uint64_t vertex) const {
 
 std::vector<std::uint64_t> Octree::marked_vertices(int level) const {
   if (level >= max_depth_) return {};
-  return sorted(marks_[level].keys());
+  return marks_[level].keys();
 }
 
 std::uint8_t mark_closure(std::uint8_t marks) {
@@ -167,7 +168,7 @@ std::vector<std::uint64_t> Octree::leaves(int level) const {
       if (!is_refined(level, child)) out.push_back(child);
     }
   }
-  return sorted(std::move(out));
+  return out;
 }
 
 std::size_t Octree::leaf_count() const {
@@ -388,41 +389,75 @@ Octree refine_octree(const SignedDistance& sdf, const Box& cube, const AdaptiveO
   const double edge = cube.hi.x - cube.lo.x;
   const double tolerance = adaptive_tolerance(cube, options);
 
-  // A candidate and its 8 corner values (sampled with its parent's lattice).
-  std::vector<std::uint64_t> candidates = {octree_key(0, 0, 0)};
+  // Candidates come as groups of 27 siblings, the children of a cell refined at the level above
+  // (child c at x = c % 3, y = c / 3 % 3, z = c / 9), or the root alone; each with its 8 corner
+  // values, sampled with its parent's lattice. A group's child lattices together form a
+  // (3n + 1)^3 lattice, n children per axis; it emits each point its active children need once
+  // (the sort then merges what neighbouring groups share), which saves the sort most of the 56
+  // keys per cell that sharing faces and edges repeats.
+  std::vector<std::uint64_t> parents = {};  // the refined cells whose children are the candidates
   std::vector<std::array<double, 8>> corners(1);
-  // The lattice points a candidate's batch adds: all 64 for the root, else the 56 that are not its
-  // corners (corners have every coordinate on the parent's lattice; the others have one off it).
-  std::array<int, kChildLatticePoints> fresh_points{};
-  int fresh_count = 0;
-  for (int p = 0; p < kChildLatticePoints; ++p)
-    if (p % 4 % 3 != 0 || p / 4 % 4 % 3 != 0 || p / 16 % 3 != 0) fresh_points[fresh_count++] = p;
-  for (int level = 0; level < depth && !candidates.empty(); ++level) {
+  for (int level = 0; level < depth; ++level) {
+    const bool root = level == 0;
+    const std::size_t groups = root ? 1 : parents.size();
+    if (groups == 0) break;
+    const int n = root ? 1 : 3, w = 3 * n + 1;
+    const std::size_t num_candidates = groups * n * n * n;
     const double h = edge / pow3(level);
     const std::uint32_t step = finest / pow3(level + 1);  // child lattice spacing in finest units
-    const bool root = level == 0;
-    const int adds = root ? kChildLatticePoints : fresh_count;
+    auto candidate = [&](std::size_t g, int c) {
+      if (root) return octree_key(0, 0, 0);
+      const auto [i, j, k] = octree_unkey(parents[g]);
+      return octree_key(3 * i + c % 3, 3 * j + c / 3 % 3, 3 * k + c / 9);
+    };
     // Candidates whose corners alone show that no surface passes through them stay leaves
-    // without sampling their lattice (cell_may_hold_surface's first test).
-    std::vector<std::uint8_t> clear(candidates.size());
-    if (!root)
-      parallel_for(candidates.size(), [&](std::size_t c) { clear[c] = corners_clear(corners[c], h); });
-    std::vector<std::uint32_t> active;
-    for (std::size_t c = 0; c < candidates.size(); ++c)
-      if (!clear[c]) active.push_back(static_cast<std::uint32_t>(c));
-    if (active.size() > (std::numeric_limits<std::uint32_t>::max() >> 6))
-      throw ResourceError("the adaptive refinement has too many cells at one level");
-    // One batch: the new lattice points of every active candidate, deduplicated by a sort.
-    std::vector<std::uint64_t> keys(active.size() * adds);
-    parallel_for(active.size(), [&](std::size_t a) {
-      const auto [i, j, k] = octree_unkey(candidates[active[a]]);
-      for (int q = 0; q < adds; ++q) {
-        const int p = root ? q : fresh_points[q];
-        keys[a * adds + q] =
-            packed.pack((3 * i + p % 4) * step, (3 * j + p / 4 % 4) * step, (3 * k + p / 16) * step);
+    // without sampling their lattice (cell_may_hold_surface's first test); the others' lattice
+    // points, less the corners (sampled a level above; the root has none), are this level's batch.
+    using Mask = std::array<std::uint64_t, 16>;  // bit a + w (b + w c) of the group's lattice
+    std::vector<Mask> need(groups);
+    std::vector<std::uint32_t> active_mask(groups);  // bit c: child c is sampled
+    std::vector<std::size_t> key_offset(groups + 1, 0);
+    parallel_for(groups, [&](std::size_t g) {
+      Mask m{};
+      std::uint32_t act = 0;
+      for (int c = 0; c < n * n * n; ++c) {
+        if (!root && corners_clear(corners[g * 27 + c], h)) continue;
+        act |= 1u << c;
+        const int x = 3 * (c % n), y = 3 * (c / n % n), z = 3 * (c / (n * n));
+        for (int p = 0; p < kChildLatticePoints; ++p) {
+          const int a = p % 4, b = p / 4 % 4, d = p / 16;
+          if (!root && a % 3 == 0 && b % 3 == 0 && d % 3 == 0) continue;
+          const int bit = (x + a) + w * ((y + b) + w * (z + d));
+          m[bit / 64] |= std::uint64_t{1} << (bit % 64);
+        }
       }
+      std::size_t count = 0;
+      for (std::uint64_t word : m) count += static_cast<std::size_t>(std::popcount(word));
+      need[g] = m;
+      active_mask[g] = act;
+      key_offset[g + 1] = count;
     });
-    std::vector<std::uint32_t> id(keys.size());  // a * adds + q -> its point's index in `fresh`
+    for (std::size_t g = 0; g < groups; ++g) key_offset[g + 1] += key_offset[g];
+    if (key_offset.back() > std::numeric_limits<std::uint32_t>::max())
+      throw ResourceError("the adaptive refinement samples too many points at one level");
+    // The group's lattice point -> its index among the group's emitted keys.
+    auto rank_table = [&](std::size_t g, std::array<std::uint16_t, 1000>& rank) {
+      std::uint16_t r = 0;
+      for (int bit = 0; bit < w * w * w; ++bit) {
+        rank[bit] = r;
+        r = static_cast<std::uint16_t>(r + (need[g][bit / 64] >> (bit % 64) & 1));
+      }
+    };
+    // One batch: every group's keys, deduplicated by a sort.
+    std::vector<std::uint64_t> keys(key_offset.back());
+    parallel_for(groups, [&](std::size_t g) {
+      const auto [i, j, k] = root ? std::array<std::uint32_t, 3>{0, 0, 0} : octree_unkey(parents[g]);
+      std::size_t out = key_offset[g];
+      for (int bit = 0; bit < w * w * w; ++bit)
+        if (need[g][bit / 64] >> (bit % 64) & 1)
+          keys[out++] = packed.pack((9 * i + bit % w) * step, (9 * j + bit / w % w) * step, (9 * k + bit / (w * w)) * step);
+    });
+    std::vector<std::uint32_t> id(keys.size());  // a group's key -> its point's index in `fresh`
     std::vector<std::uint64_t> fresh = sorted_distinct(std::move(keys), packed.bits, id);
     parallel_for(fresh.size(), [&](std::size_t p) { fresh[p] = packed.to_octree_key(fresh[p]); });
     std::vector<Vec3> points(fresh.size());
@@ -432,44 +467,57 @@ Octree refine_octree(const SignedDistance& sdf, const Box& cube, const AdaptiveO
     points = {};
     for (double v : f)
       if (!std::isfinite(v)) throw InputError("the signed distance is not finite at a grid point");
-    // Decisions, in parallel; each candidate's 64 values kept for its children's corners.
-    std::vector<std::array<double, kChildLatticePoints>> lattice(active.size());
-    std::vector<std::uint8_t> refine(active.size());
-    parallel_for(active.size(), [&](std::size_t a) {
-      std::array<double, kChildLatticePoints>& v = lattice[a];
-      for (int q = 0; q < adds; ++q) {
-        const int p = root ? q : fresh_points[q];
-        v[p] = f[id[a * adds + q]];
+    // Decisions, in parallel; each refined candidate's 64 values kept for its children's corners.
+    // Not zeroed (only sampled candidates' arrays are written, and only refined ones read).
+    std::unique_ptr<std::array<double, kChildLatticePoints>[]> lattice(new std::array<double, kChildLatticePoints>[num_candidates]);
+    std::vector<std::uint8_t> refine(num_candidates, 0);
+    parallel_chunks(groups, 16, [&](std::size_t gb, std::size_t ge) {
+      std::array<std::uint16_t, 1000> rank;
+      for (std::size_t g = gb; g < ge; ++g) {
+        rank_table(g, rank);
+        for (int c = 0; c < n * n * n; ++c) {
+          if (!(active_mask[g] >> c & 1)) continue;
+          const std::size_t cand = g * n * n * n + c;
+          std::array<double, kChildLatticePoints>& v = lattice[cand];
+          const int x = 3 * (c % n), y = 3 * (c / n % n), z = 3 * (c / (n * n));
+          for (int p = 0; p < kChildLatticePoints; ++p) {
+            const int a = p % 4, b = p / 4 % 4, d = p / 16;
+            if (!root && a % 3 == 0 && b % 3 == 0 && d % 3 == 0) {
+              v[p] = corners[cand][(a / 3) | (b / 3) << 1 | (d / 3) << 2];
+              continue;
+            }
+            v[p] = f[id[key_offset[g] + rank[(x + a) + w * ((y + b) + w * (z + d))]]];
+          }
+          refine[cand] = cell_may_hold_surface(v, h) && refinement_error(v, h) > tolerance;
+        }
       }
-      if (!root)
-        for (int c = 0; c < 8; ++c)
-          v[child_lattice_index(3 * (c & 1), 3 * (c >> 1 & 1), 3 * (c >> 2))] = corners[active[a]][c];
-      refine[a] = cell_may_hold_surface(v, h) && refinement_error(v, h) > tolerance;
     });
     id = {};
     std::vector<std::uint64_t> next;
     std::vector<std::array<double, 8>> next_corners;
-    for (std::size_t a = 0; a < active.size(); ++a) {
-      if (!refine[a]) continue;
-      tree.refine(level, candidates[active[a]]);
-      const auto [i, j, k] = octree_unkey(candidates[active[a]]);
+    std::size_t sampled = 0;
+    for (std::size_t g = 0; g < groups; ++g) sampled += static_cast<std::size_t>(std::popcount(active_mask[g]));
+    for (std::size_t cand = 0; cand < num_candidates; ++cand) {
+      if (!refine[cand]) continue;
+      const std::uint64_t cell = candidate(cand / (n * n * n), static_cast<int>(cand % (n * n * n)));
+      tree.refine(level, cell);
+      next.push_back(cell);
       for (int ch = 0; ch < 27; ++ch) {
         const int x = ch % 3, y = ch / 3 % 3, z = ch / 9;
-        next.push_back(octree_key(3 * i + x, 3 * j + y, 3 * k + z));
         std::array<double, 8>& cv = next_corners.emplace_back();
         for (int c = 0; c < 8; ++c)
-          cv[c] = lattice[a][child_lattice_index(x + (c & 1), y + (c >> 1 & 1), z + (c >> 2))];
+          cv[c] = lattice[cand][child_lattice_index(x + (c & 1), y + (c >> 1 & 1), z + (c >> 2))];
       }
     }
     if (stats) {
       OctreeLevelStats& s = stats->levels[level];
-      s.candidates = candidates.size();
-      s.sampled = active.size();
+      s.candidates = num_candidates;
+      s.sampled = sampled;
       s.sdf_points = fresh.size();
-      s.refined_by_error = next.size() / 27;
+      s.refined_by_error = next.size();
     }
     tree.record_samples(level, std::move(fresh), std::move(f));
-    candidates = std::move(next);
+    parents = std::move(next);
     corners = std::move(next_corners);
   }
   return tree;
@@ -550,7 +598,13 @@ std::size_t balance_octree(Octree& tree, OctreeStats* stats) {
   }
   if (stats) {
     stats->balance_rounds += rounds;
-    for (int level = 0; level <= depth; ++level) stats->levels[level].leaves = tree.leaves(level).size();
+    // 27 children replace each refined cell.
+    std::size_t above = 1;
+    for (int level = 0; level <= depth; ++level) {
+      const std::size_t refined = level < depth ? tree.refined_cells(level).size() : 0;
+      stats->levels[level].leaves = above - refined;
+      above = 27 * refined;
+    }
   }
   return total;
 }
@@ -679,7 +733,7 @@ AdaptiveGrid build_adaptive_complex(const Octree& tree) {
       }
     }
     cell_offset[g + 1] = cells;
-    key_offset[g + 1] = keys + std::popcount(gr.lattice);
+    key_offset[g + 1] = keys + static_cast<std::size_t>(std::popcount(gr.lattice));
   });
   if (std::find(bad.begin(), bad.end(), 1) != bad.end())
     throw std::logic_error("build_adaptive_complex: the octree is not balanced");
@@ -709,9 +763,11 @@ AdaptiveGrid build_adaptive_complex(const Octree& tree) {
     // a cube (p in {0, 12}).
     auto at = [size](int p) { return std::uint64_t(p) * size / kTemplateUnits; };
     std::size_t key = key_offset[g], cell = cell_offset[g];
-    for (std::uint64_t bits = gr.lattice; bits; bits &= bits - 1) {
-      const int b = std::countr_zero(bits);
-      keys[key++] = packed.pack((i0 + b % w) * size, (j0 + b / w % w) * size, (k0 + b / (w * w)) * size);
+    std::array<std::uint8_t, 64> rank;  // of each used lattice point among them
+    for (int b = 0; b < w * w * w; ++b) {
+      rank[b] = static_cast<std::uint8_t>(key - key_offset[g]);
+      if (gr.lattice >> b & 1)
+        keys[key++] = packed.pack((i0 + b % w) * size, (j0 + b / w % w) * size, (k0 + b / (w * w)) * size);
     }
     const double child_size = edge / pow3(gr.level);
     for (int c = 0; c < n * n * n; ++c) {
@@ -721,8 +777,7 @@ AdaptiveGrid build_adaptive_complex(const Octree& tree) {
       if (kind == static_cast<int>(TemplateKind::kCube)) {
         for (int q = 0; q < 8; ++q) {
           const int b = (x + kCubeCorners[q][0]) + w * ((y + kCubeCorners[q][1]) + w * (z + kCubeCorners[q][2]));
-          out.complex.cells[cell][q] = static_cast<std::uint32_t>(
-              key_offset[g] + std::popcount(gr.lattice & ((std::uint64_t{1} << b) - 1)));
+          out.complex.cells[cell][q] = static_cast<std::uint32_t>(key_offset[g] + rank[b]);
         }
         out.cell_type[cell] = rt.type[kind][0];
         out.cell_level[cell] = gr.level;

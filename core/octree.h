@@ -141,10 +141,10 @@ class Octree {
   // Marks vertex (i, j, k) of a level (< max_depth); returns false if it already was marked.
   bool mark(int level, std::uint64_t vertex);
   bool is_marked(int level, std::uint64_t vertex) const;
-  std::vector<std::uint64_t> marked_vertices(int level) const;  // sorted
+  std::vector<std::uint64_t> marked_vertices(int level) const;  // in the order they were marked
   // Refined cells of a level (level < max_depth), sorted by key.
   std::vector<std::uint64_t> refined_cells(int level) const;
-  // Leaves of a level, sorted by key.
+  // Leaves of a level, by their parents in the order those were refined (deterministic, unsorted).
   std::vector<std::uint64_t> leaves(int level) const;
   std::size_t leaf_count() const;
   // Marked corners of a cell: bit c <=> its corner c (VTK order) is marked.
