@@ -63,9 +63,8 @@ const Table& table() {
           if (type.source == kind && type.refinement_level == 0) type.name = fmt::format("{}-{}", type.name, ++n);
       }
     }
-    // Local refinement (paper Figure 7: the 7 children of one refinement level, cell corners
-    // joined to an inner cube) adds the 15 + 1 further types; it lives in core/local_refinement.h,
-    // which has not landed on this branch, so the table holds the 9 basic cells only.
+    // Local refinement (paper Figure 7) adds the 15 + 1 further types; certify covers them
+    // through refine_locally on these (cell_types.h), so the table holds the basic cells only.
     return t;
   }();
   return t;

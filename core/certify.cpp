@@ -16,6 +16,7 @@
 #include "core/parallel.h"
 #include "core/polyhedra.h"
 #include "core/quality.h"
+#include "core/repair.h"
 #include "core/subdivide.h"
 
 namespace mchex {
@@ -30,7 +31,16 @@ namespace {
 struct Pattern {
   Subcase subcase;
   CellClass cls;
+  std::array<double, 8> f;  // the cell it was found on
 };
+
+// Cells of the subcases that seeded random draws practically never give: 13.5.2 needs both of the
+// cell's body saddles inside it with the tunnel's sign (core/mc33.h's interior test). The values
+// are tests/test_mc33.cpp's 13.5.2 example; samples() walks from it through nearby cells of the
+// same class.
+constexpr std::array<std::array<double, 8>, 1> kConstructedCells = {{
+    {1.0, -0.2, 1.0, -0.8, -0.3, 0.4, -0.3, 0.2},
+}};
 
 // One classified cell per direct subcase and class of sign patterns up to rotation (the
 // representative's own class, and the mirror class where the subcase needs a reflection).
@@ -51,8 +61,15 @@ std::vector<Pattern> patterns(std::uint64_t seed) {
       const int mirror = c.symmetry >= kNumCubeRotations;
       if (seen[static_cast<int>(c.subcase)][mirror]) continue;
       seen[static_cast<int>(c.subcase)][mirror] = true;
-      out.push_back({c.subcase, c});
+      out.push_back({c.subcase, c, f});
     }
+  for (const auto& f : kConstructedCells) {
+    const CellClass c = classify(f);
+    const int mirror = c.symmetry >= kNumCubeRotations;
+    if (seen[static_cast<int>(c.subcase)][mirror]) continue;
+    seen[static_cast<int>(c.subcase)][mirror] = true;
+    out.push_back({c.subcase, c, f});
+  }
   std::sort(out.begin(), out.end(), [](const Pattern& a, const Pattern& b) {
     return std::make_pair(a.subcase, a.cls.symmetry >= kNumCubeRotations) <
            std::make_pair(b.subcase, b.cls.symmetry >= kNumCubeRotations);
@@ -61,7 +78,7 @@ std::vector<Pattern> patterns(std::uint64_t seed) {
 }
 
 struct TaskResult {
-  std::size_t hexes = 0, failed = 0;
+  std::size_t hexes = 0, failed = 0, moved_centres = 0;
   double min_coefficient = std::numeric_limits<double>::infinity();
   std::optional<CertifyFailure> failure;
 };
@@ -83,6 +100,10 @@ CellClass clamped(CellClass c, double eps) {
     if (!std::isnan(s)) s = std::clamp(s, eps, 1 - eps);
   return c;
 }
+
+constexpr std::size_t kWalkBelow = 16;   // a class with fewer samples than this is walked ...
+constexpr std::size_t kWalkTarget = 32;  // ... until it has this many (or kWalkSteps steps)
+constexpr int kWalkSteps = 256;
 
 std::vector<Sample> samples(const Pattern& p, const CertifyOptions& o, std::mt19937_64& rng) {
   const CellClass& ref = p.cls;
@@ -114,6 +135,24 @@ std::vector<Sample> samples(const Pattern& p, const CertifyOptions& o, std::mt19
     std::array<double, 8> m;
     for (double& x : m) x = coin(rng) ? (coin(rng) ? 1.0 : 1e-6) : u(rng);
     add(m);
+  }
+  // A class that the draws above rarely reach (13.5.2 above all): a random walk from the pattern's
+  // own cell, each step scaling every corner magnitude by a factor in [e^-1, e], kept in
+  // [1e-6, 1] and accepted only when the class stays, so the samples spread over the class's
+  // region of values instead of sitting on one cell.
+  if (out.size() < kWalkBelow) {
+    std::normal_distribution<double> n01(0, 1);
+    std::array<double, 8> m;
+    for (int c = 0; c < 8; ++c) m[c] = std::abs(p.f[c]);
+    const double top = *std::max_element(m.begin(), m.end());
+    for (double& x : m) x /= top;
+    for (int step = 0; step < kWalkSteps && out.size() < kWalkTarget; ++step) {
+      std::array<double, 8> trial = m;
+      for (double& x : trial) x = std::clamp(x * std::exp(std::clamp(n01(rng), -1.0, 1.0)), 1e-6, 1.0);
+      const std::size_t before = out.size();
+      add(trial);
+      if (out.size() > before) m = trial;
+    }
   }
   // Many end cells clamp to the same crossings (the cut does not depend on the values beyond its
   // class and crossings, except through the inner points' virtual values of a refined cell):
@@ -157,21 +196,22 @@ CertifyResult certify(const CertifyOptions& o) {
       TaskResult& tr = results[task];
       auto check = [&](const std::array<Vec3, 8>& cell, const CellClass& c, const std::array<double, 12>& s) {
         // As the mesher builds them: in the parametric cube, corners mapped by the cell's map.
-        for (const Polyhedron& poly : cut_cell(kUnitCubeCorners, c))
-          for (SubdivisionHex h : midpoint_subdivide(poly)) {
-            for (Vec3& x : h.corners) x = trilinear_map(cell, x);
+        for (const Polyhedron& poly : cut_cell(kUnitCubeCorners, c)) {
+          const MappedSubdivision ms = subdivide_in_cell(poly, cell);
+          tr.moved_centres += ms.centre_moved;
+          for (const double scaled : ms.hex_min_scaled) {
             ++tr.hexes;
-            const double scaled = min_bernstein_scaled(h.corners);
             tr.min_coefficient = std::min(tr.min_coefficient, scaled);
-            if (!bernstein_certified(h.corners)) {
+            if (!(scaled > 0)) {
               ++tr.failed;
               if (!tr.failure) tr.failure = CertifyFailure{type, rotation, p.subcase, s, scaled};
             }
           }
+        }
       };
       for (const Sample& smp : samples(p, o, rng)) {
         const CellClass c = clamped(smp.cls, o.eps);
-        if (!needs_local_refinement(smp.cls)) {
+        if (!needs_local_refinement(smp.cls, corners)) {  // as the mesher routes it
           check(corners, c, c.crossing);
           continue;
         }
@@ -199,6 +239,7 @@ CertifyResult certify(const CertifyOptions& o) {
     e.checked = true;
     e.hexes += tr.hexes;
     e.failed_hexes += tr.failed;
+    e.moved_centres += tr.moved_centres;
     r.hexes += tr.hexes;
     if (tr.failure && !r.first_failure) r.first_failure = tr.failure;
   }
@@ -243,6 +284,22 @@ std::string certify_report(const CertifyResult& r) {
     out += "\n";
   }
   out += "(LR: through local refinement; entry: min over the hexes of min coefficient / mean edge^3; '!': some coefficient <= 0)\n";
+  // Where plain midpoint subdivision was not certified and core/repair.h moved a volume centre.
+  out += fmt::format("{:<8} {} {:>9} ", "moved", "  ", "centres");
+  for (std::size_t t = 0; t < types.size(); ++t) {
+    std::size_t moved = 0;
+    for (int s = 0; s < kNumSubcases; ++s) moved += r.table[t][s].moved_centres;
+    out += fmt::format(" {:>9}", moved);
+  }
+  out += "\n";
+  std::string where;
+  for (int s = 0; s < kNumSubcases; ++s) {
+    std::size_t moved = 0;
+    for (std::size_t t = 0; t < types.size(); ++t) moved += r.table[t][s].moved_centres;
+    if (moved) where += fmt::format(" {} ({})", std::string(subcase_name(static_cast<Subcase>(s))), moved);
+  }
+  out += fmt::format("(polyhedra whose plain subdivision was not certified, so the volume-centre search of core/repair.h "
+                     "moved the centre; by subcase:{})\n", where.empty() ? " none" : where);
   if (r.first_failure) {
     const CertifyFailure& f = *r.first_failure;
     std::string s;

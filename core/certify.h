@@ -8,6 +8,11 @@
 // Crossings come from corner values because the mesher's do: sampling each s on its own also
 // makes combinations that no cell has (and some of those are negative on transition cells).
 //
+// Every polyhedron goes through core/repair.h's subdivide_in_cell, as in the mesher: corners mapped
+// through the cell's trilinear map, every hex checked, and the volume centre moved by a
+// deterministic search where plain midpoint subdivision is not certified (on the transition types:
+// case 5, 12.1.1 and case-5 leaves of refined subcases; never on the cube). The table counts those
+// polyhedra ("moved centres").
 // What the mesher does per subcase decides what is certified ("certify what the mesher will
 // actually do"):
 //   direct  the paper's 14 templates of Figure 6 plus the uncut cell: cut_cell on the cell itself;
@@ -15,9 +20,13 @@
 //           among them): refine_locally on the cell, then every leaf child classified from its
 //           (virtual) values and cut directly, as the mesher does.
 // The cell types are the basic cells; the paper's 15 + 1 further types (children of local
-// refinement) are covered by refining each basic type, not listed in the table.
+// refinement) are covered by refining each basic type, not listed in the table: refine_locally
+// commutes with affine maps (tests/test_certify.cpp LocalRefinementCommutesWithAffineMaps), so the
+// leaves of every grid cell are affine images of the leaves certified here.
 // Sign patterns: for each subcase, one cell per class of patterns up to rotation and complement
-// (the complement gives the same polyhedra), found by classify() on seeded random corner values:
+// (the complement gives the same polyhedra), found by classify() on seeded random corner values
+// (13.5.2, which random values practically never give, from a constructed cell; a class with few
+// samples is widened by a random walk through nearby values of the same class):
 // the rotation class of its canonical representative and, for 12.2, the mirror class too (its
 // cells map onto the representative only by a reflection).
 #pragma once
@@ -45,6 +54,7 @@ CertifyRoute certify_route(Subcase s);
 struct CertifyEntry {  // one (type, subcase)
   std::size_t hexes = 0;         // hexes checked
   std::size_t failed_hexes = 0;  // with a coefficient <= 0
+  std::size_t moved_centres = 0; // polyhedra whose volume centre the search moved (core/repair.h)
   double min_coefficient = 0;    // min over hexes of min beta / (mean edge)^3 (dimensionless)
   bool checked = false;          // false: needs local refinement (not landed)
 };

@@ -31,16 +31,28 @@ std::array<double, 3> inner_parameter(int corner) {
   return u;
 }
 
-// The 16 points of one level: corners, then inner points (trilinear map at inner_parameter).
+// The 16 points of one level: corners, then inner points. Inner point i is the midpoint of corner
+// i and the centroid (the mean of the 8 corners): the paper's "connecting its eight grid points to
+// its centroid" (Section 5), taken in space. The inner cell is then the cell shrunk by 1/2 about
+// its centroid, an affine image of the cell, so it has the cell's own type (Theorem 5.2), and
+// each frustum's side faces are planar trapezoids (a cell edge and its image, scaled about the
+// centroid). On a parallelepiped cell this is the trilinear map at parametric (1/4, 3/4) (the
+// placement used before); on a transition cell the parametric placement makes warped frustums
+// and a warped inner cell. Measured by certify on the 7 transition types (before any
+// volume-centre search, core/repair.h): parametric placement, min scaled Bernstein coefficient
+// down to -8e-2 and every refined subcase failing; this placement, every refined subcase
+// certified except 3.2, 4.1.2 and 6.2, whose failing leaves are case-5 frustums (-1e-1..-3e-3).
+// The scale (kInnerPointScale) barely matters: 0.35, 0.4, 0.5, 0.6 leave the same few 3.2
+// frustum leaves failing on edge-3 (646..663 of 115118 sampled cells).
 std::array<Vec3, 16> level_points(const std::array<Vec3, 8>& corners) {
   std::array<Vec3, 16> p{};
-  for (int c = 0; c < 8; ++c) p[c] = corners[c];
-  for (int i = 0; i < 8; ++i) {
-    const auto w = trilinear_weights(inner_parameter(i));
-    Vec3 q{};
-    for (int c = 0; c < 8; ++c) q += w[c] * corners[c];
-    p[8 + i] = q;
+  Vec3 centroid{};
+  for (int c = 0; c < 8; ++c) {
+    p[c] = corners[c];
+    centroid += corners[c];
   }
+  centroid = centroid / 8.0;
+  for (int i = 0; i < 8; ++i) p[8 + i] = centroid + kInnerPointScale * (corners[i] - centroid);
   return p;
 }
 
@@ -54,10 +66,11 @@ std::array<Vec3, 16> level_points(const std::array<Vec3, 8>& corners) {
 // Refined: the subcases whose direct cut fails the Bernstein certificate on the unit cube for
 // some crossings (3.2, 6.2, 7.2, 7.3, 10.2, 11, 12.2, 13.2, 13.3, 13.4, 14; see
 // test_polyhedra.cpp) and the six tunnel subcases. Unlike the paper's 17 (Figure 7), 7.4.1 and
-// 13.5.1 certify directly here and are not refined, and 11 and 14 (the paper's "Case 12",
-// which it fixes with a volume-centre offset, Eq. 14) are refined instead: the offset is not
-// implemented (yet), and refinement certifies them at a cost of 104 hexes a cell instead of 20.
-// Cut directly on a frustum child, 11 and 14 fail for about a quarter of sampled cells
+// 13.5.1 certify directly here and are not refined. 11 and 14 (the paper's "Case 12", which it
+// fixes with a volume-centre offset, Eq. 14) are cut directly with the offset on affine cells
+// (core/volume_centre_offset.h: 20 hexes a cell) and refined on the others (104 hexes), where no
+// offset certifies them: for some crossings no centre at all does on the templates' transition
+// cells. Cut directly on a frustum child, 11 and 14 fail for about a quarter of sampled cells
 // (DISABLED_DirectSubcasesPerGeometry), so no template may leave them as leaves either.
 // Except in 3.2 the inner points all take one sign: the inner cell then is empty and every
 // frustum is a case of its outer face alone (the frustum's 4 inner points share a sign, so none
@@ -70,9 +83,20 @@ constexpr LocalRefinementTable make_table() {
   using S = Subcase;
   // One level: every child is cut directly.
   set(S::k3_2, 0x0F);     // inner points next to the face z = 0 (the joined one) positive
+  // ... but a cell that is 3.2 itself takes 0x7F (every inner point positive but the one next to
+  // corner 7): measured over the 8 basic cell types x 24 rotations x 709 sampled 3.2 cells (with
+  // core/repair.h's volume-centre search), 0x0F leaves 117 uncertified polyhedra on edge-3 and
+  // face-3 (min scaled coefficient -6.9e-3, case-5 side frustums), 0x1F 65, 0x4F 54, 0x7F none
+  // (the first one-level pattern with none); as the template of a 3.2 frustum at the second level
+  // (7.2, 7.4.2) 0x7F fails on the cube, where 0x0F certifies.
+  t[static_cast<int>(S::k3_2)].own_level = true;
+  t[static_cast<int>(S::k3_2)].own_inner_positive = 0x7F;
   set(S::k6_2, 0xFF);
   set(S::k11, 0x00);
   set(S::k14, 0x00);
+  // ... on general cells only: on affine ones the volume-centre offset certifies them directly.
+  t[static_cast<int>(S::k11)].direct_on_affine = true;
+  t[static_cast<int>(S::k14)].direct_on_affine = true;
   set(S::k4_1_2, 0xFF);   // the tunnel's sign fills the inner cell
   // Two levels: some frustums are 3.2 or 6.2 cells and are refined again.
   set(S::k7_2, 0x00);
@@ -114,7 +138,7 @@ SignPlan plan(std::uint8_t mask, std::uint8_t face_joins, Subcase s, int symmetr
   const CubeSymmetry& g = kCubeSymmetries[symmetry];
   std::uint16_t signs = mask;
   for (int i = 0; i < 8; ++i) {
-    const bool pos = ((tpl.inner_positive >> g.corner[i] & 1) != 0) != inverted;
+    const bool pos = ((tpl.signs(depth) >> g.corner[i] & 1) != 0) != inverted;
     if (pos) signs |= static_cast<std::uint16_t>(1u << (8 + i));
   }
   SignPlan out{0, 1};
@@ -160,7 +184,7 @@ void refine_into(const std::array<std::uint32_t, 8>& cell, const CellClass& c,
   for (int i = 0; i < 8; ++i) {
     // Template signs live on the representative: inner point i of this cell is the
     // representative's inner point g.corner[i]; an inverted map swaps inside and outside.
-    const bool positive = ((tpl.inner_positive >> g.corner[i] & 1) != 0) != c.inverted;
+    const bool positive = ((tpl.signs(depth) >> g.corner[i] & 1) != 0) != c.inverted;
     const auto w = trilinear_weights(inner_parameter(i));
     double v = 0;
     for (int k = 0; k < 8; ++k) v += w[k] * f[k];
@@ -226,6 +250,16 @@ const LocalRefinementTable& local_refinement_table() { return kTable; }
 
 bool needs_local_refinement(Subcase s) { return kTable[static_cast<int>(s)].refine; }
 bool needs_local_refinement(const CellClass& c) { return needs_local_refinement(c.subcase); }
+bool needs_local_refinement(Subcase s, CellShape shape) {
+  const LocalRefinementTemplate& t = kTable[static_cast<int>(s)];
+  return t.refine && !(shape == CellShape::kAffine && t.direct_on_affine);
+}
+bool needs_local_refinement(const CellClass& c, const std::array<Vec3, 8>& corners) {
+  // The shape test only where it can change the answer.
+  const LocalRefinementTemplate& t = kTable[static_cast<int>(c.subcase)];
+  if (!t.refine || !t.direct_on_affine) return t.refine;
+  return needs_local_refinement(c.subcase, cell_shape(corners));
+}
 
 LocalRefinement refine_locally(const std::array<Vec3, 8>& corners, const std::array<double, 8>& f,
                                const CellClass& c, double zero_tolerance,
@@ -254,6 +288,16 @@ std::vector<std::array<Vec3, 8>> local_refinement_children(const std::array<Vec3
 }
 
 int local_refinement_hexes(Subcase s) { return subcase_plan(s).hexes; }
+int local_refinement_hexes(Subcase s, CellShape shape) {
+  if (!needs_local_refinement(s, shape)) {
+    // Cut directly: 8 + 2 * cut edges (Theorem 4.1), on the representative's sign pattern.
+    const std::uint8_t m = subcase_info(s).positive_mask;
+    int cut = 0;
+    for (const auto& e : kCubeEdges) cut += (m >> e[0] & 1) != (m >> e[1] & 1);
+    return 8 + 2 * cut;
+  }
+  return local_refinement_hexes(s);
+}
 int local_refinement_levels(Subcase s) { return subcase_plan(s).levels; }
 
 }  // namespace mchex

@@ -3,7 +3,7 @@
 // (no such polyhedra at all), are split into 7 children before cutting: "connecting its eight grid
 // points to its centroid, resulting in seven smaller children cells" (Section 5) - an inner cell
 // and 6 frustums, one on each face of the cell. The 8 inserted (inner) points sit at fixed
-// parametric positions; each gets a *virtual* value whose SIGN follows a per-subcase template,
+// positions (halfway from each corner to the centroid, kInnerPointScale); each gets a *virtual* value whose SIGN follows a per-subcase template,
 // chosen so that every child falls into a subcase that midpoint subdivision certifies and the
 // union of the children's regions has the cell's MC33 topology (Figure 7: "virtual SDF values
 // assigned to new vertices ensure each hex falls into the fourteen proven topological cases and
@@ -45,12 +45,22 @@
 
 #include "core/geometry.h"
 #include "core/mc33.h"
+#include "core/volume_centre_offset.h"
 
 namespace mchex {
 
-// Parametric position of the inner points: inner point i is the cell's trilinear map at corner
-// i's coordinates with 0 -> t and 1 -> 1 - t (the midpoint between corner i and the centroid,
-// in parametric space, at t = 1/4).
+// Placement of the inner points: inner point i = centroid + kInnerPointScale * (corner i -
+// centroid), the centroid being the mean of the 8 corners (paper Section 5: the children come from
+// "connecting its eight grid points to its centroid"). Taken in space, not in the parametric cube,
+// so that the inner cell is an affine image of the cell and the frustums' side faces are planar
+// (the paper's "bitter lesson": the closer to affine, the more tractable; see local_refinement.cpp
+// for the measured difference on transition cells). On a parallelepiped cell it is the trilinear
+// map at parametric 1/4 and 3/4.
+inline constexpr double kInnerPointScale = 0.5;
+// The parametric position (t and 1 - t) at which an inner point's virtual value interpolates the
+// cell's 8 values: the inner point itself on a parallelepiped cell, near it on a transition cell.
+// Only the value's magnitude comes from here (the template decides its sign), so it moves the
+// crossings on edges inside the cell, never the topology.
 inline constexpr double kInnerPointPosition = 0.25;
 
 // The 7 children as indices into [cell corners 0..7, inner points 8..15] (inner point 8 + i sits
@@ -64,17 +74,34 @@ std::array<LocalRefinementChild, kNumLocalRefinementChildren> local_refinement_c
 
 // Per subcase: whether its cells are refined, and the template - the signs of the 8 inner points
 // on the subcase's canonical representative (bit i: inner point next to corner i is positive).
+// `direct_on_affine`: on an affine cell (CellShape::kAffine, core/volume_centre_offset.h) the
+// subcase is cut directly, its volume centres moved by the offset of Section 5 / Eq. 14, and
+// refined only on the other cells (11 and 14: the offset certifies on parallelepipeds, and no
+// offset can on the templates' transition cells).
 struct LocalRefinementTemplate {
   bool refine = false;
   std::uint8_t inner_positive = 0;
+  bool direct_on_affine = false;
+  // Where set: the signs used when the subcase is the cell's own (the first level), while
+  // inner_positive serves a child refined at the second level. 3.2 needs it: its level-1 template
+  // 0x0F leaves case-5 frustums that no volume-centre search certifies on the edge-3 and face-3
+  // transition types, and 0x7F, which certifies there, breaks the second level of 7.2 and 7.4.2
+  // (local_refinement.cpp).
+  bool own_level = false;
+  std::uint8_t own_inner_positive = 0;
+  constexpr std::uint8_t signs(int depth) const { return depth == 0 && own_level ? own_inner_positive : inner_positive; }
 };
 using LocalRefinementTable = std::array<LocalRefinementTemplate, kNumSubcases>;
 const LocalRefinementTable& local_refinement_table();
 
 // True when cut_cell + midpoint_subdivide of this class is not certified for every s (or the
-// subcase has a tunnel): such a cell goes through refine_locally.
+// subcase has a tunnel): such a cell goes through refine_locally. Without a shape: on a general
+// cell (the table's `refine`); with one, or the cell's corners, the shape's answer (11 and 14 are
+// cut directly on affine cells).
 bool needs_local_refinement(const CellClass& c);
 bool needs_local_refinement(Subcase s);
+bool needs_local_refinement(Subcase s, CellShape shape);
+bool needs_local_refinement(const CellClass& c, const std::array<Vec3, 8>& corners);
 
 struct LocalRefinement {
   std::vector<Vec3> points;    // [0, 8): the cell's corners as given; then the inserted points
@@ -98,9 +125,10 @@ LocalRefinement refine_locally(const std::array<Vec3, 8>& corners, const std::ar
 std::vector<std::array<Vec3, 8>> local_refinement_children(const std::array<Vec3, 8>& corners);
 
 // Hexes that midpoint subdivision makes from one cell of subcase s: 8 + 2 * cut edges for a cell
-// cut directly, the sum over the leaves for a refined one (a pure function of the subcase, see
-// above). The mesher's count pass uses it.
-int local_refinement_hexes(Subcase s);
+// cut directly, the sum over the leaves for a refined one (a pure function of the subcase and the
+// cell's shape, see above). The mesher's count pass uses it.
+int local_refinement_hexes(Subcase s);  // on a general cell
+int local_refinement_hexes(Subcase s, CellShape shape);
 // How many refinement levels subcase s uses (0 when it is cut directly).
 int local_refinement_levels(Subcase s);
 

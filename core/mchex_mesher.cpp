@@ -19,6 +19,7 @@
 #include "core/parallel.h"
 #include "core/polyhedra.h"
 #include "core/quality.h"
+#include "core/repair.h"
 #include "core/subdivide.h"
 
 namespace mchex {
@@ -106,6 +107,9 @@ struct ChunkOutput {
   std::vector<Hex> inside, outside;
   std::vector<Vec3> locals;
   MchexStats stats;
+  // The count a device computes from subcases alone (local_refinement_hexes on a general cell):
+  // what the device's prefix sum is checked against. Affine 11/14 cells make fewer hexes.
+  std::uint64_t subcase_hexes = 0;
 };
 
 // A cell to cut, as the mesher names its parts: the cell of the complex itself, or one child of
@@ -134,6 +138,7 @@ struct Mesher {
   std::span<const double> f;
   double eps;
   double tiny;                // the zero rule's tolerance: virtual values are at least this
+  std::span<const std::uint8_t> device_subcases;  // empty, or the device's (cross-checked)
   std::vector<Vec3>& shared;  // [0, slots.end): written by owners only
 
   // The points one cell makes for itself (loop centroids, volume centres, everything inside a
@@ -159,12 +164,21 @@ struct Mesher {
       xc[c] = cx.points[gv[c]];
     }
     const CellClass cls = classify(fc);
+    if (!device_subcases.empty() && device_subcases[cell] != static_cast<std::uint8_t>(cls.subcase))
+      throw std::logic_error("mesh_mchex: cell " + std::to_string(cell) + ": the device classified subcase " +
+                             std::string(subcase_name(static_cast<Subcase>(device_subcases[cell] % kNumSubcases))) +
+                             " (code " + std::to_string(device_subcases[cell]) + "), core's classify() subcase " +
+                             std::string(subcase_name(cls.subcase)));
     out.stats.cases[static_cast<int>(cls.subcase)] += 1;
-    out.stats.expected_hexes += static_cast<std::size_t>(local_refinement_hexes(cls.subcase));
+    // 11 and 14 are cut directly (volume-centre offset) on affine cells, refined on the others.
+    const bool refine = needs_local_refinement(cls, xc);
+    out.stats.expected_hexes += static_cast<std::size_t>(
+        local_refinement_hexes(cls.subcase, refine ? CellShape::kGeneral : CellShape::kAffine));
+    out.subcase_hexes += static_cast<std::uint64_t>(local_refinement_hexes(cls.subcase));
     const auto& cell_edges = topo.cell_edges[cell];
     const auto& cell_faces = topo.cell_faces[cell];
     LocalPoints locals;
-    if (!needs_local_refinement(cls)) {
+    if (!refine) {
       PieceFrame frame;
       frame.global = gv;
       for (int c = 0; c < 8; ++c) frame.local[c] = static_cast<std::uint8_t>(c);
@@ -321,11 +335,16 @@ struct Mesher {
         }
       }
       auto& target = p.region_sign > 0 ? out.inside : out.outside;
-      for (const SubdivisionHex& h : midpoint_subdivide(p)) {
+      // Mapped into the cell, every hex checked, the volume centre moved where one is not
+      // certified (core/repair.h; the centre is this polyhedron's own point).
+      const MappedSubdivision mapped = subdivide_in_cell(p, xc);
+      out.stats.moved_centres += mapped.centre_moved;
+      out.stats.uncertified_polyhedra += !mapped.certified;
+      for (const SubdivisionHex& h : mapped.hexes) {
         Hex hex;
         for (int c = 0; c < 8; ++c) {
           const SubdivisionPointKey& sk = h.keys[c];
-          const Vec3 x = trilinear_map(xc, h.corners[c]);
+          const Vec3& x = h.corners[c];
           std::uint32_t id = 0;
           switch (sk.kind) {
             case SubdivisionPointKey::Kind::kVertex:
@@ -373,27 +392,47 @@ std::string_view mchex_case_name(int slot) {
 
 double zero_tolerance(double cell_size) { return 1e-10 * cell_size; }
 
-MeshPair mesh_mchex(const HexComplex& cx, std::span<const double> values, double eps,
-                    MchexStats* stats_out) {
-  if (!(eps > 0 && eps < 0.5)) throw InputError("eps must be in (0, 0.5), got " + std::to_string(eps));
-  if (values.size() != cx.points.size())
-    throw InputError("mesh_mchex: " + std::to_string(values.size()) + " values for " +
-                     std::to_string(cx.points.size()) + " grid points");
-  MchexStats stats;
+namespace {
 
-  // The zero rule (mchex_mesher.h), once per point.
+double zero_tolerance_of(const HexComplex& cx) {
   double smallest = std::numeric_limits<double>::infinity();
   for (double h : cx.cell_size) smallest = std::min(smallest, h);
   if (!std::isfinite(smallest)) smallest = cx.box.empty() ? 1.0 : cx.box.diagonal();
-  const double tiny = zero_tolerance(smallest);
+  return zero_tolerance(smallest);
+}
+
+}  // namespace
+
+std::vector<double> apply_zero_rule(const HexComplex& cx, std::span<const double> values, std::size_t* perturbed) {
+  if (values.size() != cx.points.size())
+    throw InputError("mesh_mchex: " + std::to_string(values.size()) + " values for " +
+                     std::to_string(cx.points.size()) + " grid points");
+  // The zero rule (mchex_mesher.h), once per point.
+  const double tiny = zero_tolerance_of(cx);
   std::vector<double> f(values.begin(), values.end());
+  std::size_t moved = 0;
   for (double& v : f) {
     if (!std::isfinite(v)) throw InputError("mesh_mchex: a grid value is not finite");
     if (std::abs(v) < tiny) {
       v = -tiny;
-      ++stats.perturbed_values;
+      ++moved;
     }
   }
+  if (perturbed) *perturbed = moved;
+  return f;
+}
+
+MeshPair mesh_mchex(const HexComplex& cx, std::span<const double> values, double eps,
+                    MchexStats* stats_out, const DeviceClassification& device) {
+  if (!(eps > 0 && eps < 0.5)) throw InputError("eps must be in (0, 0.5), got " + std::to_string(eps));
+  MchexStats stats;
+  const std::vector<double> f = apply_zero_rule(cx, values, &stats.perturbed_values);
+  const double tiny = zero_tolerance_of(cx);
+  if (!device.subcases.empty() && device.subcases.size() != cx.cells.size())
+    throw std::invalid_argument("mesh_mchex: device subcases for " + std::to_string(device.subcases.size()) +
+                                " cells, the complex has " + std::to_string(cx.cells.size()));
+  if (!device.hex_offsets.empty() && device.hex_offsets.size() != cx.cells.size() + 1)
+    throw std::invalid_argument("mesh_mchex: device hex offsets need cells + 1 entries");
 
   using Clock = std::chrono::steady_clock;
   auto since = [](Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); };
@@ -410,11 +449,20 @@ MeshPair mesh_mchex(const HexComplex& cx, std::span<const double> values, double
   constexpr std::size_t kChunk = 1024;
   const std::size_t num_chunks = (cx.cells.size() + kChunk - 1) / kChunk;
   std::vector<ChunkOutput> chunks(num_chunks);
-  const Mesher mesher{cx, topo, slots, f, eps, tiny, points};
+  const Mesher mesher{cx, topo, slots, f, eps, tiny, device.subcases, points};
   parallel_chunks(num_chunks, 1, [&](std::size_t b, std::size_t e) {
     for (std::size_t ch = b; ch < e; ++ch) {
       const std::size_t end = std::min(cx.cells.size(), (ch + 1) * kChunk);
       for (std::size_t c = ch * kChunk; c < end; ++c) mesher.mesh_cell(static_cast<std::uint32_t>(c), chunks[ch]);
+      if (device.hex_offsets.empty()) continue;
+      // The device counts from subcases alone (it does not see the cells' shapes): its sum over
+      // the chunk must be the subcase count of what the cells were, and bounds what they made.
+      const std::uint64_t expected = device.hex_offsets[end] - device.hex_offsets[ch * kChunk];
+      const std::uint64_t made = chunks[ch].inside.size() + chunks[ch].outside.size();
+      if (chunks[ch].subcase_hexes != expected || made > expected)
+        throw std::logic_error("mesh_mchex: cells " + std::to_string(ch * kChunk) + " to " + std::to_string(end - 1) +
+                               " made " + std::to_string(made) + " hexes (" + std::to_string(chunks[ch].subcase_hexes) +
+                               " by their subcases), the device's prefix sum says " + std::to_string(expected));
     }
   });
 
@@ -430,6 +478,8 @@ MeshPair mesh_mchex(const HexComplex& cx, std::span<const double> values, double
     stats.refined_cells += ch.stats.refined_cells;
     stats.refined_cells_two_levels += ch.stats.refined_cells_two_levels;
     stats.expected_hexes += ch.stats.expected_hexes;
+    stats.moved_centres += ch.stats.moved_centres;
+    stats.uncertified_polyhedra += ch.stats.uncertified_polyhedra;
   }
   std::vector<Hex> inside, outside;
   inside.reserve(num_in);

@@ -28,8 +28,10 @@
 
 #include <array>
 #include <cstddef>
+#include <cstdint>
 #include <span>
 #include <string_view>
+#include <vector>
 
 #include "core/grid.h"
 #include "core/hex_complex.h"
@@ -48,6 +50,8 @@ struct MchexStats {
   std::size_t refined_cells_two_levels = 0;
   std::size_t perturbed_values = 0; // grid values moved off zero by the zero rule
   std::size_t expected_hexes = 0;   // sum over cells of local_refinement_hexes(subcase)
+  std::size_t moved_centres = 0;    // polyhedra whose volume centre core/repair.h moved
+  std::size_t uncertified_polyhedra = 0;  // polyhedra with a hex not certified even so
   std::size_t points = 0;           // distinct global points (both meshes together)
   // Wall time of the stages: numbering the complex's edges and faces, cutting + subdividing the
   // cells (parallel), and assembling the two meshes from the chunks.
@@ -60,12 +64,32 @@ struct MchexStats {
 // point sees the same value, and no crossing lands exactly on a corner.
 double zero_tolerance(double cell_size);
 
+// The zero rule applied to a copy of `values` (the SDF at the complex's points): the values every
+// cell is classified from. A device that classifies for the mesher (host/backend.h
+// classify_cells) is given these. Throws InputError for a size mismatch or a non-finite value;
+// `perturbed` (optional) counts the values moved.
+std::vector<double> apply_zero_rule(const HexComplex& complex, std::span<const double> values,
+                                    std::size_t* perturbed = nullptr);
+
+// A device's MC33 classification of the same values after the zero rule (host/backend.h
+// classify_cells), handed to the mesher so that the device's work is used and checked rather
+// than trusted: subcases[i] is cell i's core/mc33.h Subcase, hex_offsets the exclusive prefix sum
+// of local_refinement_hexes(subcase) over the cells (cells + 1 entries; the count on a general
+// cell, an upper bound: the device does not see the shapes, and an affine cell of 11 or 14 is cut
+// directly into fewer). Either may be empty. A cell whose subcase differs from the host's
+// classify(), or a chunk whose subcase count differs from the device's, is a std::logic_error
+// naming the cell(s): a backend that disagrees with core is a bug, never a silently different mesh.
+struct DeviceClassification {
+  std::span<const std::uint8_t> subcases;
+  std::span<const std::uint64_t> hex_offsets;
+};
+
 // values: the SDF (f > 0 inside) at every point of the complex.
 // eps in (0, 0.5): crossing parameters are clamped to [eps, 1 - eps] so that no polyhedron has
 // a (near-)zero-length edge. Deterministic for any thread count.
 // Throws InputError for a bad eps, a values size mismatch or a non-finite value.
 MeshPair mesh_mchex(const HexComplex& complex, std::span<const double> values, double eps,
-                    MchexStats* stats = nullptr);
+                    MchexStats* stats = nullptr, const DeviceClassification& device = {});
 // The uniform grid (values in UniformGrid::vertex_index order) through uniform_complex().
 MeshPair mesh_mchex(const UniformGrid& grid, std::span<const double> values, double eps,
                     MchexStats* stats = nullptr);

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "core/hex_faces.h"
+#include "core/volume_centre_offset.h"
 
 namespace mchex {
 namespace {
@@ -173,6 +174,10 @@ std::vector<Polyhedron> cut_cell(const std::array<Vec3, 8>& corners, const CellC
       p.faces.push_back(std::move(loop));
     }
     if (num_chords != 0) throw std::logic_error("cut_cell: chords left outside the loops");
+    // Paper Section 5, Eq. 14: where the table has an offset, the volume centre is the cell's
+    // trilinear map at the parametric vertex mean plus the offset.
+    if (const auto v = volume_centre_offset(c, p.corners))
+      p.volume_centre = trilinear_point(corners, parametric_volume_centre(p, c) + *v);
   }
   return out;
 }

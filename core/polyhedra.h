@@ -27,6 +27,7 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <stdexcept>
 #include <vector>
 
@@ -52,6 +53,10 @@ struct Polyhedron {
   std::uint8_t corners = 0;  // bit c <=> cell corner c is a vertex (the region's corners)
   // How many of `faces` come first and are pieces of cell faces; the rest are isosurface loops.
   std::uint32_t num_cell_face_pieces = 0;
+  // Where midpoint subdivision puts the volume centre when the mean of the vertices is not
+  // certified: set by cut_cell from the volume-centre offset table (core/volume_centre_offset.h,
+  // paper Section 5, Eq. 14), empty otherwise (midpoint_subdivide then takes the vertex mean).
+  std::optional<Vec3> volume_centre;
 };
 
 // Thrown for the tunnel subcases, which need local refinement first.

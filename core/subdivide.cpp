@@ -29,6 +29,7 @@ std::vector<SubdivisionHex> midpoint_subdivide(const Polyhedron& p) {
   Vec3 centre{};
   for (const Vec3& v : p.points) centre += v;
   centre = centre / static_cast<double>(nv);
+  if (p.volume_centre) centre = *p.volume_centre;  // an offset centre (paper Eq. 14)
 
   auto key_of = [&](std::uint32_t v) { return p.keys.empty() ? std::uint8_t(v) : p.keys[v]; };
   auto edge_key = [&](std::uint32_t u, std::uint32_t v) {

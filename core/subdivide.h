@@ -1,6 +1,7 @@
 // Midpoint subdivision of a 3-regular polyhedron into hexes (Tong & Zhang 2025, Definition 4.3
 // and Theorem 4.1): one hex per vertex v, with corners v, the midpoints of v's 3 edges, the
-// centroids (vertex means) of v's 3 faces and the volume centre (the mean of all vertices).
+// centroids (vertex means) of v's 3 faces and the volume centre (the mean of all vertices, or
+// Polyhedron::volume_centre where cut_cell set one: the offset centre of Section 5, Eq. 14).
 #pragma once
 
 #include <array>

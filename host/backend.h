@@ -78,8 +78,10 @@ class Backend {
                                 std::span<const double> sizes, std::span<double> errors) = 0;
 
   // MC33 classification of every cell of the complex from the values at its points (already
-  // through the mesher's zero rule), and the exclusive prefix sum of the hexes a directly cut
-  // cell gives (8 + 2 * cut edges): offsets.size() == cells + 1, offsets.back() the total.
+  // through the mesher's zero rule, core/mchex_mesher.h apply_zero_rule), and the exclusive prefix
+  // sum of the hexes the mesher makes from each cell (core/local_refinement.h
+  // local_refinement_hexes(subcase): 8 + 2 * cut edges for a cell cut directly, the sum over its
+  // leaves for one refined locally): offsets.size() == cells + 1, offsets.back() the total.
   virtual void classify_cells(const HexComplex& complex, std::span<const double> values,
                               std::span<CellCode> codes, std::span<std::uint64_t> offsets) = 0;
 };

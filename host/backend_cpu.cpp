@@ -1,10 +1,10 @@
 #include "host/backend_cpu.h"
 
-#include <bit>
 #include <stdexcept>
 
 #include <tbb/info.h>
 
+#include "core/local_refinement.h"
 #include "core/parallel.h"
 #include "core/sdf.h"
 #include "core/shapes.h"
@@ -71,7 +71,7 @@ class CpuBackend final : public Backend {
     std::uint64_t run = 0;
     for (std::size_t i = 0; i < n; ++i) {
       offsets[i] = run;
-      run += 8 + 2 * std::uint64_t(std::popcount(unsigned(codes[i].cut_edges)));
+      run += std::uint64_t(local_refinement_hexes(codes[i].subcase));
     }
     offsets[n] = run;
   }

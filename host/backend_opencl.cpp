@@ -130,6 +130,8 @@ struct OpenclBackend::Impl {
   std::string cache_path;
   OpenclProfile profile;
   cl::Buffer configs;
+  std::map<std::string, cl::Kernel> kernels;  // made once per program (PoCL: ~ms each)
+  bool host_unified = false;  // CL_DEVICE_HOST_UNIFIED_MEMORY: buffers may live in host memory
 
   // The device scene of the last surface.
   SurfaceKey scene_key;
@@ -175,6 +177,7 @@ struct OpenclBackend::Impl {
     platform = it->first;
     device = it->second;
     info = describe(platform, device);
+    host_unified = device.getInfo<CL_DEVICE_HOST_UNIFIED_MEMORY>() == CL_TRUE;
   }
 
   std::string source_text() const {
@@ -274,6 +277,28 @@ struct OpenclBackend::Impl {
     record(name, e);
   }
 
+  cl::Kernel& kernel(const std::string& name) {
+    auto it = kernels.find(name);
+    if (it == kernels.end()) it = kernels.emplace(name, cl::Kernel(program, name.c_str())).first;
+    return it->second;
+  }
+
+  // A buffer over the caller's memory (zero_copy devices only: CL_DEVICE_HOST_UNIFIED_MEMORY).
+  template <class T>
+  cl::Buffer host_buffer(cl_mem_flags flags, const T* data, std::size_t count) {
+    return cl::Buffer(context, flags | CL_MEM_USE_HOST_PTR, std::max<std::size_t>(1, count) * sizeof(T),
+                      const_cast<T*>(data));
+  }
+  // Makes a host-pointer buffer's device writes visible in the host memory (OpenCL 1.2 section
+  // 5.4.3: the host may read a CL_MEM_USE_HOST_PTR buffer's memory only while it is mapped).
+  void sync_to_host(const cl::Buffer& b, std::size_t bytes) {
+    if (bytes == 0) return;
+    cl::Event e;
+    void* p = queue.enqueueMapBuffer(b, CL_TRUE, CL_MAP_READ, 0, bytes, nullptr, &e);
+    record("map", e);
+    queue.enqueueUnmapMemObject(b, p);
+  }
+
   template <class T>
   cl::Buffer constant_buffer(const std::vector<T>& v) {
     if (v.size() * sizeof(T) > max_alloc())
@@ -341,7 +366,7 @@ void OpenclBackend::signed_distance(const SdfSource& source, std::span<const Vec
     // CPU devices run many points per work item (each seeded by the previous one); GPUs want
     // many small items.
     const cl_uint per_item = m.info.type == "gpu" ? 1 : 16;
-    cl::Kernel k(m.program, surface ? "sdf_surface" : "sdf_shape");
+    cl::Kernel& k = m.kernel(surface ? "sdf_surface" : "sdf_shape");
     for (std::size_t first = 0; first < points.size(); first += n) {
       const std::size_t count = std::min(n, points.size() - first);
       m.write(in, &points[first].x, 3 * count);
@@ -379,7 +404,7 @@ void OpenclBackend::refinement_error(std::span<const std::array<double, kChildLa
     cl::Buffer in(m.context, CL_MEM_READ_ONLY, sizeof(lattice[0]) * n);
     cl::Buffer sz(m.context, CL_MEM_READ_ONLY, sizeof(double) * n);
     cl::Buffer out(m.context, CL_MEM_WRITE_ONLY, sizeof(double) * n);
-    cl::Kernel k(m.program, "refinement_error");
+    cl::Kernel& k = m.kernel("refinement_error");
     for (std::size_t first = 0; first < lattice.size(); first += n) {
       const std::size_t count = std::min(n, lattice.size() - first);
       m.write(in, lattice[first].data(), kChildLatticePoints * count);
@@ -413,35 +438,62 @@ void OpenclBackend::classify_cells(const HexComplex& complex, std::span<const do
     const std::size_t max_blocks = (n + kBlock - 1) / kBlock;
     // The value window is limited by the allocation size only (max_chunk counts cells).
     const std::size_t window_limit = std::min<std::size_t>(m.max_alloc() / sizeof(double), std::size_t(1) << 31);
-    cl::Buffer cell_buf(m.context, CL_MEM_READ_ONLY, 8 * sizeof(std::uint32_t) * n);
-    cl::Buffer code_buf(m.context, CL_MEM_READ_WRITE, 2 * sizeof(std::uint32_t) * n);
+    // A device that shares the host's memory (PoCL on CPUs) reads the caller's arrays and writes
+    // the results in place (CL_MEM_USE_HOST_PTR, synchronised by map/unmap): no copies. Others
+    // get the arrays written to and read back from device buffers.
+    const bool zero_copy = m.host_unified;
+    const bool whole = values.size() <= window_limit;  // every chunk reads the one value buffer
+    cl::Buffer cell_buf, code_buf, offset_buf;
+    if (!zero_copy) {
+      cell_buf = cl::Buffer(m.context, CL_MEM_READ_ONLY, 8 * sizeof(std::uint32_t) * n);
+      code_buf = cl::Buffer(m.context, CL_MEM_READ_WRITE, 2 * sizeof(std::uint32_t) * n);
+      offset_buf = cl::Buffer(m.context, CL_MEM_WRITE_ONLY, sizeof(cl_ulong) * n);
+    }
     cl::Buffer sums(m.context, CL_MEM_READ_WRITE, sizeof(cl_ulong) * (max_blocks + 1));
-    cl::Buffer offset_buf(m.context, CL_MEM_WRITE_ONLY, sizeof(cl_ulong) * n);
     cl::Buffer value_buf;
     std::size_t value_capacity = 0;
-    cl::Kernel classify(m.program, "classify"), block_sums(m.program, "hex_block_sums"),
-        scan(m.program, "hex_scan_sums"), block_offsets(m.program, "hex_block_offsets");
+    if (whole) {
+      value_buf = zero_copy ? m.host_buffer(CL_MEM_READ_ONLY, values.data(), values.size())
+                            : cl::Buffer(m.context, CL_MEM_READ_ONLY, sizeof(double) * values.size());
+      if (!zero_copy) m.write(value_buf, values.data(), values.size());
+    }
+    cl::Kernel &classify = m.kernel("classify"), &block_sums = m.kernel("hex_block_sums"),
+               &scan = m.kernel("hex_scan_sums"), &block_offsets = m.kernel("hex_block_offsets");
     std::vector<std::uint32_t> words(2 * n);
+    static_assert(sizeof(cl_ulong) == sizeof(std::uint64_t) && sizeof(CellCorners) == 8 * sizeof(std::uint32_t));
     std::uint64_t total = 0;
     for (std::size_t first = 0; first < cells;) {
-      // The chunk's cells read the points [lo, hi]; shrink the chunk until that window fits.
       std::size_t count = std::min(n, cells - first);
-      std::uint32_t lo, hi;
-      for (;;) {
-        lo = UINT32_MAX, hi = 0;
-        for (std::size_t i = first; i < first + count; ++i)
-          for (std::uint32_t p : complex.cells[i]) lo = std::min(lo, p), hi = std::max(hi, p);
-        if (hi >= values.size()) throw std::invalid_argument("classify_cells: a cell refers to a missing point");
-        if (std::size_t(hi - lo) + 1 <= window_limit || count == 1) break;
-        count = (count + 1) / 2;
+      std::uint32_t lo = 0;
+      if (!whole) {
+        // The chunk's cells read the points [lo, hi]; shrink the chunk until that window fits.
+        std::uint32_t hi;
+        for (;;) {
+          lo = UINT32_MAX, hi = 0;
+          for (std::size_t i = first; i < first + count; ++i)
+            for (std::uint32_t p : complex.cells[i]) lo = std::min(lo, p), hi = std::max(hi, p);
+          if (hi >= values.size()) throw std::invalid_argument("classify_cells: a cell refers to a missing point");
+          if (std::size_t(hi - lo) + 1 <= window_limit || count == 1) break;
+          count = (count + 1) / 2;
+        }
+        const std::size_t window = std::size_t(hi - lo) + 1;
+        if (zero_copy) {
+          value_buf = m.host_buffer(CL_MEM_READ_ONLY, &values[lo], window);
+        } else {
+          if (window > value_capacity) {
+            value_buf = cl::Buffer(m.context, CL_MEM_READ_ONLY, sizeof(double) * window);
+            value_capacity = window;
+          }
+          m.write(value_buf, &values[lo], window);
+        }
       }
-      const std::size_t window = std::size_t(hi - lo) + 1;
-      if (window > value_capacity) {
-        value_buf = cl::Buffer(m.context, CL_MEM_READ_ONLY, sizeof(double) * window);
-        value_capacity = window;
+      if (zero_copy) {
+        cell_buf = m.host_buffer(CL_MEM_READ_ONLY, complex.cells[first].data(), 8 * count);
+        code_buf = m.host_buffer(CL_MEM_READ_WRITE, words.data(), 2 * count);
+        offset_buf = m.host_buffer(CL_MEM_WRITE_ONLY, reinterpret_cast<cl_ulong*>(&offsets[first]), count);
+      } else {
+        m.write(cell_buf, complex.cells[first].data(), 8 * count);
       }
-      m.write(value_buf, &values[lo], window);
-      m.write(cell_buf, complex.cells[first].data(), 8 * count);
       classify.setArg(0, m.configs);
       classify.setArg(1, cell_buf);
       classify.setArg(2, value_buf);
@@ -467,9 +519,14 @@ void OpenclBackend::classify_cells(const HexComplex& complex, std::span<const do
       block_offsets.setArg(4, offset_buf);
       m.run("hex_block_offsets", block_offsets, blocks, 8);
 
-      m.read(code_buf, words.data(), 2 * count);
-      static_assert(sizeof(cl_ulong) == sizeof(std::uint64_t));
-      m.read(offset_buf, reinterpret_cast<cl_ulong*>(&offsets[first]), count);
+      if (zero_copy) {
+        // The results are already in words / offsets; mapping makes them visible to the host.
+        m.sync_to_host(code_buf, 2 * count * sizeof(std::uint32_t));
+        m.sync_to_host(offset_buf, count * sizeof(cl_ulong));
+      } else {
+        m.read(code_buf, words.data(), 2 * count);
+        m.read(offset_buf, reinterpret_cast<cl_ulong*>(&offsets[first]), count);
+      }
       cl_ulong chunk_total = 0;
       cl::Event e;
       m.queue.enqueueReadBuffer(sums, CL_TRUE, sizeof(cl_ulong) * blocks, sizeof(cl_ulong), &chunk_total, nullptr, &e);
@@ -478,6 +535,7 @@ void OpenclBackend::classify_cells(const HexComplex& complex, std::span<const do
       parallel_for(count, [&](std::size_t i) { codes[first + i] = decode_cell_words(words[2 * i], words[2 * i + 1]); });
       first += count;
     }
+    m.queue.finish();  // the unmaps, before the host buffers are released
     offsets[cells] = total;
   } catch (const cl::Error& e) {
     fail(e, "MC33 classification");

@@ -13,10 +13,8 @@
 
 #include "core/device_scene.h"
 #include "core/error.h"
-#include "core/hex_faces.h"
 #include "host/vk_context.h"
 #include "host/vk_spirv.h"
-#include "shaders/classify_layout.h"
 
 namespace mchex {
 
@@ -55,40 +53,6 @@ DeviceInfo device_info(const vk::PhysicalDevice& d) {
 }
 
 
-// The lookup words of shaders/classify_layout.h, from core's tables.
-std::vector<std::uint32_t> classify_tables() {
-  std::vector<std::uint32_t> t(MCHEX_TABLE_WORDS, 0);
-  for (int mask = 0; mask < 256; ++mask)
-    for (int faces = 0; faces < 64; ++faces) {
-      const Mc33Config& c = mc33_config(static_cast<std::uint8_t>(mask), static_cast<std::uint8_t>(faces));
-      t[MCHEX_TABLE_CONFIG + mask * 64 + faces] = static_cast<std::uint32_t>(c.subcase) |
-                                                  std::uint32_t(c.map[0]) << 8 |
-                                                  std::uint32_t(c.map[1]) << 16 |
-                                                  std::uint32_t(c.preferred) << 24;
-    }
-  for (int s = 0; s < kNumSubcases; ++s)
-    t[MCHEX_TABLE_SUBCASE + s] = static_cast<std::uint32_t>(kSubcaseInfo[s].tunnel_partner) |
-                                 static_cast<std::uint32_t>(kSubcaseInfo[s].tunnel + 1) << 8;
-  for (int e = 0; e < 12; ++e)
-    t[MCHEX_TABLE_EDGES + e] = std::uint32_t(kCubeEdges[e][0]) | std::uint32_t(kCubeEdges[e][1]) << 8;
-  for (int f = 0; f < 6; ++f)
-    t[MCHEX_TABLE_FACES + f] = std::uint32_t(kHexFaces[f][0]) | std::uint32_t(kHexFaces[f][1]) << 8 |
-                               std::uint32_t(kHexFaces[f][2]) << 16 | std::uint32_t(kHexFaces[f][3]) << 24;
-  return t;
-}
-
-CellCode decode_cell(std::uint32_t w0, std::uint32_t w1) {
-  CellCode c;
-  c.subcase = static_cast<Subcase>(w0 & 0xFF);
-  c.sign_mask = static_cast<std::uint8_t>(w0 >> MCHEX_CODE_SIGN_SHIFT);
-  c.face_joins = static_cast<std::uint8_t>(w0 >> MCHEX_CODE_FACE_SHIFT & 0x3F);
-  c.tunnel = static_cast<std::int8_t>(static_cast<int>(w0 >> MCHEX_CODE_TUNNEL_SHIFT & 3) - 1);
-  c.inverted = static_cast<std::uint8_t>(w0 >> MCHEX_CODE_INVERTED_SHIFT & 1);
-  c.symmetry = static_cast<std::uint8_t>(w1 & 0xFF);
-  c.cut_edges = static_cast<std::uint16_t>(w1 >> MCHEX_CODE_CUT_SHIFT);
-  return c;
-}
-
 // Adds the seconds f takes to `total`.
 template <class F>
 void timed(double& total, F&& f) {
@@ -114,7 +78,7 @@ struct VulkanBackend::Impl {
   VulkanBackend::Profile profile;
 
   vk::Pipeline refinement, classify, scan_blocks, scan_totals, scan_add, surface_sdf, shape_sdf;
-  vk::Buffer tables;
+  vk::Buffer configs;  // core/device_scene.h packed_mc33_configs()
 
   // The device scene of the last surface (keyed by its address, array addresses and sizes, as
   // host/backend.h says), one storage buffer per array of core/device_scene.h.
@@ -210,9 +174,10 @@ struct VulkanBackend::Impl {
     // Written now, not only at exit: a run that ends by an error still leaves the cache behind.
     device->save_cache();
 
-    const std::vector<std::uint32_t> words = classify_tables();
-    tables = device->make_buffer(words.size() * sizeof(std::uint32_t));
-    std::memcpy(tables.data(), words.data(), words.size() * sizeof(std::uint32_t));
+    // core's (sign pattern, face outcomes) lookup, as kernels/classify.h reads it.
+    const std::vector<std::uint32_t> words = packed_mc33_configs();
+    configs = device->make_buffer(words.size() * sizeof(std::uint32_t));
+    std::memcpy(configs.data(), words.data(), words.size() * sizeof(std::uint32_t));
   }
 
   ~Impl() {
@@ -361,7 +326,7 @@ void VulkanBackend::classify_cells(const HexComplex& complex, std::span<const do
       }
     });
     const std::uint32_t push[2] = {static_cast<std::uint32_t>(count), gathered ? 1u : 0u};
-    m.run(m.classify, {{&value_buf}, {&cell_buf}, {&m.tables}, {&code_buf}, {&count_buf}}, push, count, kGroup);
+    m.run(m.classify, {{&value_buf}, {&cell_buf}, {&m.configs}, {&code_buf}, {&count_buf}}, push, count, kGroup);
 
     // Exclusive prefix sum of the counts (shaders/scan_*.comp), continuing from the chunks before.
     const std::uint32_t n32 = static_cast<std::uint32_t>(count);
@@ -376,7 +341,7 @@ void VulkanBackend::classify_cells(const HexComplex& complex, std::span<const do
 
     timed(m.profile.download, [&] {
       const std::uint32_t* w = mapped<std::uint32_t>(code_buf);
-      for (std::size_t i = 0; i < count; ++i) codes[begin + i] = decode_cell(w[2 * i], w[2 * i + 1]);
+      for (std::size_t i = 0; i < count; ++i) codes[begin + i] = decode_cell_words(w[2 * i], w[2 * i + 1]);
       std::memcpy(offsets.data() + begin, offset_buf.data(), count * sizeof(std::uint64_t));
     });
     carry = offsets[begin + count - 1] + mapped<std::uint32_t>(count_buf)[count - 1];

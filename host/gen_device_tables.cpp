@@ -1,10 +1,11 @@
 // Build-time generator of the tables that device code reads: the one source of truth is core/
-// (constexpr tables of core/mc33.h and core/hex_faces.h, the layouts of core/bvh.h and
+// (constexpr tables of core/mc33.h, core/hex_faces.h and core/local_refinement.h, the layouts of core/bvh.h and
 // core/device_scene.h); this program prints them as an OpenCL C header and a GLSL header with
 // the same names, so kernels/*.h (shared by kernels/*.cl and shaders/*.comp) read one set of
 // names in either dialect. No table is typed by hand in device code.
 //
 // Usage: gen_device_tables OUT_DIR   (writes OUT_DIR/mchex_tables.cl.h and mchex_tables.glsl.h)
+#include <cmath>
 #include <cstddef>
 #include <cstdio>
 #include <fstream>
@@ -16,6 +17,7 @@
 #include "core/bvh.h"
 #include "core/device_scene.h"
 #include "core/hex_faces.h"
+#include "core/local_refinement.h"
 #include "core/mc33.h"
 #include "core/refinement_error.h"
 #include "core/shapes.h"
@@ -69,6 +71,11 @@ std::vector<Table> tables() {
     for (const auto& i : kSubcaseInfo) p.push_back(int(i.tunnel_partner));
     auto& c = add("kSubcaseCase", "core/mc33.h kSubcaseInfo[s].mc_case");
     for (const auto& i : kSubcaseInfo) c.push_back(i.mc_case);
+    // What the mesher makes of a cell, so the device's prefix sum is the real output count:
+    // 8 + 2 * cut edges for a cell cut directly, the sum over the leaves for one refined locally
+    // (paper Section 5, Figure 7), a function of the subcase alone.
+    auto& h = add("kSubcaseHexes", "core/local_refinement.h local_refinement_hexes(s): hexes the mesher makes");
+    for (int s = 0; s < kNumSubcases; ++s) h.push_back(local_refinement_hexes(Subcase(s)));
   }
   {
     auto& corner = add("kSymmetryCorner", "core/mc33.h kCubeSymmetries[g].corner[c] at [8g + c]");
@@ -138,6 +145,8 @@ std::string constants(bool glsl) {
   std::string s;
   for (const auto& d : defines())
     s += "#define " + d.name + " " + std::to_string(d.value) + (d.comment.empty() ? "" : "  // " + d.comment) + "\n";
+  // kernels/classify.h's filter in front of the exact face test: 2^-50 = 8 u (u = 2^-53).
+  s += "#define MCHEX_DET_FILTER " + double_literal(std::ldexp(1.0, -50), glsl) + "\n";
   s += "// core/shapes.h shape_dimensions\n";
   for (const auto& [name, v] : shape_constants()) s += "#define " + name + " " + double_literal(v, glsl) + "\n";
   return s;

@@ -7,12 +7,15 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <memory>
 #include <optional>
 #include <string>
+#include <type_traits>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
@@ -278,11 +281,34 @@ int run_mesh(const MeshCommand& o, bool quiet) {
     return v;
   });
   MchexStats mchex_stats;
+  // --method mchex on a device backend: MC33 classification and the hex-count prefix sum run on
+  // the device too (from the values after the mesher's zero rule), and the mesher checks every
+  // cell's subcase and every chunk's hex count against it (core/mchex_mesher.h
+  // DeviceClassification). The cpu backend's classification would be core's own: not repeated.
+  std::optional<HexComplex> uniform;
+  std::vector<std::uint8_t> device_subcases;
+  std::vector<std::uint64_t> device_offsets;
+  if (o.method == "mchex" && backend->device().backend != "cpu") {
+    const HexComplex& cx = adaptive ? agrid->complex : uniform.emplace(uniform_complex(grid));
+    clock.run("classify", [&] {
+      const std::vector<double> ruled = apply_zero_rule(cx, values);
+      std::vector<CellCode> codes(cx.cells.size());
+      device_offsets.resize(cx.cells.size() + 1);
+      backend->classify_cells(cx, ruled, codes, device_offsets);
+      device_subcases.resize(codes.size());
+      for (std::size_t i = 0; i < codes.size(); ++i) device_subcases[i] = static_cast<std::uint8_t>(codes[i].subcase);
+    });
+  }
   auto run_method = [&](const auto& where) {
-    return o.method == "mchex" ? clock.run("mchex", [&] { return mesh_mchex(where, values, o.eps, &mchex_stats); })
-                               : clock.run("ro", [&] { return mesh_remove_outside(where, values); });
+    if (o.method != "mchex") return clock.run("ro", [&] { return mesh_remove_outside(where, values); });
+    return clock.run("mchex", [&] {
+      if constexpr (std::is_same_v<std::decay_t<decltype(where)>, HexComplex>)
+        return mesh_mchex(where, values, o.eps, &mchex_stats, {device_subcases, device_offsets});
+      else
+        return mesh_mchex(where, values, o.eps, &mchex_stats);
+    });
   };
-  const MeshPair meshes = adaptive ? run_method(agrid->complex) : run_method(grid);
+  const MeshPair meshes = adaptive ? run_method(agrid->complex) : uniform ? run_method(*uniform) : run_method(grid);
   const MeshCheck check = clock.run("check", [&] { return check_mesh(meshes.inside, &meshes.outside, &cube); });
   std::optional<Fidelity> fid;
   if (o.fidelity) fid = clock.run("fidelity", [&] { return measure(meshes.inside, solid, cube, o.lattice); });
@@ -320,6 +346,8 @@ int run_mesh(const MeshCommand& o, bool quiet) {
     report["mchex"] = {{"eps", o.eps},
                        {"refined_cells", mchex_stats.refined_cells},
                        {"refined_cells_two_levels", mchex_stats.refined_cells_two_levels},
+                       {"moved_volume_centres", mchex_stats.moved_centres},
+                       {"uncertified_polyhedra", mchex_stats.uncertified_polyhedra},
                        {"perturbed_zero_values", mchex_stats.perturbed_values},
                        {"points", mchex_stats.points},
                        {"seconds", {{"topology", mchex_stats.seconds_topology},

@@ -81,7 +81,7 @@ INLINE TwoTerms two_product(double a, double b) {
 
 // Sign of a b - c d from the exact expansion of the four product terms: the sum of a
 // nonoverlapping expansion has the sign of its largest (last non-zero) component.
-INLINE bool det_nonnegative(double a, double b, double c, double d) {
+INLINE bool det_nonnegative_exact(double a, double b, double c, double d) {
   TwoTerms ab = two_product(a, b);
   TwoTerms cd = two_product(c, d);
   double x[4];
@@ -105,6 +105,22 @@ INLINE bool det_nonnegative(double a, double b, double c, double d) {
   for (int j = 3; j >= 0; --j)
     if (h[j] != 0.0) return h[j] > 0.0;
   return true;
+}
+
+// A filter in front of the expansion (Shewchuk 1997, Section 4.2's idea): r = fl(fl(ab) - fl(cd))
+// differs from ab - cd by at most u |ab| + u |cd| + u |r| <= 2u (1 + u) (|ab| + |cd|) (u = 2^-53,
+// each operation correctly rounded, no contraction). MCHEX_DET_FILTER = 2^-50 (generated) makes
+// the bound 8u (|ab| + |cd|), four times that even after its own rounding, so when |r| exceeds it
+// r has the exact sign; only the rest (ties and near-ties: few cells) pay for the expansion. The
+// same decision as the exact path whenever that one holds (no overflow or underflow of the
+// products, see above).
+INLINE bool det_nonnegative(double a, double b, double c, double d) {
+  EXACT double ab = a * b;
+  EXACT double cd = c * d;
+  EXACT double r = ab - cd;
+  EXACT double bound = (FABS(ab) + FABS(cd)) * MCHEX_DET_FILTER;
+  if (FABS(r) > bound) return r > 0.0;
+  return det_nonnegative_exact(a, b, c, d);
 }
 #endif
 
@@ -224,13 +240,9 @@ INLINE CellWords classify_cell(CLASSIFY_PARAMS_ CellValues v) {
   return words;
 }
 
-// Hexes a directly cut (or uncut) cell gives by midpoint subdivision: 8 + 2 * cut edges
-// (notes/mc33-topology.md).
-INLINE uint cell_hexes(CellWords w) {
-  uint cut = w.w1 >> MCHEX_CODE_CUT_SHIFT;
-  uint n = 8u;
-  for (int e = 0; e < 12; ++e) n += 2u * ((cut >> CAST(uint, e)) & 1u);
-  return n;
-}
+// Hexes the mesher makes from the cell (core/local_refinement.h local_refinement_hexes: 8 + 2 * cut
+// edges for a cell cut directly, the sum over its leaves for one refined locally), a function of
+// the subcase alone, so the prefix sum of these is where each cell's hexes start in the output.
+INLINE uint cell_hexes(CellWords w) { return CAST(uint, kSubcaseHexes[w.w0 & 255u]); }
 
 #endif

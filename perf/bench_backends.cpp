@@ -1,19 +1,27 @@
-// Kernel throughput per backend, as ratios to the cpu reference measured in the same run (the
-// machine is shared and noisy: only ratios within one run compare). For the opencl backend also
-// where the time goes: device time per kernel (OpenCL profiling events) against host<->device
-// transfers, the rest being host-side work (argument checks, decoding, chunking) and launch
-// latency.
+// Kernel throughput of every backend side by side (cpu reference, opencl, vulkan), as ratios to
+// the cpu reference measured in the same run (the machine is shared and noisy: only ratios within
+// one run compare), each result checked equal to the cpu's bit for bit. And where the time goes:
+//   opencl  device time per kernel (OpenCL profiling events), host->device writes and
+//           device->host reads, the rest being host-side work (argument checks, decoding,
+//           chunking) and launch latency;
+//   vulkan  host copies into mapped buffers, dispatches (submit to fence) and copies back out
+//           (with decoding); its first call per kernel is timed apart ("cold": lavapipe
+//           JIT-compiles a shader at its first dispatch).
 //
 //   bench_backends [--grid N] [--segments S] [--depth D] [--repeat R] [--platform NAME]
+//                  [--vulkan-device NAME] [--backends cpu,opencl,vulkan]
 //
 // Workloads: surface SDF at the N^3 points of a grid over the tessellated torus (2 S x 0.4 S
-// triangles; S = 256 gives 52,224), analytic-shape SDF on the same points, refinement error of
-// 100,000 cells of the two-holed shape, and MC33 classification + hex prefix sum of the uniform
-// depth-D complex of the two-holed shape. Prints a table and one JSON line.
+// triangles; S = 256 gives 52,224), analytic-shape SDF (torus) on the same points, refinement
+// error of 100,000 cells of the two-holed shape, and MC33 classification + hex prefix sum of the
+// uniform depth-D complex of the two-holed shape. Prints a table and one JSON line.
+#include <bit>
 #include <cstdio>
 #include <cstring>
 #include <map>
+#include <memory>
 #include <random>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -27,6 +35,7 @@
 #include "host/backend.h"
 #include "host/backend_cpu.h"
 #include "host/backend_opencl.h"
+#include "host/backend_vulkan.h"
 #include "perf/bench_common.h"
 
 using namespace mchex;
@@ -43,11 +52,39 @@ struct Workloads {
   std::vector<double> values;
 };
 
+// What one backend's run of one kernel gave.
+struct Measured {
+  double cold = 0;  // first call
+  double best = 0;  // best of the repeats (the least disturbed by other users of the machine)
+  bool equal = true;
+  std::map<std::string, double> profile;  // part -> seconds of the best run
+};
+
+// The outputs of one kernel run, to compare with the cpu's.
+struct Outputs {
+  std::vector<double> doubles;
+  std::vector<CellCode> codes;
+  std::vector<std::uint64_t> offsets;
+  bool operator==(const Outputs& o) const {
+    if (doubles.size() != o.doubles.size()) return false;
+    for (std::size_t i = 0; i < doubles.size(); ++i)
+      if (std::bit_cast<std::uint64_t>(doubles[i]) != std::bit_cast<std::uint64_t>(o.doubles[i])) return false;
+    return codes == o.codes && offsets == o.offsets;
+  }
+};
+
+std::vector<std::string> split(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream in(s);
+  for (std::string part; std::getline(in, part, ',');) out.push_back(part);
+  return out;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   int grid = 82, segments = 256, depth = 4, repeat = 3;
-  std::string platform;
+  std::string platform, vulkan_device, wanted = "cpu,opencl,vulkan";
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string a = argv[i];
     if (a == "--grid") grid = std::atoi(argv[i + 1]);
@@ -55,6 +92,8 @@ int main(int argc, char** argv) {
     else if (a == "--depth") depth = std::atoi(argv[i + 1]);
     else if (a == "--repeat") repeat = std::atoi(argv[i + 1]);
     else if (a == "--platform") platform = argv[i + 1];
+    else if (a == "--vulkan-device") vulkan_device = argv[i + 1];
+    else if (a == "--backends") wanted = argv[i + 1];
     else {
       std::fprintf(stderr, "bench_backends: unknown option %s\n", argv[i]);
       return 1;
@@ -95,76 +134,169 @@ int main(int argc, char** argv) {
     std::unique_ptr<Backend> backend;
   };
   std::vector<Named> backends;
-  backends.push_back({"cpu", make_cpu_backend()});
   OpenclBackend* ocl = nullptr;
-  {
-    OpenclOptions o;
-    o.platform = platform;
-    auto b = std::make_unique<OpenclBackend>(o);
-    ocl = b.get();
-    backends.push_back({"opencl", std::move(b)});
+  VulkanBackend* vk = nullptr;
+  nlohmann::json unavailable = nlohmann::json::object();
+  for (const std::string& name : split(wanted)) {
+    try {
+      if (name == "cpu") {
+        backends.push_back({name, make_cpu_backend()});
+      } else if (name == "opencl") {
+        OpenclOptions o;
+        o.platform = platform;
+        auto b = std::make_unique<OpenclBackend>(o);
+        ocl = b.get();
+        backends.push_back({name, std::move(b)});
+      } else if (name == "vulkan") {
+        VulkanOptions o;
+        o.device = vulkan_device;
+        auto b = std::make_unique<VulkanBackend>(o);
+        vk = b.get();
+        backends.push_back({name, std::move(b)});
+      } else {
+        std::fprintf(stderr, "bench_backends: unknown backend %s\n", name.c_str());
+        return 1;
+      }
+    } catch (const std::exception& e) {
+      // A backend with no device here is reported, not fatal: the others still compare.
+      std::printf("%s: not measured (%s)\n", name.c_str(), e.what());
+      unavailable[name] = e.what();
+    }
+  }
+  if (backends.empty() || backends.front().name != "cpu") {
+    std::fprintf(stderr, "bench_backends: the cpu reference must come first (ratios are to it)\n");
+    return 1;
   }
 
   const std::size_t n_points = w.points.size(), n_cells = w.complex.cells.size();
-  std::map<std::string, std::map<std::string, double>> rate;  // kernel -> backend -> items/s
-  std::map<std::string, std::map<std::string, double>> profile;  // opencl: kernel -> part -> s
-  std::vector<double> out(n_points), errors(w.lattice.size());
-  std::vector<CellCode> codes(n_cells);
-  std::vector<std::uint64_t> offsets(n_cells + 1);
+  const std::vector<std::string> kernels = {"sdf_surface", "sdf_shape", "refinement_error", "classify+scan"};
+  const std::map<std::string, std::size_t> items = {{"sdf_surface", n_points},
+                                                     {"sdf_shape", n_points},
+                                                     {"refinement_error", w.lattice.size()},
+                                                     {"classify+scan", n_cells}};
+  std::map<std::string, std::map<std::string, Measured>> results;  // kernel -> backend -> measured
+  std::map<std::string, Outputs> reference;                        // kernel -> cpu outputs
   for (auto& [name, b] : backends) {
     SdfSource surface;
     surface.surface = &w.surface;
     SdfSource shape;
     shape.shape = ShapeKind::kTorus;
-    b->signed_distance(surface, std::span(w.points).first(16), std::span(out).first(16));  // build the scene once
-    // Best of `repeat` runs (the least disturbed by other users of the machine), with the
-    // opencl profile of that same run.
-    auto measure = [&](const std::string& kernel, std::size_t items, auto&& f) {
-      double best = 1e300;
+    {
+      // The device scene (BVH, pseudonormals) is built once per surface: not part of the rate.
+      std::vector<double> out(16);
+      b->signed_distance(surface, std::span(w.points).first(16), out);
+    }
+    auto measure = [&](const std::string& kernel, auto&& run) {
+      Measured m;
+      Outputs out;
+      m.cold = seconds_of([&] { out = run(); });
+      m.best = 1e300;
       for (int r = 0; r < repeat; ++r) {
         if (ocl && name == "opencl") ocl->reset_profile();
-        const double s = seconds_of(f);
-        if (s >= best) continue;
-        best = s;
-        if (ocl && name == "opencl") {
-          auto& p = profile[kernel];
-          p.clear();
-          p["wall"] = s;
-          for (const auto& [k, e] : ocl->profile().kernels) p[k] = e.seconds;
+        const VulkanBackend::Profile before = vk && name == "vulkan" ? vk->profile() : VulkanBackend::Profile{};
+        const double s = seconds_of([&] { out = run(); });
+        if (s >= m.best) continue;
+        m.best = s;
+        m.profile.clear();
+        if (ocl && name == "opencl")
+          for (const auto& [k, e] : ocl->profile().kernels) m.profile[k] = e.seconds;
+        if (vk && name == "vulkan") {
+          const VulkanBackend::Profile after = vk->profile();
+          m.profile["upload"] = after.upload - before.upload;
+          m.profile["device"] = after.device - before.device;
+          m.profile["download"] = after.download - before.download;
         }
       }
-      rate[kernel][name] = items / best;
+      if (name == "cpu") reference[kernel] = out;
+      else m.equal = out == reference[kernel];
+      results[kernel][name] = m;
     };
-    measure("sdf_surface", n_points, [&] { b->signed_distance(surface, w.points, out); });
-    measure("sdf_shape", n_points, [&] { b->signed_distance(shape, w.points, out); });
-    measure("refinement_error", w.lattice.size(), [&] { b->refinement_error(w.lattice, w.sizes, errors); });
-    measure("classify+scan", n_cells, [&] { b->classify_cells(w.complex, w.values, codes, offsets); });
+    measure("sdf_surface", [&] {
+      Outputs o;
+      o.doubles.resize(n_points);
+      b->signed_distance(surface, w.points, o.doubles);
+      return o;
+    });
+    measure("sdf_shape", [&] {
+      Outputs o;
+      o.doubles.resize(n_points);
+      b->signed_distance(shape, w.points, o.doubles);
+      return o;
+    });
+    measure("refinement_error", [&] {
+      Outputs o;
+      o.doubles.resize(w.lattice.size());
+      b->refinement_error(w.lattice, w.sizes, o.doubles);
+      return o;
+    });
+    measure("classify+scan", [&] {
+      Outputs o;
+      o.codes.resize(n_cells);
+      o.offsets.resize(n_cells + 1);
+      b->classify_cells(w.complex, w.values, o.codes, o.offsets);
+      return o;
+    });
   }
 
   std::printf("bench_backends: %zu surface triangles, %zu points, %zu refinement cells, %zu MC cells, %d CPU threads\n",
               w.surface.triangles.size(), n_points, w.lattice.size(), n_cells, tbb::info::default_concurrency());
-  std::printf("opencl device: %s / %s\n\n", ocl->device().platform.c_str(), ocl->device().name.c_str());
-  std::printf("%-18s %14s %14s %10s\n", "kernel", "cpu M/s", "opencl M/s", "ocl/cpu");
-  nlohmann::json j = {{"triangles", w.surface.triangles.size()}, {"points", n_points}, {"mc_cells", n_cells},
-                      {"refinement_cells", w.lattice.size()}, {"threads", tbb::info::default_concurrency()},
-                      {"opencl_device", ocl->device().name}};
-  for (auto& [kernel, r] : rate) {
-    std::printf("%-18s %14.3f %14.3f %10.3f\n", kernel.c_str(), r["cpu"] / 1e6, r["opencl"] / 1e6, r["opencl"] / r["cpu"]);
-    j["rate_per_s"][kernel] = r;
-    j["ratio_to_cpu"][kernel]["opencl"] = r["opencl"] / r["cpu"];
+  nlohmann::json j = {{"bench", "backends"},
+                      {"triangles", w.surface.triangles.size()},
+                      {"points", n_points},
+                      {"mc_cells", n_cells},
+                      {"refinement_cells", w.lattice.size()},
+                      {"threads", tbb::info::default_concurrency()},
+                      {"unavailable", unavailable}};
+  for (auto& [name, b] : backends) {
+    std::printf("%-7s %s / %s\n", name.c_str(), b->device().platform.c_str(), b->device().name.c_str());
+    j["devices"][name] = b->device().platform + " / " + b->device().name;
   }
-  std::printf("\nopencl: where the time goes (seconds per call; device time from profiling events)\n");
-  for (auto& [kernel, p] : profile) {
-    std::printf("  %-18s wall %.4f:", kernel.c_str(), p["wall"]);
-    double device = 0;
-    for (auto& [part, s] : p)
-      if (part != "wall") {
+  if (vk) j["vulkan_pipeline_seconds"] = vk->pipeline_seconds();
+
+  // Rates in M items/s; "x cpu" is the backend's time over the cpu's (the targets: SDF
+  // within 2x on PoCL, 4x on lavapipe).
+  std::printf("\n%-17s %9s %9s", "kernel", "items", "cpu M/s");
+  for (std::size_t k = 1; k < backends.size(); ++k)
+    std::printf(" | %7s M/s %7s %8s", backends[k].name.c_str(), "x cpu", "cold s");
+  std::printf("\n");
+  bool all_equal = true;
+  for (const std::string& kernel : kernels) {
+    auto& r = results[kernel];
+    const double cpu = r["cpu"].best;
+    std::printf("%-17s %9zu %9.3f", kernel.c_str(), items.at(kernel), items.at(kernel) / cpu / 1e6);
+    j["items"][kernel] = items.at(kernel);
+    for (auto& [name, b] : backends) {
+      const Measured& m = r[name];
+      j["seconds"][kernel][name] = m.best;
+      j["cold_seconds"][kernel][name] = m.cold;
+      j["rate_per_s"][kernel][name] = items.at(kernel) / m.best;
+      if (name == "cpu") continue;
+      j["time_ratio_to_cpu"][kernel][name] = m.best / cpu;
+      j["equal_to_cpu"][kernel][name] = m.equal;
+      all_equal = all_equal && m.equal;
+      std::printf(" | %11.3f %7.2f %8.3f%s", items.at(kernel) / m.best / 1e6, m.best / cpu, m.cold,
+                  m.equal ? "" : " DIFFERS");
+    }
+    std::printf("\n");
+  }
+
+  for (auto& [name, b] : backends) {
+    if (name == "cpu") continue;
+    std::printf("\n%s: where the time goes (seconds of the best run)\n", name.c_str());
+    for (const std::string& kernel : kernels) {
+      const Measured& m = results[kernel][name];
+      std::printf("  %-17s wall %.4f:", kernel.c_str(), m.best);
+      double accounted = 0;
+      for (const auto& [part, s] : m.profile) {
         std::printf(" %s %.4f", part.c_str(), s);
-        device += s;
+        accounted += s;
       }
-    std::printf("  | host-side and launch %.4f\n", p["wall"] - device);
-    j["opencl_profile_s"][kernel] = p;
+      std::printf("  | host-side and launch %.4f\n", m.best - accounted);
+      j["profile_s"][name][kernel] = m.profile;
+      j["profile_s"][name][kernel]["wall"] = m.best;
+    }
   }
-  std::printf("%s\n", j.dump().c_str());
-  return 0;
+  j["equal"] = all_equal;
+  std::printf("\nresults equal to the cpu reference bit for bit: %s\n%s\n", all_equal ? "yes" : "NO", j.dump().c_str());
+  return all_equal ? 0 : 1;
 }

@@ -3,6 +3,17 @@ written as binary STL with numpy (independent of the code under test)."""
 import numpy as np
 
 
+def periodic_grid_triangles(nu, nv):
+    """Two triangles per quad of an nu x nv grid of vertices (index i * nv + j) that wraps around
+    in both directions: a closed torus-like surface."""
+    i, j = np.meshgrid(np.arange(nu), np.arange(nv), indexing="ij")
+    a = i * nv + j
+    b = ((i + 1) % nu) * nv + j
+    c = ((i + 1) % nu) * nv + (j + 1) % nv
+    d = i * nv + (j + 1) % nv
+    return np.concatenate([np.stack([a, b, c], -1).reshape(-1, 3), np.stack([a, c, d], -1).reshape(-1, 3)])
+
+
 def bumpy_torus(nu, nv, major=1.0, minor=0.4, bump=0.15):
     """A torus whose tube radius varies as minor * (1 + bump * sin(5u) cos(3v)): closed, genus 1,
     no symmetry plane through a grid axis. Returns (vertices, triangles), outward oriented."""
@@ -14,13 +25,7 @@ def bumpy_torus(nu, nv, major=1.0, minor=0.4, bump=0.15):
     y = (major + r * np.cos(V)) * np.sin(U)
     z = r * np.sin(V)
     verts = np.stack([x, y, z], axis=-1).reshape(-1, 3)
-    i, j = np.meshgrid(np.arange(nu), np.arange(nv), indexing="ij")
-    a = i * nv + j
-    b = ((i + 1) % nu) * nv + j
-    c = ((i + 1) % nu) * nv + (j + 1) % nv
-    d = i * nv + (j + 1) % nv
-    tris = np.concatenate([np.stack([a, b, c], -1).reshape(-1, 3), np.stack([a, c, d], -1).reshape(-1, 3)])
-    return verts, tris
+    return verts, periodic_grid_triangles(nu, nv)
 
 
 def trefoil_tube(nu, nv, radius=0.35):
@@ -53,12 +58,7 @@ def trefoil_tube(nu, nv, radius=0.35):
         ring = c[i] + radius * (np.cos(v)[:, None] * ni + np.sin(v)[:, None] * bi)
         verts.append(ring)
     verts = np.concatenate(verts)
-    i, j = np.meshgrid(np.arange(nu), np.arange(nv), indexing="ij")
-    a = i * nv + j
-    b = ((i + 1) % nu) * nv + j
-    cc = ((i + 1) % nu) * nv + (j + 1) % nv
-    dd = i * nv + (j + 1) % nv
-    tris = np.concatenate([np.stack([a, b, cc], -1).reshape(-1, 3), np.stack([a, cc, dd], -1).reshape(-1, 3)])
+    tris = periodic_grid_triangles(nu, nv)
     # Outward: the ring (cos v n + sin v b) with (t, n, b) right-handed turns the (u, v) order
     # around; check the signed volume and flip if needed.
     p = verts[tris]

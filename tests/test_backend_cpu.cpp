@@ -8,11 +8,14 @@
 #include <cstring>
 #include <filesystem>
 #include <random>
+#include <regex>
 
 #include "core/device_scene.h"
 #include "core/error.h"
 #include "core/grid.h"
+#include "core/local_refinement.h"
 #include "core/mc33.h"
+#include "core/mchex_mesher.h"
 #include "core/refinement_error.h"
 #include "core/sdf.h"
 #include "core/shapes.h"
@@ -131,11 +134,19 @@ TEST(BackendCpu, ClassifyCellsIsCoreClassify) {
     const CellClass k = classify(f);
     ASSERT_EQ(codes[i], encode_cell(k));
     ASSERT_EQ(offsets[i], run);
-    run += 8 + 2 * std::popcount(unsigned(k.cut_edges));
+    // A cell cut directly gives 8 + 2 * cut edges hexes (notes/mc33-topology.md); one refined
+    // locally the sum over its leaves.
+    if (!needs_local_refinement(k)) {
+      ASSERT_EQ(local_refinement_hexes(k.subcase), 8 + 2 * std::popcount(unsigned(k.cut_edges)));
+    }
+    run += std::uint64_t(local_refinement_hexes(k.subcase));
     cut += k.cut_edges != 0;
   }
   EXPECT_EQ(offsets.back(), run);
   EXPECT_GT(cut, 100u);
+  // The total is what the mesher really makes of these values.
+  const MeshPair meshes = mesh_mchex(complex, values, 1e-3);
+  EXPECT_EQ(offsets.back(), meshes.inside.hexes.size() + meshes.outside.hexes.size());
 }
 
 TEST(BackendCpu, RefinementErrorIsCore) {
@@ -152,4 +163,57 @@ TEST(BackendCpu, RefinementErrorIsCore) {
     const double e = refinement_error(lattice[i], sizes[i]);
     ASSERT_EQ(std::memcmp(&e, &errors[i], 8), 0);
   }
+}
+
+// core/mchex_mesher.h DeviceClassification: a backend's classification handed to the mesher is
+// checked, not trusted. The true one gives the very same mesh; one wrong subcase or one wrong
+// prefix sum is a logic_error that names the cell(s).
+TEST(BackendCpu, MesherChecksADeviceClassification) {
+  auto cpu = make_cpu_backend();
+  const UniformGrid grid(padded_cube(ShapeSdf(ShapeKind::kTwoHoled).bounds(), 0.1), 2);
+  const HexComplex complex = uniform_complex(grid);
+  std::vector<double> values(complex.points.size());
+  ShapeSdf(ShapeKind::kTwoHoled).evaluate(complex.points, values);
+  const std::vector<double> ruled = apply_zero_rule(complex, values);
+  std::vector<CellCode> codes(complex.cells.size());
+  std::vector<std::uint64_t> offsets(complex.cells.size() + 1);
+  cpu->classify_cells(complex, ruled, codes, offsets);
+  std::vector<std::uint8_t> subcases(codes.size());
+  for (std::size_t i = 0; i < codes.size(); ++i) subcases[i] = static_cast<std::uint8_t>(codes[i].subcase);
+
+  const MeshPair plain = mesh_mchex(complex, values, 1e-3);
+  const MeshPair checked = mesh_mchex(complex, values, 1e-3, nullptr, {subcases, offsets});
+  EXPECT_EQ(plain.inside.hexes, checked.inside.hexes);
+  EXPECT_EQ(plain.outside.hexes, checked.outside.hexes);
+  EXPECT_EQ(plain.inside.points.size(), checked.inside.points.size());
+
+  // One cut cell's subcase changed.
+  std::size_t cut = 0;
+  while (codes[cut].cut_edges == 0) ++cut;
+  std::vector<std::uint8_t> wrong = subcases;
+  wrong[cut] = static_cast<std::uint8_t>(wrong[cut] == 1 ? 2 : 1);
+  try {
+    mesh_mchex(complex, values, 1e-3, nullptr, {wrong, {}});
+    ADD_FAILURE() << "a wrong device subcase was accepted";
+  } catch (const std::logic_error& e) {
+    EXPECT_NE(std::string(e.what()).find("cell " + std::to_string(cut) + ":"), std::string::npos) << e.what();
+  }
+  // One hex too many in the device's count from that cell on.
+  std::vector<std::uint64_t> shifted = offsets;
+  for (std::size_t i = cut + 1; i < shifted.size(); ++i) ++shifted[i];
+  try {
+    mesh_mchex(complex, values, 1e-3, nullptr, {{}, shifted});
+    ADD_FAILURE() << "a wrong device prefix sum was accepted";
+  } catch (const std::logic_error& e) {
+    // The named range of cells holds the first cell whose count is off.
+    std::smatch m;
+    const std::string what = e.what();
+    const std::regex range(R"(cells (\d+) to (\d+) made)");
+    const bool named = std::regex_search(what, m, range);
+    ASSERT_TRUE(named) << what;
+    EXPECT_LE(std::stoul(m[1]), cut) << what;
+    EXPECT_GE(std::stoul(m[2]), cut) << what;
+  }
+  // Sizes that do not match the complex are a caller's error.
+  EXPECT_THROW(mesh_mchex(complex, values, 1e-3, nullptr, {std::span(subcases).first(3), {}}), std::invalid_argument);
 }

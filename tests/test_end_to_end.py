@@ -87,6 +87,32 @@ class EndToEnd(ScratchTestCase):
                 mesh_volume = chk["check"]["inside"]["quality"]["volume"]
                 self.assertLess(abs(mesh_volume - solid_volume), 0.1 * area * cell)
 
+    def test_adaptive_meshes_are_fully_certified(self):
+        # Issue 6's bar on the adaptive grid (threshold 0.05, transition cells of every template):
+        # both meshes conform and every hex is Bernstein-certified, on an analytic shape and on a
+        # closed model (the bumpy torus's grid has face-template cells at depth 4).
+        stl = os.path.join(self.dir, "bumpy.stl")
+        models.write_binary_stl(stl, *models.bumpy_torus(150, 150))
+        for name, source in (("sphere", ("--shape", "sphere")), ("bumpy", (stl,))):
+            with self.subTest(model=name):
+                inside = os.path.join(self.dir, name + ".mesh")
+                outside = os.path.join(self.dir, name + "_out.mesh")
+                report = os.path.join(self.dir, name + ".json")
+                r = run("mesh", *source, "--threshold", 0.05, "--max-depth", 4, "-o", inside, "--outside", outside,
+                        "--report", report, "--quiet")
+                self.assertEqual(r.returncode, 0, r.stderr)
+                rep = json.load(open(report))
+                cells = rep["grid"]["cells_per_type"]
+                self.assertGreater(sum(n for t, n in cells.items() if t != "cube"), 0, cells)
+                self.assertEqual(rep["mchex"]["uncertified_polyhedra"], 0)
+                c = run("check", inside, "--outside", outside, "--json")
+                self.assertEqual(c.returncode, 0, c.stdout[-2000:] + c.stderr)
+                chk = json.loads(c.stdout)
+                self.assertTrue(chk["check"]["ok"])
+                for side in ("inside", "outside"):
+                    q = chk["check"][side]["quality"]
+                    self.assertEqual(q["certified"], q["count"], side)
+
     def test_package_models(self):
         closed = [os.path.join(STL_MODELS, "objects", "gearwheel.bin.stl"),
                   os.path.join(STL_MODELS, "polytopes", "cube.ascii.stl"),

@@ -19,6 +19,7 @@
 #include "core/polyhedra.h"
 #include "core/quality.h"
 #include "core/subdivide.h"
+#include "tests/cell_samples.h"
 
 namespace mchex {
 namespace {
@@ -83,20 +84,7 @@ std::vector<Geometry> geometries() {
   return g;
 }
 
-// Corner values of one sign pattern: magnitudes uniform in [0.05, 1], or `extreme`: each 1 or
-// tiny (1e-3 or 1e-6 scale) so that crossings sit near 0 and 1 and at the clamp eps itself.
-Cell draw(std::uint8_t mask, int kind, std::mt19937_64& rng) {
-  std::uniform_real_distribution<double> u(0.05, 1.0);
-  std::bernoulli_distribution coin(0.5);
-  Cell f;
-  for (int c = 0; c < 8; ++c) {
-    double m = u(rng);
-    if (kind == 1) m = coin(rng) ? 1.0 : 1e-3 * u(rng);
-    if (kind == 2) m = coin(rng) ? 1.0 : 1e-6 * u(rng);
-    f[c] = (mask >> c & 1) ? m : -m;
-  }
-  return f;
-}
+using test::draw_cell;
 
 CellClass classify_clamped(const Cell& f) {
   CellClass c = classify(f);
@@ -112,7 +100,7 @@ std::map<Subcase, std::vector<Cell>> pools(int per, std::uint64_t seed) {
   std::uniform_int_distribution<int> mask(0, 255);
   for (long it = 0; it < 4000000; ++it) {
     const int kind = static_cast<int>(it % 3);
-    const Cell f = draw(static_cast<std::uint8_t>(mask(rng)), kind, rng);
+    const Cell f = draw_cell(static_cast<std::uint8_t>(mask(rng)), kind, rng);
     auto& v = out[classify(f).subcase];
     if (static_cast<int>(v.size()) < per) v.push_back(f);
     if (out.size() == kNumSubcases &&
@@ -565,7 +553,7 @@ TEST(local_refinement, EveryCellCertifiesWithItsTopology) {
   std::vector<Cell> cells;
   for (int mask = 0; mask < 256; ++mask)
     for (int kind = 0; kind < 3; ++kind)
-      for (int d = 0; d < kDraws; ++d) cells.push_back(draw(static_cast<std::uint8_t>(mask), kind, rng));
+      for (int d = 0; d < kDraws; ++d) cells.push_back(draw_cell(static_cast<std::uint8_t>(mask), kind, rng));
   std::uniform_int_distribution<int> sym(0, kNumCubeSymmetries - 1);
   for (const auto& [s, pool] : pools(24, 99))
     for (const Cell& f : pool)
@@ -627,7 +615,7 @@ TEST(local_refinement, LeavesOnTheCellFacesMatchTheUnrefinedNeighbour) {
   int checked = 0;
   for (int mask = 0; mask < 256; ++mask)
     for (int kind = 0; kind < 3; ++kind) {
-      const Cell f = draw(static_cast<std::uint8_t>(mask), kind, rng);
+      const Cell f = draw_cell(static_cast<std::uint8_t>(mask), kind, rng);
       const CellClass c = classify(f);
       if (!needs_local_refinement(c)) continue;
       const LocalRefinement r = refine_locally(unit_cube(), f, c, kZeroTol);

@@ -14,8 +14,9 @@
 // 12-vertex polyhedron of corners {1,2,5,7} with 8 cut edges: the 4-corner region of MC33 12.1.1
 // (or of 12.2, which has two such regions; the paper's Table 3 offsets are for the transition
 // cells 2, 5 and 6 only, and 12.1.1 certifies fully on cubes here, so 12.1.1 is the likelier).
-// Case 11 (and its mirror 14) fails plain subdivision for crossings near 0 and 1; we refine those
-// cells locally instead of the paper's volume-centre offset (local_refinement.cpp says why).
+// Case 11 (and its mirror 14) fails plain subdivision for crossings near 0 and 1; cut_cell moves
+// their volume centres by the offset of core/volume_centre_offset.h (the paper's Eq. 14), which
+// certifies them on affine cells, and local refinement takes them on the other cells.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -34,6 +35,7 @@
 #include "core/polyhedra.h"
 #include "core/quality.h"
 #include "core/subdivide.h"
+#include "tests/cell_samples.h"
 
 namespace mchex {
 namespace {
@@ -79,9 +81,10 @@ std::map<Subcase, std::vector<RegionFact>> notes_facts() {
   return m;
 }
 
-// Subcases certified under plain midpoint subdivision in every sample, asserted: exactly those
-// that local refinement leaves to the direct cut.
-bool asserted_direct(Subcase s) { return !needs_local_refinement(s); }
+// Subcases certified under midpoint subdivision (plain, or with the volume-centre offset of 11
+// and 14) in every sample, asserted: exactly those that local refinement leaves to the direct cut
+// on affine cells, which every geometry of this file is.
+bool asserted_direct(Subcase s) { return !needs_local_refinement(s, CellShape::kAffine); }
 
 // ---- Samples ---------------------------------------------------------------------------------
 
@@ -121,18 +124,7 @@ std::vector<Corners> geometries(std::mt19937_64& rng) {
   return out;
 }
 
-// Corner values of one sign pattern: `extreme` draws make each magnitude 1 or 1e-3 so that the
-// crossings sit near 0 or 1 (s ~ 1e-3); the others are uniform in [0.05, 1].
-Cell draw(std::uint8_t mask, bool extreme, std::mt19937_64& rng) {
-  std::uniform_real_distribution<double> u(0.05, 1.0);
-  std::bernoulli_distribution coin(0.5);
-  Cell f;
-  for (int c = 0; c < 8; ++c) {
-    const double m = extreme ? (coin(rng) ? 1.0 : 1e-3 * u(rng)) : u(rng);
-    f[c] = (mask >> c & 1) ? m : -m;
-  }
-  return f;
-}
+using test::draw_cell;
 
 // ---- Checks of one polyhedron ----------------------------------------------------------------
 
@@ -202,20 +194,27 @@ TEST(polyhedra, TunnelSubcasesAreRefused) {
   EXPECT_THROW(cut_cell(unit_cube(), c), TunnelSubcaseError);
 }
 
-// The failure that makes case 11 (the paper's Figure 6 "Case 12") a refined subcase, as a
-// regression: positive corners {0,1,5,6} (the canonical pattern) with crossings s3 = s7 = 0.048,
-// s9 = 0.952, s2 = s4 = s12 = 0.5 (paper Table 1 numbering). Plain midpoint subdivision gives a
-// hex with det J < 0 at a corner (min Bernstein coefficient about -1.6e-3 on the unit cube; a scan
-// of corner magnitudes in {1, t} finds failures from t = 0.05 on and none at t >= 0.1). Local
-// refinement (core/local_refinement.h) certifies every hex of the same cell.
+// The failure that makes case 11 (the paper's Figure 6 "Case 12") need the volume-centre offset,
+// as a regression: positive corners {0,1,5,6} (the canonical pattern) with crossings s3 = s7 =
+// 0.048, s9 = 0.952, s2 = s4 = s12 = 0.5 (paper Table 1 numbering). Plain midpoint subdivision
+// (the vertex mean as volume centre) gives a hex with det J < 0 at a corner (min Bernstein
+// coefficient about -1.6e-3 on the unit cube; a scan of corner magnitudes in {1, t} finds failures
+// from t = 0.05 on and none at t >= 0.1). cut_cell's offset centre certifies it on the cube
+// (tests/test_volume_centre_offset.cpp), and local refinement (core/local_refinement.h, the
+// route on non-affine cells) certifies every hex of the same cell too.
 TEST(polyhedra, Case11CounterexampleIsRefinedAndCertifies) {
   const Cell f = {0.05, 0.05, -0.05, -0.05, -1, 0.05, 1, -1};
   const CellClass c = classify(f);
   ASSERT_EQ(c.subcase, Subcase::k11);
-  double worst = 1e300;
-  for (const Polyhedron& p : cut_cell(unit_cube(), c))
+  double worst = 1e300, offset = 1e300;
+  for (Polyhedron p : cut_cell(unit_cube(), c)) {
+    for (const auto& h : midpoint_subdivide(p)) offset = std::min(offset, min_bernstein(h.corners));
+    p.volume_centre.reset();
     for (const auto& h : midpoint_subdivide(p)) worst = std::min(worst, min_bernstein(h.corners));
+  }
   EXPECT_LT(worst, 0);
+  EXPECT_GT(offset, 0);
+  EXPECT_FALSE(needs_local_refinement(c, unit_cube()));
   ASSERT_TRUE(needs_local_refinement(c));
   const LocalRefinement r = refine_locally(unit_cube(), f, c, 1e-10);
   long hexes = 0;
@@ -248,7 +247,7 @@ TEST(polyhedra, AllSignPatternsCutSubdivideAndCertify) {
   for (int mask = 0; mask < 256; ++mask) {
     for (int extreme = 0; extreme < 2; ++extreme) {
       for (int d = 0; d < kDraws; ++d) {
-        const Cell f = draw(static_cast<std::uint8_t>(mask), extreme != 0, rng);
+        const Cell f = draw_cell(static_cast<std::uint8_t>(mask), extreme, rng);
         const CellClass c = classify(f);
         if (subcase_has_tunnel(c.subcase)) {
           tunnels_seen.insert(c.subcase);
@@ -314,7 +313,7 @@ TEST(polyhedra, AllSignPatternsCutSubdivideAndCertify) {
   // Every non-tunnel subcase must have been reached, else the checks above say nothing about it.
   for (const auto& [s, v] : facts) EXPECT_TRUE(stats.count(s)) << subcase_name(s) << " never drawn";
 
-  std::printf("\nBernstein certificate of plain midpoint subdivision (all 27 coefficients > 0),\n"
+  std::printf("\nBernstein certificate of midpoint subdivision (11, 14: offset centres; all 27 coefficients > 0),\n"
               "per subcase: certified hexes / hexes, cells with every hex certified / cells, min\n"
               "scaled coefficient; random magnitudes | crossings near 0 and 1\n");
   for (const auto& [s, pair] : stats) {
