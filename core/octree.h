@@ -50,6 +50,13 @@
 // a mark of the leaf's own level or the next, and marks of level L exist only below max_depth),
 // so the loop ends. Each face's pattern then depends only on its 4 corners' marks, which both
 // cells sharing it see alike: the complex conforms.
+// What this costs in size (paper, Section 7: the templates "only allow convex grid depth
+// transitions"): a leaf with finer neighbours across two adjacent faces has no template and is
+// refined, so a refined region's staircase notches fill one after another until, level by level,
+// the region is close to its bounding box (a coarse region enclosed by finer cells, the inside of
+// a closed surface, fills completely). With the surface at the finest level, the adaptive grid
+// therefore has at least about (bounding box of the surface band / cube) of a uniform grid's cells:
+// perf/bench_adaptive prints that fraction ("hull") beside the ratio.
 //
 // The complex (build_adaptive_complex): every leaf replaced by its template. Points are keyed by
 // exact integer coordinates at a common resolution, 4 * 3^max_depth units per cube edge (template

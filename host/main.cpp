@@ -189,7 +189,7 @@ json adaptive_grid_json(const AdaptiveGrid& g, const OctreeStats& stats, double 
   for (int k = 0; k < kNumTemplateKinds; ++k)
     per_template[std::string(template_name(static_cast<TemplateKind>(k)))] = g.leaves_per_template[k];
   for (const OctreeLevelStats& l : stats.levels)
-    per_level.push_back({{"candidates", l.candidates}, {"sdf_points", l.sdf_points}, {"refined_by_error", l.refined_by_error},
+    per_level.push_back({{"candidates", l.candidates}, {"sampled", l.sampled}, {"sdf_points", l.sdf_points}, {"refined_by_error", l.refined_by_error},
                          {"refined_by_balance", l.refined_by_balance}, {"marks_added", l.marks_added}, {"leaves", l.leaves}});
   const Box& cube = g.complex.box;
   return {{"kind", "adaptive"},
