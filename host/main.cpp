@@ -189,12 +189,14 @@ json adaptive_grid_json(const AdaptiveGrid& g, const OctreeStats& stats, double 
   for (int k = 0; k < kNumTemplateKinds; ++k)
     per_template[std::string(template_name(static_cast<TemplateKind>(k)))] = g.leaves_per_template[k];
   for (const OctreeLevelStats& l : stats.levels)
-    per_level.push_back({{"candidates", l.candidates}, {"sdf_points", l.sdf_points}, {"refined_by_error", l.refined_by_error},
+    per_level.push_back({{"candidates", l.candidates}, {"sampled", l.sampled}, {"sdf_points", l.sdf_points}, {"refined_by_error", l.refined_by_error},
                          {"refined_by_balance", l.refined_by_balance}, {"marks_added", l.marks_added}, {"leaves", l.leaves}});
   const Box& cube = g.complex.box;
   return {{"kind", "adaptive"},
           {"threshold", threshold},
-          {"threshold_relative_to", "cell edge length"},
+          {"threshold_relative_to", "finest cell size"},
+          {"tolerance", adaptive_tolerance(g.complex.box, {threshold, max_depth})},
+          {"points_sampled_in_refinement", g.complex.points.size() - g.unsampled.size()},
           {"max_depth", max_depth},
           {"levels", g.levels},
           {"cells", g.complex.cells.size()},
@@ -210,7 +212,7 @@ json adaptive_grid_json(const AdaptiveGrid& g, const OctreeStats& stats, double 
 struct MeshCommand {
   std::string input, shape, inside = "inside.mesh", outside, report, method = "mchex", backend = "auto";
   int depth = 3;
-  double threshold = 0;  // > 0: adaptive grid (refine while error > threshold * cell size)
+  double threshold = 0;  // > 0: adaptive grid (refine while error > threshold * finest cell size)
   int max_depth = 5;
   double pad = 0.1;
   double eps = 1e-3;  // --method mchex: crossings clamped to [eps, 1 - eps]
@@ -263,8 +265,17 @@ int run_mesh(const MeshCommand& o, bool quiet) {
   source.reference = solid.sdf.get();
   if (solid.surface) source.surface = &*solid.surface;
   else source.shape = static_cast<const ShapeSdf&>(*solid.sdf).kind();
+  // The adaptive grid already holds the values the refinement sampled (bit for bit what a new
+  // evaluation gives: same points); only the points it never sampled need this batch.
   const std::vector<double> values = clock.run("sdf", [&] {
-    const std::vector<Vec3> points = adaptive ? agrid->complex.points : grid.vertices();
+    if (adaptive) {
+      const std::vector<Vec3> points = unsampled_points(*agrid);
+      std::vector<double> v(points.size());
+      if (!points.empty()) backend->signed_distance(source, points, v);
+      set_unsampled_values(*agrid, v);
+      return std::move(agrid->values);
+    }
+    const std::vector<Vec3> points = grid.vertices();
     std::vector<double> v(points.size());
     backend->signed_distance(source, points, v);
     return v;
@@ -478,9 +489,11 @@ int main(int argc, char** argv) {
   mesh->add_option("--depth", mo.depth, "uniform 3-refinement depth: 3^depth cells per axis")
       ->check(CLI::Range(0, kMaxUniformDepth))->capture_default_str();
   mesh->add_option("--threshold", mo.threshold,
-                   "adaptive 3-refinement instead of --depth: refine a cell while the paper's refinement error (how far "
-                   "its trilinear isosurface lies from its 27 children's) exceeds THRESHOLD times the cell's own edge "
-                   "length; dimensionless, so it suits a model of any size (the paper's batch run: 0.05)")
+                   "adaptive 3-refinement instead of --depth: a cell the surface may pass through is refined while the "
+                   "paper's refinement error (how far its trilinear isosurface lies from its 27 children's) exceeds "
+                   "THRESHOLD times the finest cell size (box edge / 3^max-depth); cells the surface misses are never "
+                   "refined. --max-depth sets the resolution, THRESHOLD the accuracy asked of coarser cells in units of "
+                   "it; dimensionless, so it suits a model of any size (the paper's batch run: 0.05)")
       ->check(CLI::PositiveNumber);
   mesh->add_option("--max-depth", mo.max_depth, "--threshold: deepest refinement level")
       ->check(CLI::Range(0, kMaxAdaptiveDepth))->capture_default_str();
