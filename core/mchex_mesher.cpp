@@ -310,6 +310,7 @@ struct Mesher {
     // the same as building in space; on a transition cell with non-parallelogram faces the
     // means differ, and those taken in space certify less often (core/certify.h).
     const std::vector<Polyhedron> polys = cut_cell(kUnitCubeCorners, cls);
+    const bool uncut_affine = cls.subcase == Subcase::kEmpty && uncut_affine_cell_certified(xc);
     for (std::size_t pi = 0; pi < polys.size(); ++pi) {
       const Polyhedron& p = polys[pi];
       // Per face of the polyhedron: the cell face it lies on and its slot (pieces), or the local
@@ -337,9 +338,16 @@ struct Mesher {
       auto& target = p.region_sign > 0 ? out.inside : out.outside;
       // Mapped into the cell, every hex checked, the volume centre moved where one is not
       // certified (core/repair.h; the centre is this polyhedron's own point).
-      const MappedSubdivision mapped = subdivide_in_cell(p, xc);
-      out.stats.moved_centres += mapped.centre_moved;
-      out.stats.uncertified_polyhedra += !mapped.certified;
+      MappedSubdivision mapped;
+      if (uncut_affine) {  // certified by construction (repair.h), no check needed
+        mapped.hexes = midpoint_subdivide(p);
+        for (SubdivisionHex& h : mapped.hexes)
+          for (Vec3& x : h.corners) x = trilinear_map(xc, x);
+      } else {
+        mapped = subdivide_in_cell(p, xc);
+        out.stats.moved_centres += mapped.centre_moved;
+        out.stats.uncertified_polyhedra += !mapped.certified;
+      }
       for (const SubdivisionHex& h : mapped.hexes) {
         Hex hex;
         for (int c = 0; c < 8; ++c) {

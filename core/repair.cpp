@@ -1,6 +1,8 @@
 // Mapped midpoint subdivision with a volume-centre search; see repair.h.
 #include "core/repair.h"
 
+#include "core/volume_centre_offset.h"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -187,6 +189,13 @@ MappedSubdivision subdivide_in_cell(const Polyhedron& parametric, const HexCorne
   place(centre);
   least();
   return finish(best);
+}
+
+bool uncut_affine_cell_certified(const HexCorners& x) {
+  if (cell_shape(x) != CellShape::kAffine) return false;
+  const Vec3 a = x[1] - x[0], b = x[3] - x[0], c = x[4] - x[0];
+  const double size = std::max({norm(a), norm(b), norm(c)});
+  return dot(a, cross(b, c)) > 1e-6 * size * size * size;
 }
 
 }  // namespace mchex

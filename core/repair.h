@@ -42,4 +42,12 @@ struct MappedSubdivision {
 // order). Throws what midpoint_subdivide throws.
 MappedSubdivision subdivide_in_cell(const Polyhedron& parametric, const HexCorners& cell);
 
+// True when the cell's midpoint subdivision is certified without computing it: an uncut cell
+// (its one polyhedron is the cell) that is a right-handed parallelepiped. Its 8 hexes are then
+// the images of the unit cube's octants under the cell's affine map, so det J is the constant
+// det(A) / 8 > 0 on each (exactly; the tolerance of cell_shape only perturbs that by 1e-9 of the
+// size, far below the margin asked of det(A)). Most cells of a grid are like that; the mesher
+// skips the 27-coefficient check for them.
+bool uncut_affine_cell_certified(const HexCorners& cell);
+
 }  // namespace mchex

@@ -34,6 +34,7 @@
 #include "core/mc33.h"
 #include "core/polyhedra.h"
 #include "core/quality.h"
+#include "core/repair.h"
 #include "core/subdivide.h"
 #include "tests/cell_samples.h"
 
@@ -336,6 +337,48 @@ TEST(polyhedra, AllSignPatternsCutSubdivideAndCertify) {
                                           << ": cut directly, so it must certify";
     }
   }
+}
+
+}  // namespace
+}  // namespace mchex
+
+namespace mchex {
+namespace {
+
+// The mesher's shortcut (core/repair.h): an uncut right-handed parallelepiped needs no check.
+// Random parallelepipeds, checked with the full certificate; mirror images and warped cells are
+// refused.
+TEST(polyhedra, UncutAffineCellsAreCertifiedWithoutTheCheck) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const CellClass empty = classify({1, 1, 1, 1, 1, 1, 1, 1});
+  const auto polys = cut_cell(kUnitCubeCorners, empty);
+  ASSERT_EQ(polys.size(), 1u);
+  int accepted = 0;
+  for (int trial = 0; trial < 2000; ++trial) {
+    const Vec3 a{u(rng), u(rng), u(rng)}, b{u(rng), u(rng), u(rng)}, c{u(rng), u(rng), u(rng)};
+    const Vec3 o{10 * u(rng), 10 * u(rng), 10 * u(rng)};
+    HexCorners x;
+    for (int i = 0; i < 8; ++i)
+      x[i] = o + kUnitCubeCorners[i].x * a + kUnitCubeCorners[i].y * b + kUnitCubeCorners[i].z * c;
+    const bool shortcut = uncut_affine_cell_certified(x);
+    bool all = true;
+    for (SubdivisionHex h : midpoint_subdivide(polys[0])) {
+      for (Vec3& p : h.corners) p = trilinear_map(x, p);
+      all = all && bernstein_certified(h.corners);
+    }
+    if (shortcut) {
+      EXPECT_TRUE(all) << "trial " << trial;
+      ++accepted;
+    }
+    if (dot(a, cross(b, c)) < 0) {
+      EXPECT_FALSE(shortcut) << "a mirror image, trial " << trial;
+    }
+  }
+  EXPECT_GT(accepted, 500);
+  HexCorners warped = kUnitCubeCorners;
+  warped[6] += Vec3{0.2, 0.1, 0.3};
+  EXPECT_FALSE(uncut_affine_cell_certified(warped));
 }
 
 }  // namespace
