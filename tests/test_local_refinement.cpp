@@ -531,18 +531,7 @@ TEST(local_refinement, EveryCellCertifiesWithItsTopology) {
   // of a certified cube certified). Measured and printed: a node-template hex and a generic
   // trilinear cell (see the bottom of this test).
   std::vector<Geometry> asserted = {all[0], all[1]};
-  {
-    std::uniform_real_distribution<double> u(-0.4, 0.4);
-    while (asserted.size() < 4) {
-      double a[3][3];
-      for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) a[i][j] = (i == j ? 1.0 : 0.0) + u(rng);
-      const double det = a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) -
-                         a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
-                         a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
-      if (det > 0.3) asserted.push_back({"affine", affine(a, {u(rng), u(rng), u(rng)})});
-    }
-  }
+  while (asserted.size() < 4) asserted.push_back({"affine", test::random_affine_cube(rng)});
   const std::vector<Geometry> measured = {all[2], all[4]};
   std::map<Subcase, Row> rows;
   std::map<std::string, std::pair<long, long>> measured_cells;  // ok / all per geometry

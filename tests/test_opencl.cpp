@@ -29,6 +29,7 @@
 #include "core/sdf.h"
 #include "core/shapes.h"
 #include "core/surface.h"
+#include "tests/backend_samples.h"
 #include "host/backend.h"
 #include "host/backend_cpu.h"
 #include "host/backend_opencl.h"
@@ -443,18 +444,13 @@ TEST(Opencl, ClassificationOfAGridAcrossChunks) {
 // only a device with its own buffers has: zero_copy off runs that path on PoCL). Every field equals
 // core's classification of apply_zero_rule's values.
 TEST(Opencl, UniformGridWithTheZeroRuleOnTheDevice) {
-  const UniformGrid grid(padded_cube(ShapeSdf(ShapeKind::kTwoHoled).bounds(), 0.1), 3);
-  const HexComplex complex = uniform_complex(grid);
-  std::vector<double> values(complex.points.size());
-  ShapeSdf(ShapeKind::kTwoHoled).evaluate(complex.points, values);
-  const double tiny = zero_tolerance_of(complex);
-  // Values the zero rule moves (0, -0, +-tiny/2) and ones it keeps (+-tiny exactly), next to cut cells.
-  std::size_t moved = 0;
-  const double specials[] = {0.0, -0.0, 0.5 * tiny, -0.5 * tiny, tiny, -tiny};
-  for (std::size_t p = 0; p < values.size(); ++p)
-    if (std::abs(values[p]) < 2 * grid.cell_size() && p % 7 == 0) values[p] = specials[(p / 7) % 6];
-  const std::vector<double> ruled = apply_zero_rule(complex, values, &moved);
-  ASSERT_GT(moved, 20u);
+  const test::ZeroRuleGrid z = test::zero_rule_grid();
+  const UniformGrid& grid = z.grid;
+  const HexComplex& complex = z.complex;
+  const std::vector<double>& values = z.values;
+  const std::vector<double>& ruled = z.ruled;
+  const double tiny = z.tiny;
+  ASSERT_GT(z.moved, 20u);
   const std::size_t n = complex.cells.size();
   std::vector<CellCode> ref(n);
   std::vector<std::uint64_t> ref_off(n + 1);

@@ -99,29 +99,10 @@ Corners unit_cube() {
   return c;
 }
 
-// Random affine images of the unit cube with det > 0 (the paper's Theorem 5.2: the certificate
-// is invariant under them, so their fractions must match the unit cube's).
+// The unit cube and 3 random affine images of it (tests/cell_samples.h).
 std::vector<Corners> geometries(std::mt19937_64& rng) {
   std::vector<Corners> out = {unit_cube()};
-  std::uniform_real_distribution<double> u(-0.4, 0.4);
-  while (out.size() < 4) {
-    double a[3][3];
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) a[i][j] = (i == j ? 1.0 : 0.0) + u(rng);
-    const double det = a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) -
-                       a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
-                       a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
-    if (det < 0.3) continue;
-    const Vec3 t{10 * u(rng), -7 * u(rng), 3 * u(rng)};
-    Corners c;
-    for (int i = 0; i < 8; ++i) {
-      const Vec3 p = unit_cube()[i];
-      c[i] = Vec3{a[0][0] * p.x + a[0][1] * p.y + a[0][2] * p.z,
-                  a[1][0] * p.x + a[1][1] * p.y + a[1][2] * p.z,
-                  a[2][0] * p.x + a[2][1] * p.y + a[2][2] * p.z} + t;
-    }
-    out.push_back(c);
-  }
+  while (out.size() < 4) out.push_back(test::random_affine_cube(rng));
   return out;
 }
 

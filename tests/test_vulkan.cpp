@@ -33,6 +33,7 @@
 #include "core/sdf.h"
 #include "core/shapes.h"
 #include "core/surface.h"
+#include "tests/backend_samples.h"
 #include "host/backend_vulkan.h"
 
 namespace fs = std::filesystem;
@@ -298,17 +299,13 @@ TEST(vulkan, ClassifyOnASharedGridChunkedAndGatheredEqualsWhole) {
 // and the values the SDF left on the device reused (ClassifyOptions::values_from_last_sdf). Every
 // field equals core's classification of apply_zero_rule's values.
 TEST(vulkan, ClassifyAUniformGridWithTheZeroRuleOnTheDevice) {
-  const UniformGrid grid(padded_cube(ShapeSdf(ShapeKind::kTwoHoled).bounds(), 0.1), 3);
-  const HexComplex complex = uniform_complex(grid);
-  std::vector<double> values(complex.points.size());
-  ShapeSdf(ShapeKind::kTwoHoled).evaluate(complex.points, values);
-  const double tiny = zero_tolerance_of(complex);
-  std::size_t moved = 0;
-  const double specials[] = {0.0, -0.0, 0.5 * tiny, -0.5 * tiny, tiny, -tiny};
-  for (std::size_t p = 0; p < values.size(); ++p)
-    if (std::abs(values[p]) < 2 * grid.cell_size() && p % 7 == 0) values[p] = specials[(p / 7) % 6];
-  const std::vector<double> ruled = apply_zero_rule(complex, values, &moved);
-  ASSERT_GT(moved, 20u);
+  const test::ZeroRuleGrid z = test::zero_rule_grid();
+  const UniformGrid& grid = z.grid;
+  const HexComplex& complex = z.complex;
+  const std::vector<double>& values = z.values;
+  const std::vector<double>& ruled = z.ruled;
+  const double tiny = z.tiny;
+  ASSERT_GT(z.moved, 20u);
   const std::size_t n = complex.cells.size();
   ClassifyOptions co;
   co.zero_tolerance = tiny;
