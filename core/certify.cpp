@@ -96,8 +96,7 @@ struct Sample {
 
 // Crossings clamped to [eps, 1 - eps], as the mesher does.
 CellClass clamped(CellClass c, double eps) {
-  for (double& s : c.crossing)
-    if (!std::isnan(s)) s = std::clamp(s, eps, 1 - eps);
+  clamp_crossings(c, eps);
   return c;
 }
 
@@ -218,14 +217,9 @@ CertifyResult certify(const CertifyOptions& o) {
         // The mesher's route: the 7 children (and a second level where the template asks),
         // virtual values at the inner points, each leaf classified and cut on its own.
         const LocalRefinement lr = refine_locally(corners, smp.f, smp.cls, 1e-10);
-        for (const auto& leaf : lr.cells) {
-          std::array<Vec3, 8> lc;
-          std::array<double, 8> lf;
-          for (int i = 0; i < 8; ++i) {
-            lc[i] = lr.points[leaf[i]];
-            lf[i] = lr.values[leaf[i]];
-          }
-          check(lc, clamped(classify(lf), o.eps), c.crossing);
+        for (std::size_t i = 0; i < lr.cells.size(); ++i) {
+          const LocalRefinementLeaf leaf = leaf_cell(lr, i);
+          check(leaf.corners, clamped(classify(leaf.values), o.eps), c.crossing);
         }
       }
     }

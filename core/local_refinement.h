@@ -119,6 +119,20 @@ LocalRefinement refine_locally(const std::array<Vec3, 8>& corners, const std::ar
                                const CellClass& c, double zero_tolerance,
                                const LocalRefinementTable& table = local_refinement_table());
 
+// Leaf i of a refinement as a cell of its own: its corners and values, VTK order.
+struct LocalRefinementLeaf {
+  std::array<Vec3, 8> corners;
+  std::array<double, 8> values;
+};
+inline LocalRefinementLeaf leaf_cell(const LocalRefinement& lr, std::size_t i) {
+  LocalRefinementLeaf out;
+  for (int c = 0; c < 8; ++c) {
+    out.corners[c] = lr.points[lr.cells[i][c]];
+    out.values[c] = lr.values[lr.cells[i][c]];
+  }
+  return out;
+}
+
 // The geometry alone (values-independent) of one refinement level: the 7 children of a cell as
 // corner arrays, in local_refinement_child_points() order. A second level is this applied to a
 // child.

@@ -265,6 +265,13 @@ struct CellClass {
 // Classifies one cell. No allocation; throws InputError if a value is not finite.
 CellClass classify(const std::array<double, 8>& f);
 
+// The paper's clamp of the crossing parameters (Section 5: s_i = max(min(s_i, 1 - eps), eps)), on
+// the cut edges of c, so that no polyhedron has a (near-)zero-length edge. eps in (0, 0.5).
+inline void clamp_crossings(CellClass& c, double eps) {
+  for (int e = 0; e < 12; ++e)
+    if (c.cut_edges >> e & 1) c.crossing[e] = c.crossing[e] < eps ? eps : c.crossing[e] > 1 - eps ? 1 - eps : c.crossing[e];
+}
+
 // The asymptotic decider of one face (Nielson & Hamann 1991; Chernyaev's face test): with the
 // face's diagonal corner values p0, p1 > 0 and n0, n1 <= 0, the positive corners are joined across
 // the face iff the bilinear interpolant's saddle value is >= 0, i.e. iff p0 * p1 >= n0 * n1. The

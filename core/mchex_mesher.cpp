@@ -196,14 +196,11 @@ struct Mesher {
     for (std::size_t li = 0; li < lr.cells.size(); ++li) {
       const auto& leaf = lr.cells[li];
       PieceFrame frame;
-      std::array<double, 8> fl;
-      std::array<Vec3, 8> xl;
+      const LocalRefinementLeaf cell_of_leaf = leaf_cell(lr, li);
       for (int c = 0; c < 8; ++c) {
         const std::uint32_t idx = leaf[c];
         frame.global[c] = idx < 8 ? gv[idx] : kNone;
         frame.local[c] = static_cast<std::uint8_t>(idx);
-        fl[c] = lr.values[idx];
-        xl[c] = lr.points[idx];
       }
       for (int e = 0; e < 12; ++e) {
         const std::uint32_t a = leaf[kCubeEdges[e][0]], b = leaf[kCubeEdges[e][1]];
@@ -230,10 +227,10 @@ struct Mesher {
         }
       }
       frame.piece = static_cast<std::uint32_t>(li + 1);
-      const CellClass leaf_class = classify(fl);
+      const CellClass leaf_class = classify(cell_of_leaf.values);
       if (needs_local_refinement(leaf_class))
         throw std::logic_error("local refinement left a leaf of subcase " + std::string(subcase_name(leaf_class.subcase)));
-      mesh_piece(cell, frame, xl, leaf_class, locals, out);
+      mesh_piece(cell, frame, cell_of_leaf.corners, leaf_class, locals, out);
     }
   }
 
@@ -242,8 +239,7 @@ struct Mesher {
                   LocalPoints& locals, ChunkOutput& out) const {
     // Crossings clamped away from the corners (the eps of the paper's cutting): the value depends
     // on the edge's two values only, so all cells around the edge agree.
-    for (int e = 0; e < 12; ++e)
-      if (cls.cut_edges >> e & 1) cls.crossing[e] = std::clamp(cls.crossing[e], eps, 1 - eps);
+    clamp_crossings(cls, eps);
 
     // Each face's corners in canonical order, as comparable names: global point ids on a face of
     // the complex (build_topology's order), refinement indices on a face inside the parent.

@@ -79,8 +79,7 @@ TEST(certify, RepairRegression) {
       for (int c = 0; c < 8; ++c) f[c] = (kCase5Node.f[c] > 0 ? 1 : -1) * ((bits >> c & 1) ? 1.0 : 1e-6);
       CellClass c = classify(f);
       if (c.subcase != Subcase::k5) continue;
-      for (double& s : c.crossing)
-        if (!std::isnan(s)) s = std::clamp(s, 1e-3, 1 - 1e-3);
+      clamp_crossings(c, 1e-3);
       for (const Polyhedron& p : cut_cell(kUnitCubeCorners, c)) {
         const MappedSubdivision m = subdivide_in_cell(p, cell);
         EXPECT_TRUE(m.certified);
@@ -117,17 +116,11 @@ bool leaves_certified(const HexCorners& cell, const std::array<double, 8>& f, co
   const CellClass c = classify(f);
   const LocalRefinement lr = refine_locally(cell, f, c, 1e-10, table);
   bool ok = true;
-  for (const auto& leaf : lr.cells) {
-    std::array<Vec3, 8> lc;
-    std::array<double, 8> lf;
-    for (int i = 0; i < 8; ++i) {
-      lc[i] = lr.points[leaf[i]];
-      lf[i] = lr.values[leaf[i]];
-    }
-    CellClass lcl = classify(lf);
-    for (double& s : lcl.crossing)
-      if (!std::isnan(s)) s = std::clamp(s, 1e-3, 1 - 1e-3);
-    for (const Polyhedron& p : cut_cell(kUnitCubeCorners, lcl)) ok = ok && subdivide_in_cell(p, lc).certified;
+  for (std::size_t i = 0; i < lr.cells.size(); ++i) {
+    const LocalRefinementLeaf leaf = leaf_cell(lr, i);
+    CellClass lcl = classify(leaf.values);
+    clamp_crossings(lcl, 1e-3);
+    for (const Polyhedron& p : cut_cell(kUnitCubeCorners, lcl)) ok = ok && subdivide_in_cell(p, leaf.corners).certified;
   }
   return ok;
 }

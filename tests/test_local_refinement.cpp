@@ -88,8 +88,7 @@ using test::draw_cell;
 
 CellClass classify_clamped(const Cell& f) {
   CellClass c = classify(f);
-  for (int e = 0; e < 12; ++e)
-    if (c.cut_edges >> e & 1) c.crossing[e] = std::clamp(c.crossing[e], kEps, 1 - kEps);
+  clamp_crossings(c, kEps);
   return c;
 }
 
