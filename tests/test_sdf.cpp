@@ -2,6 +2,8 @@
 // triangles, the brute-force loop (the paper's method), and thread-count determinism.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <numeric>
 #include <random>
 
 #include <tbb/global_control.h>
@@ -105,6 +107,44 @@ TEST(SurfaceSdf, EqualsBruteForceAndIsDeterministicAcrossThreadCounts) {
     ASSERT_EQ(fast[i], one[i]) << i;
   }
   for (std::size_t i = 5000; i < pts.size(); ++i) EXPECT_LT(std::abs(fast[i]), 1e-12);
+}
+
+TEST(SurfaceSdf, AnswerIsIndependentOfBatchOrderAndSurvivesDegenerateTriangles) {
+  // The search regroups a batch along a Morton curve and tests triangles against their plane and
+  // edge lines before measuring them: neither may change a value. Zero-area triangles (a repeated
+  // vertex, three collinear points) and a needle have no edge lines and must still be found.
+  TriangleSurface mesh = tessellate(ShapeKind::kTorus, 24);
+  const uint32_t a = mesh.triangles[0][0], b = mesh.triangles[0][1];
+  const uint32_t mid = uint32_t(mesh.vertices.size());
+  mesh.vertices.push_back(0.5 * (mesh.vertices[a] + mesh.vertices[b]));
+  mesh.vertices.push_back(mesh.vertices[b] + Vec3{0, 0, 1e-9});
+  mesh.vertices.push_back({0.3, 1.7, 0.2});  // a lone needle off the surface
+  mesh.vertices.push_back({0.3, 1.7, 0.2 + 1e-12});
+  mesh.triangles.push_back({a, a, b});
+  mesh.triangles.push_back({a, mid, b});
+  mesh.triangles.push_back({a, b, mid + 1});
+  mesh.triangles.push_back({mid + 2, mid + 3, mid + 2});
+  const SurfaceSdf sdf(mesh);
+  std::vector<Vec3> grid;  // coherent points: whole packets of neighbours
+  const int n = 19;
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) grid.push_back(Vec3{-1.6, -1.6, -0.8} + (3.2 / (n - 1)) * Vec3{double(i), double(j), 0.5 * k});
+  grid.push_back(mesh.vertices[mid + 2]);
+  std::vector<uint32_t> perm(grid.size());
+  std::iota(perm.begin(), perm.end(), 0u);
+  std::shuffle(perm.begin(), perm.end(), std::mt19937(17));
+  std::vector<Vec3> shuffled(grid.size());
+  for (std::size_t i = 0; i < grid.size(); ++i) shuffled[i] = grid[perm[i]];
+  std::vector<double> f(grid.size()), g(grid.size()), brute(grid.size());
+  sdf.evaluate(grid, f);
+  sdf.evaluate(shuffled, g);
+  brute_force_sdf(mesh, grid, brute);
+  for (std::size_t i = 0; i < grid.size(); ++i) {
+    ASSERT_EQ(f[i], brute[i]) << i;
+    ASSERT_EQ(g[i], f[perm[i]]) << i;
+  }
+  EXPECT_EQ(std::abs(f.back()), 0.0);  // on the needle
 }
 
 TEST(SurfaceSdf, FloatBoundsStayConservativeFarFromTheOrigin) {
