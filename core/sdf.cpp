@@ -283,39 +283,6 @@ struct SearchTree {
   }
 };
 
-// The permutation that sorts points along a Morton (Z-order) curve over their bounding box,
-// 21 bits per axis. Non-finite coordinates sort anywhere (their values come out non-finite).
-std::vector<uint32_t> morton_order(std::span<const Vec3> points) {
-  if (points.size() >= (std::size_t(1) << 32)) throw std::length_error("SDF batch too large");
-  Box box{{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
-  for (const Vec3& p : points)
-    for (int a = 0; a < 3; ++a)
-      if (std::isfinite(p[a])) box.lo[a] = std::min(box.lo[a], p[a]), box.hi[a] = std::max(box.hi[a], p[a]);
-  auto spread = [](uint64_t x) {  // bit i of x to bit 3i
-    x &= 0x1fffff;
-    x = (x | x << 32) & 0x1f00000000ffffull;
-    x = (x | x << 16) & 0x1f0000ff0000ffull;
-    x = (x | x << 8) & 0x100f00f00f00f00full;
-    x = (x | x << 4) & 0x10c30c30c30c30c3ull;
-    x = (x | x << 2) & 0x1249249249249249ull;
-    return x;
-  };
-  std::vector<std::pair<uint64_t, uint32_t>> keys(points.size());
-  parallel_for(points.size(), [&](std::size_t i) {
-    uint64_t key = 0;
-    for (int a = 0; a < 3; ++a) {
-      const double extent = box.hi[a] - box.lo[a];
-      const double t = extent > 0 && std::isfinite(points[i][a]) ? (points[i][a] - box.lo[a]) / extent : 0;
-      key |= spread(uint64_t(std::clamp(t, 0.0, 1.0) * double(0x1fffff))) << a;
-    }
-    keys[i] = {key, uint32_t(i)};
-  });
-  tbb::parallel_sort(keys.begin(), keys.end());
-  std::vector<uint32_t> order(points.size());
-  for (std::size_t i = 0; i < keys.size(); ++i) order[i] = keys[i].second;
-  return order;
-}
-
 }  // namespace
 
 struct SurfaceSdf::Impl {
@@ -470,6 +437,38 @@ void SurfaceSdf::distance(std::span<const Vec3> points, std::span<double> values
   impl_->run(points, values,
              [](Vec3, const Impl::Query& q) { return std::sqrt(q.best.squared_distance); });
 }
+
+std::vector<uint32_t> morton_order(std::span<const Vec3> points) {
+  if (points.size() >= (std::size_t(1) << 32)) throw std::length_error("SDF batch too large");
+  Box box{{INFINITY, INFINITY, INFINITY}, {-INFINITY, -INFINITY, -INFINITY}};
+  for (const Vec3& p : points)
+    for (int a = 0; a < 3; ++a)
+      if (std::isfinite(p[a])) box.lo[a] = std::min(box.lo[a], p[a]), box.hi[a] = std::max(box.hi[a], p[a]);
+  auto spread = [](uint64_t x) {  // bit i of x to bit 3i
+    x &= 0x1fffff;
+    x = (x | x << 32) & 0x1f00000000ffffull;
+    x = (x | x << 16) & 0x1f0000ff0000ffull;
+    x = (x | x << 8) & 0x100f00f00f00f00full;
+    x = (x | x << 4) & 0x10c30c30c30c30c3ull;
+    x = (x | x << 2) & 0x1249249249249249ull;
+    return x;
+  };
+  std::vector<std::pair<uint64_t, uint32_t>> keys(points.size());
+  parallel_for(points.size(), [&](std::size_t i) {
+    uint64_t key = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double extent = box.hi[a] - box.lo[a];
+      const double t = extent > 0 && std::isfinite(points[i][a]) ? (points[i][a] - box.lo[a]) / extent : 0;
+      key |= spread(uint64_t(std::clamp(t, 0.0, 1.0) * double(0x1fffff))) << a;
+    }
+    keys[i] = {key, uint32_t(i)};
+  });
+  tbb::parallel_sort(keys.begin(), keys.end());
+  std::vector<uint32_t> order(points.size());
+  for (std::size_t i = 0; i < keys.size(); ++i) order[i] = keys[i].second;
+  return order;
+}
+
 
 void brute_force_sdf(const TriangleSurface& surface, std::span<const Vec3> points,
                      std::span<double> values) {

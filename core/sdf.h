@@ -12,6 +12,8 @@
 
 #include <memory>
 #include <span>
+#include <vector>
+#include <cstdint>
 
 #include "core/geometry.h"
 #include "core/surface.h"
@@ -45,6 +47,12 @@ class SurfaceSdf final : public SignedDistance {
  private:
   std::unique_ptr<Impl> impl_;
 };
+
+// The permutation that orders points along a Morton (Z-order) curve over their bounding box
+// (21 bits per axis; non-finite coordinates sort anywhere). Nearest-triangle searches run in this
+// order, here and on the devices: consecutive points are then neighbours in all three directions,
+// so one point's answer seeds the next and successive searches find the tree's nodes in cache.
+std::vector<uint32_t> morton_order(std::span<const Vec3> points);
 
 // Reference for the benchmarks and tests: the paper's method, every point against every
 // triangle, with the same sign rule. O(points x triangles).

@@ -490,6 +490,19 @@ void OpenclBackend::signed_distance(const SdfSource& source, std::span<const Vec
       return;
     }
     if (surface) m.upload_scene(*source.surface);
+    // Surface points go to the device in Morton order, as core searches them (core/sdf.h): each
+    // work item's run of points, and each group's, is then a compact cluster whose searches seed
+    // one another and share the tree's nodes in cache. The values come back in that order and are
+    // scattered; they are not left resident (the device copy is permuted).
+    std::vector<uint32_t> order;
+    std::vector<Vec3> sorted;
+    if (surface) {
+      order = morton_order(points);
+      sorted.resize(points.size());
+      parallel_for(points.size(), [&](std::size_t i) { sorted[i] = points[order[i]]; });
+    }
+    const std::span<const Vec3> queries = surface ? std::span<const Vec3>(sorted) : points;
+    std::vector<double> chunk_values;
     const std::size_t n = m.chunk(3 * sizeof(double));
     cl::Buffer in(m.context, CL_MEM_READ_ONLY, 3 * sizeof(double) * std::min(n, points.size()));
     cl::Buffer out(m.context, CL_MEM_WRITE_ONLY, sizeof(double) * std::min(n, points.size()));
@@ -499,7 +512,7 @@ void OpenclBackend::signed_distance(const SdfSource& source, std::span<const Vec
     cl::Kernel& k = m.kernel(surface ? "sdf_surface" : "sdf_shape");
     for (std::size_t first = 0; first < points.size(); first += n) {
       const std::size_t count = std::min(n, points.size() - first);
-      m.write(in, &points[first].x, 3 * count);
+      m.write(in, &queries[first].x, 3 * count);
       cl_uint arg = 0;
       if (surface) {
         for (const cl::Buffer& b : m.scene) k.setArg(arg++, b);
@@ -516,9 +529,15 @@ void OpenclBackend::signed_distance(const SdfSource& source, std::span<const Vec
         k.setArg(arg++, cl_uint(count));
         m.run("sdf_shape", k, count);
       }
-      m.read(out, &values[first], count);
+      if (surface) {
+        chunk_values.resize(count);
+        m.read(out, chunk_values.data(), count);
+        for (std::size_t i = 0; i < count; ++i) values[order[first + i]] = chunk_values[i];
+      } else {
+        m.read(out, &values[first], count);
+      }
     }
-    if (points.size() <= n && !m.host_unified) {
+    if (!surface && points.size() <= n && !m.host_unified) {
       m.resident = out;
       m.resident_data = values.data();
       m.resident_size = values.size();
@@ -661,7 +680,10 @@ void OpenclBackend::classify_cells(const HexComplex& complex, std::span<const do
       classify.setArg(arg++, cl_uint(want_words));
       classify.setArg(arg++, bad);
       classify.setArg(arg++, cl_uint(count));
-      m.run("classify", classify, count);
+      // CPU devices take runs of cells per work item (core's loop, in effect); GPUs one each.
+      const cl_uint cells_per_item = m.info.type == "gpu" ? 1 : 16;
+      classify.setArg(arg++, cells_per_item);
+      m.run("classify", classify, (count + cells_per_item - 1) / cells_per_item);
 
       const cl_uint blocks = cl_uint((count + kBlock - 1) / kBlock);
       block_sums.setArg(0, subcase_buf);

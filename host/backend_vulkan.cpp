@@ -11,6 +11,7 @@
 
 #include <fmt/format.h>
 
+#include "core/sdf.h"
 #include "core/device_scene.h"
 #include "core/error.h"
 #include "host/vk_context.h"
@@ -247,9 +248,22 @@ void VulkanBackend::signed_distance(const SdfSource& source, std::span<const Vec
   vk::Buffer in = m.device->make_buffer(chunk * sizeof(Vec3));
   vk::Buffer out = m.device->make_buffer(chunk * sizeof(double));
   const Impl::Scene* scene = source.surface ? &m.scene_of(*source.surface) : nullptr;
+  // Surface points go to the device in Morton order, as core searches them (core/sdf.h): each
+  // invocation's run of points, and each group's, is then a compact cluster whose searches seed
+  // one another and share the tree's nodes in cache. The values come back in that order and are
+  // scattered; they are not left resident (the device copy is permuted).
+  std::vector<uint32_t> order;
+  if (scene) order = morton_order(points);
   for (std::size_t begin = 0; begin < n; begin += chunk) {
     const std::size_t count = std::min(chunk, n - begin);
-    timed(m.profile.upload, [&] { std::memcpy(in.data(), points.data() + begin, count * sizeof(Vec3)); });
+    timed(m.profile.upload, [&] {
+      if (!scene) {
+        std::memcpy(in.data(), points.data() + begin, count * sizeof(Vec3));
+        return;
+      }
+      Vec3* dst = static_cast<Vec3*>(in.data());
+      for (std::size_t i = 0; i < count; ++i) dst[i] = points[order[begin + i]];
+    });
     if (scene) {
       struct {
         std::uint32_t n, per_item;
@@ -263,9 +277,16 @@ void VulkanBackend::signed_distance(const SdfSource& source, std::span<const Vec
       const std::int32_t push[2] = {static_cast<std::int32_t>(count), static_cast<std::int32_t>(source.shape)};
       m.run(m.shape_sdf, {{&in}, {&out}}, push, count, kGroup);
     }
-    timed(m.profile.download, [&] { std::memcpy(values.data() + begin, out.data(), count * sizeof(double)); });
+    timed(m.profile.download, [&] {
+      if (!scene) {
+        std::memcpy(values.data() + begin, out.data(), count * sizeof(double));
+        return;
+      }
+      const double* src = static_cast<const double*>(out.data());
+      for (std::size_t i = 0; i < count; ++i) values[order[begin + i]] = src[i];
+    });
   }
-  if (chunk == n) {
+  if (!scene && chunk == n) {
     m.resident.emplace(std::move(out));
     m.resident_data = values.data();
     m.resident_size = n;

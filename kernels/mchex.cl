@@ -46,30 +46,52 @@ __kernel void refinement_error(__global const double *lattice, __global const do
 // is read, so the host need not make a ruled copy. Writes one byte per cell (its Subcase: all the
 // mesher needs), the packed CellCode words when want_words != 0, and sets bad[0] when a corner
 // value is not finite (the host turns that into core's InputError).
+// Each work item takes a run of per_item consecutive cells: on a uniform grid it finds its first
+// cell's (x, y, z) by division and its corners' offsets once, and steps along the row after that.
 __kernel void classify(CLASSIFY_PARAMS_ __global const uint *cells, __global const double *values, uint value_base,
                        uint first, uint uniform_n, double zero_tolerance, __global uchar *subcases,
-                       __global uint *codes, uint want_words, __global uint *bad, uint n) {
-  uint i = (uint)get_global_id(0);
-  if (i >= n) return;
-  CellValues v;
-  int mask = 0;
+                       __global uint *codes, uint want_words, __global uint *bad, uint n, uint per_item) {
+  uint begin = (uint)get_global_id(0) * per_item;
+  if (begin >= n) return;
+  uint end = min(begin + per_item, n);
+  uint m = uniform_n + 1u;
+  uint x = 0u, y = 0u, z = 0u;
+  if (uniform_n > 0u) {
+    uint cell = first + begin, rest = cell / uniform_n;
+    x = cell % uniform_n;
+    y = rest % uniform_n;
+    z = rest / uniform_n;
+  }
+  uint corner_offset[8];
+  for (int c = 0; c < 8; ++c) corner_offset[c] = uniform_n > 0u ? uniform_corner_offset(uniform_n, c) : 0u;
   bool finite = true;
-  uint base = uniform_n > 0u ? uniform_cell_base(first + i, uniform_n) : 0u;
-  for (int c = 0; c < 8; ++c) {
-    uint p = uniform_n > 0u ? base + uniform_corner_offset(uniform_n, c) : cells[8 * i + (uint)c];
-    double f = values[p - value_base];
-    finite = finite && isfinite(f);
-    f = fabs(f) < zero_tolerance ? -zero_tolerance : f;
-    v.f[c] = f;
-    if (f > 0.0) mask |= 1 << c;
+  for (uint i = begin; i < end; ++i) {
+    CellValues v;
+    int mask = 0;
+    uint base = x + m * (y + m * z);
+    for (int c = 0; c < 8; ++c) {
+      uint p = uniform_n > 0u ? base + corner_offset[c] : cells[8 * i + (uint)c];
+      double f = values[p - value_base];
+      finite = finite && isfinite(f);
+      f = fabs(f) < zero_tolerance ? -zero_tolerance : f;
+      v.f[c] = f;
+      if (f > 0.0) mask |= 1 << c;
+    }
+    CellWords w = classify_pattern(CLASSIFY_ARGS_ v, mask);
+    subcases[i] = (uchar)(w.w0 & 255u);
+    if (want_words != 0u) {
+      codes[2 * i] = w.w0;
+      codes[2 * i + 1] = w.w1;
+    }
+    if (++x == uniform_n) {
+      x = 0u;
+      if (++y == uniform_n) {
+        y = 0u;
+        ++z;
+      }
+    }
   }
   if (!finite) bad[0] = 1u;
-  CellWords w = classify_pattern(CLASSIFY_ARGS_ v, mask);
-  subcases[i] = (uchar)(w.w0 & 255u);
-  if (want_words != 0u) {
-    codes[2 * i] = w.w0;
-    codes[2 * i + 1] = w.w1;
-  }
 }
 
 #else
