@@ -2,7 +2,8 @@
 //
 // SurfaceSdf is the CPU reference for triangle surfaces: the closest point comes from a
 // nearest-first search of a BVH that Embree builds (core/bvh.h), O(log T) per point against the
-// paper's brute-force loop over all triangles, with every candidate measured in double;
+// paper's brute-force loop over all triangles, with every candidate measured in double (points
+// are searched in Morton order, eight neighbours sharing one walk of the tree);
 // the sign from the angle-weighted pseudonormal of the closest feature (Baerentzen & Aanaes 2005).
 // That sign is exact for closed, consistently oriented 2-manifold surfaces. On open surfaces,
 // non-manifold edges or triangle soups it never fails but is only locally meaningful: each point
