@@ -7,15 +7,11 @@
 #include <stdexcept>
 #include <string>
 
-#if defined(__SSE__)
-#include <xmmintrin.h>
-#endif
+#include <tbb/parallel_sort.h>
 
 #include "core/bvh.h"
 #include "core/device_scene.h"
 #include "core/parallel.h"
-
-#include <tbb/parallel_sort.h>
 
 namespace mchex {
 
@@ -75,7 +71,7 @@ double signed_value(Vec3 p, const ClosestPoint& cp, Vec3 pseudonormal) {
 
 // The search tree of the reference SDF: the topology of the Embree-built TriangleBvh, with each
 // node's triangles bounded by a box in a frame of its own, collapsed to four children per node;
-// below each leaf, one more node whose four boxes are its triangles' own.
+// below each leaf, a triangle layer that bounds each of its triangles on its own.
 //
 // Why oriented boxes: a point far from a smooth surface is at nearly the same distance from a
 // whole patch of it (distance grows only quadratically sideways), so a search must rule out
@@ -84,8 +80,8 @@ double signed_value(Vec3 p, const ClosestPoint& cp, Vec3 pseudonormal) {
 // a box aligned with the piece's mean normal is thin and comes within range only right under the
 // point. Low in the tree nodes are nearly flat pieces. Where the normals of a node's triangles
 // cancel (high in the tree, around corners) the node keeps the axis-aligned frame. A triangle's
-// own box (its plane, the rectangle along its longest edge) is a float bound that rules out most
-// of a leaf's triangles before any is measured exactly.
+// own bound (its plane and edge lines, TriangleLeaf below) rules out most of a leaf's triangles
+// before any is measured exactly.
 struct OrientedBox {
   float axis[3][3];    // orthonormal frame (to float precision)
   float lo[3], hi[3];  // extents along the axes, rounded outward
@@ -100,9 +96,8 @@ using Four = float __attribute__((vector_size(16)));
 inline Four max4(Four a, Four b) { return a > b ? a : b; }
 
 // Four children's oriented boxes side by side (structure of arrays). A child is an inner node
-// (count 0, child = its wide node), a leaf (count = its triangles, child = its node in the
-// triangle layer), or, in the triangle layer, one triangle (count 1, child = its leaf slot). An
-// absent child has an empty box (lo > hi), which is at infinite distance.
+// (count 0, child = its wide node) or a leaf (count = its triangles, child = its TriangleLeaf).
+// An absent child has an empty box (lo > hi), which is at infinite distance.
 struct alignas(64) WideNode {
   Four axis[3][3];  // [axis][component], one child per lane
   Four lo[3], hi[3];
@@ -309,16 +304,17 @@ struct SurfaceSdf::Impl {
     uint32_t best_triangle;
   };
 
-  // Nearest triangles to a packet of up to four points (neighbours on a grid), searched together:
-  // one walk of the tree opens a node when it is in range of any of the points, and each point
-  // measures exactly only the triangles whose own boxes are in its range. Neighbouring points
-  // need nearly the same nodes, so the walk's loads and branches are shared four ways, and each
-  // box's four distances are one vector of lanes.
+  // Nearest triangles to a packet of up to kPacket points (neighbours in Morton order), searched
+  // together: one nearest-first walk of the tree opens a node when it is in range of any of the
+  // points, a point stops measuring where its own bound rules a node out, and each point measures
+  // exactly only the triangles whose TriangleLeaf bound is in its range. Neighbouring points need
+  // nearly the same nodes, so the walk's loads and branches are shared by the packet, and each
+  // node's four child distances are one vector.
   //
   // Each point starts from a candidate triangle (the answer of a point nearby: on a grid it is
   // usually the answer here too, so the search starts with an exact bound and only has to prove
-  // it; hence no nearest-first ordering). Ties go to the lower triangle index, so the answer does
-  // not depend on the candidate, the packet, the tree's shape or the traversal order.
+  // it). Ties go to the lower triangle index, so the answer does not depend on the candidate, the
+  // packet, the tree's shape or the traversal order.
   void closest(const Vec3* p, int n, const uint32_t* candidate, Query* q) const {
     float pf[kPacket][3], slack[kPacket], best2[kPacket];
     for (int l = 0; l < kPacket; ++l) {
