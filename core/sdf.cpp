@@ -13,6 +13,14 @@
 #include "core/device_scene.h"
 #include "core/parallel.h"
 
+#ifdef SDF_STATS
+#include <cstdio>
+namespace { struct Counters { long pts = 0, pops = 0, lanepops = 0, leaflanes = 0, exact = 0, better = 0, tie = 0, worse = 0, tribound = 0;
+  ~Counters() { fprintf(stderr, "pts %ld pops/packet %.2f lanepops/pt %.2f leaflanes/pt %.2f exact/pt %.2f (better %.2f tie %.2f worse %.2f) tribounds %.2f\n", pts, 8.0 * pops / pts, double(lanepops) / pts, double(leaflanes) / pts, double(exact) / pts, double(better) / pts, double(tie) / pts, double(worse) / pts, double(tribound) / pts); } } counters; }
+#define SDF_COUNT(x) (counters.x++)
+#else
+#define SDF_COUNT(x) ((void)0)
+#endif
 namespace mchex {
 
 ClosestPoint closest_point_on_triangle(Vec3 p, Vec3 a, Vec3 b, Vec3 c) {
@@ -94,6 +102,8 @@ constexpr int kPacket = 8;  // points searched together (a 2x2x2 brick of a grid
 using Four = float __attribute__((vector_size(16)));
 
 inline Four max4(Four a, Four b) { return a > b ? a : b; }
+using Four32 = int __attribute__((vector_size(16)));
+inline unsigned mask_of(Four32 m) { return (m[0] & 1) | (m[1] & 2) | (m[2] & 4) | (m[3] & 8); }
 
 // Four children's oriented boxes side by side (structure of arrays). A child is an inner node
 // (count 0, child = its wide node) or a leaf (count = its triangles, child = its TriangleLeaf).
@@ -149,7 +159,21 @@ OrientedBox bound_triangles(const TriangleSurface& s, std::span<const uint32_t> 
   Vec3 a0{0, 0, 1}, a1{1, 0, 0};
   if (norm(normal) > 0.5 * area && area > 0) {  // a nearly flat piece: its own frame
     a0 = normalized(normal);
-    a1 = normalized(cross(a0, std::abs(a0.x) < 0.6 ? Vec3{1, 0, 0} : Vec3{0, 1, 0}));
+    const Vec3 u = normalized(cross(a0, std::abs(a0.x) < 0.6 ? Vec3{1, 0, 0} : Vec3{0, 1, 0}));
+    const Vec3 w = cross(a0, u);
+    double best_area = INFINITY;
+    constexpr int kAngles = 24;
+    for (int k = 0; k < kAngles; ++k) {
+      const double th = (k + 0.5) * (M_PI / 2) / kAngles;
+      const Vec3 b1 = std::cos(th) * u + std::sin(th) * w, b2 = cross(a0, b1);
+      double l1 = INFINITY, h1 = -INFINITY, l2 = INFINITY, h2 = -INFINITY;
+      for (uint32_t t : triangles)
+        for (uint32_t v : s.triangles[t]) {
+          const double x = dot(b1, s.vertices[v]), y = dot(b2, s.vertices[v]);
+          l1 = std::min(l1, x), h1 = std::max(h1, x), l2 = std::min(l2, y), h2 = std::max(h2, y);
+        }
+      if ((h1 - l1) * (h2 - l2) < best_area) best_area = (h1 - l1) * (h2 - l2), a1 = b1;
+    }
   }
   OrientedBox out;
   const Vec3 a2 = cross(a0, a1);
@@ -316,44 +340,50 @@ struct SurfaceSdf::Impl {
   // it). Ties go to the lower triangle index, so the answer does not depend on the candidate, the
   // packet, the tree's shape or the traversal order.
   void closest(const Vec3* p, int n, const uint32_t* candidate, Query* q) const {
-    float pf[kPacket][3], slack[kPacket], best2[kPacket];
+    float pf[kPacket][3], slack[kPacket];
+    Four best2v[kPacket / 4];
+    float* best2 = reinterpret_cast<float*>(best2v);
     for (int l = 0; l < kPacket; ++l) {
       const Vec3 x = p[std::min(l, n - 1)];
       for (int a = 0; a < 3; ++a) pf[l][a] = float(x[a]);
-      // Float projections err by a few ulps of |p| + |extent| (and the axes by ~1e-7 from unit
-      // length and right angles): 1e-6 of that magnitude is a safe margin.
       slack[l] = float(1e-6 * (3 * std::max({std::abs(x.x), std::abs(x.y), std::abs(x.z)}) + 2 * scale));
-      best2[l] = -1;  // lanes past n never open anything
+      best2[l] = -1;
       if (l >= n) continue;
       const auto& c = surface.triangles[candidate[l]];
       q[l] = {closest_point_on_triangle(x, surface.vertices[c[0]], surface.vertices[c[1]], surface.vertices[c[2]]),
               candidate[l]};
-      // Rounded up, so that float comparisons against it never prune a node at the bound.
       best2[l] = std::nextafter(float(q[l].best.squared_distance), INFINITY);
     }
     struct Entry {
-      float d2[kPacket];
+      Four d2[kPacket / 4];
       uint32_t node;
     };
-    Entry stack[4 * 64];  // each step pops one and pushes at most four; the tree is at most 64 deep
+    Entry stack[4 * 64];
+#ifdef SDF_STATS
+    counters.pts += n;
+#endif
     int top = 0;
     stack[top++] = {{}, 0};
+    const Four far = {INFINITY, INFINITY, INFINITY, INFINITY};
     while (top > 0) {
-      const Entry e = stack[--top];
+      const Entry& e = stack[--top];
+      unsigned active = 0;
+      for (int k = 0; k < kPacket / 4; ++k) active |= mask_of(e.d2[k] <= best2v[k]) << (4 * k);
+      if (!active) continue;
+      SDF_COUNT(pops);
       const WideNode& w = tree.nodes[e.node];
-      Four d2[kPacket];  // [point], one child per lane
-      const Four far = {INFINITY, INFINITY, INFINITY, INFINITY};
-      Four key = far;  // a child's distance from the nearest point it is in range of
-      for (int l = 0; l < kPacket; ++l) {
-        if (e.d2[l] > best2[l]) {  // this point is done here (or done since the push)
-          d2[l] = far;
-          continue;
-        }
+      Four d2[kPacket];
+      unsigned in_range[kPacket];  // per point: children in its range
+      Four key = far;
+      for (int l = 0; l < kPacket; ++l) d2[l] = far, in_range[l] = 0;
+      for (unsigned bits = active; bits; bits &= bits - 1) {
+        const int l = __builtin_ctz(bits);
         d2[l] = w.distance2(pf[l], slack[l]);
-        key = d2[l] <= best2[l] && d2[l] < key ? d2[l] : key;
+        SDF_COUNT(lanepops);
+        const auto r = d2[l] <= best2[l];
+        in_range[l] = mask_of(r);
+        key = r && d2[l] < key ? d2[l] : key;
       }
-      // Children nearest first: leaves are searched at once (shrinking the bounds), inner
-      // children pushed farthest first so that the nearest is popped next.
       int order[4] = {0, 1, 2, 3};
       for (int i = 1; i < 4; ++i)
         for (int j = i; j > 0 && key[order[j]] < key[order[j - 1]]; --j) std::swap(order[j], order[j - 1]);
@@ -361,14 +391,24 @@ struct SurfaceSdf::Impl {
         const int c = order[i];
         if (key[c] == INFINITY || w.count[c] == 0) continue;
         const TriangleLeaf& leaf = tree.leaves[w.child[c]];
-        for (int l = 0; l < n; ++l) {
-          if (d2[l][c] > best2[l]) continue;
+        for (unsigned bits = active; bits; bits &= bits - 1) {
+          const int l = __builtin_ctz(bits);
+          if (!(in_range[l] >> c & 1) || d2[l][c] > best2[l]) continue;
           const Four t2 = leaf.distance2(pf[l], slack[l]);
-          for (int t = 0; t < int(w.count[c]); ++t) {
+          SDF_COUNT(leaflanes);
+#ifdef SDF_STATS
+          counters.tribound += w.count[c];
+#endif
+          for (unsigned tb = mask_of(t2 <= best2[l]) & ((1u << w.count[c]) - 1); tb; tb &= tb - 1) {
+            const int t = __builtin_ctz(tb);
             if (t2[t] > best2[l]) continue;
             const uint32_t slot = leaf.slot[t];
             const auto& v = leaf_corners[slot];
             const ClosestPoint cp = closest_point_on_triangle(p[l], v[0], v[1], v[2]);
+            SDF_COUNT(exact);
+#ifdef SDF_STATS
+            if (cp.squared_distance < q[l].best.squared_distance) counters.better++; else if (cp.squared_distance == q[l].best.squared_distance) counters.tie++; else counters.worse++;
+#endif
             const uint32_t id = bvh.leaf_triangles[slot];
             if (cp.squared_distance < q[l].best.squared_distance ||
                 (cp.squared_distance == q[l].best.squared_distance && id < q[l].best_triangle)) {
@@ -382,7 +422,8 @@ struct SurfaceSdf::Impl {
         const int c = order[i];
         if (key[c] == INFINITY || w.count[c] != 0) continue;
         Entry& child = stack[top++];
-        for (int l = 0; l < kPacket; ++l) child.d2[l] = d2[l][c];
+        for (int k = 0; k < kPacket / 4; ++k)
+          child.d2[k] = Four{d2[4 * k][c], d2[4 * k + 1][c], d2[4 * k + 2][c], d2[4 * k + 3][c]};
         child.node = w.child[c];
       }
     }
