@@ -1,6 +1,7 @@
 #include "core/sdf.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <numeric>
@@ -156,24 +157,42 @@ OrientedBox bound_triangles(const TriangleSurface& s, std::span<const uint32_t> 
     normal += c;
     area += norm(c);
   }
+  std::vector<uint32_t> corner_ids;  // each vertex once (a closed mesh's vertex is in ~6 triangles)
+  corner_ids.reserve(3 * triangles.size());
+  for (uint32_t t : triangles)
+    for (uint32_t v : s.triangles[t]) corner_ids.push_back(v);
+  std::sort(corner_ids.begin(), corner_ids.end());
+  corner_ids.erase(std::unique(corner_ids.begin(), corner_ids.end()), corner_ids.end());
+  std::vector<Vec3> corners(corner_ids.size());
+  for (std::size_t i = 0; i < corners.size(); ++i) corners[i] = s.vertices[corner_ids[i]];
   Vec3 a0{0, 0, 1}, a1{1, 0, 0};
   if (norm(normal) > 0.5 * area && area > 0) {  // a nearly flat piece: its own frame
     a0 = normalized(normal);
+    // The in-plane axes of least area: the corners' extents along kAngles directions over a
+    // quarter turn (the thickness along a0 does not depend on them).
+    constexpr int kAngles = 24;
+    static const auto turns = [] {
+      std::array<std::pair<double, double>, kAngles> cs;
+      for (int k = 0; k < kAngles; ++k)
+        cs[k] = {std::cos((k + 0.5) * (M_PI / 2) / kAngles), std::sin((k + 0.5) * (M_PI / 2) / kAngles)};
+      return cs;
+    }();
     const Vec3 u = normalized(cross(a0, std::abs(a0.x) < 0.6 ? Vec3{1, 0, 0} : Vec3{0, 1, 0}));
     const Vec3 w = cross(a0, u);
-    double best_area = INFINITY;
-    constexpr int kAngles = 24;
-    for (int k = 0; k < kAngles; ++k) {
-      const double th = (k + 0.5) * (M_PI / 2) / kAngles;
-      const Vec3 b1 = std::cos(th) * u + std::sin(th) * w, b2 = cross(a0, b1);
-      double l1 = INFINITY, h1 = -INFINITY, l2 = INFINITY, h2 = -INFINITY;
-      for (uint32_t t : triangles)
-        for (uint32_t v : s.triangles[t]) {
-          const double x = dot(b1, s.vertices[v]), y = dot(b2, s.vertices[v]);
-          l1 = std::min(l1, x), h1 = std::max(h1, x), l2 = std::min(l2, y), h2 = std::max(h2, y);
-        }
-      if ((h1 - l1) * (h2 - l2) < best_area) best_area = (h1 - l1) * (h2 - l2), a1 = b1;
+    double l[kAngles][2], h[kAngles][2];
+    for (int k = 0; k < kAngles; ++k) l[k][0] = l[k][1] = INFINITY, h[k][0] = h[k][1] = -INFINITY;
+    for (const Vec3& c : corners) {
+      const double x = dot(u, c), y = dot(w, c);
+      for (int k = 0; k < kAngles; ++k) {
+        const double p1 = turns[k].first * x + turns[k].second * y, p2 = turns[k].first * y - turns[k].second * x;
+        l[k][0] = std::min(l[k][0], p1), h[k][0] = std::max(h[k][0], p1);
+        l[k][1] = std::min(l[k][1], p2), h[k][1] = std::max(h[k][1], p2);
+      }
     }
+    int best = 0;
+    for (int k = 1; k < kAngles; ++k)
+      if ((h[k][0] - l[k][0]) * (h[k][1] - l[k][1]) < (h[best][0] - l[best][0]) * (h[best][1] - l[best][1])) best = k;
+    a1 = turns[best].first * u + turns[best].second * w;
   }
   OrientedBox out;
   const Vec3 a2 = cross(a0, a1);
@@ -183,12 +202,11 @@ OrientedBox bound_triangles(const TriangleSurface& s, std::span<const uint32_t> 
   Vec3 axes[3];
   for (int a = 0; a < 3; ++a) axes[a] = {out.axis[a][0], out.axis[a][1], out.axis[a][2]};
   double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-  for (uint32_t t : triangles)
-    for (uint32_t v : s.triangles[t])
-      for (int a = 0; a < 3; ++a) {
-        const double x = dot(axes[a], s.vertices[v]);
-        lo[a] = std::min(lo[a], x), hi[a] = std::max(hi[a], x);
-      }
+  for (const Vec3& c : corners)
+    for (int a = 0; a < 3; ++a) {
+      const double x = dot(axes[a], c);
+      lo[a] = std::min(lo[a], x), hi[a] = std::max(hi[a], x);
+    }
   for (int a = 0; a < 3; ++a) {
     out.lo[a] = std::nextafter(float(lo[a]), -INFINITY);
     out.hi[a] = std::nextafter(float(hi[a]), INFINITY);
