@@ -9,6 +9,9 @@
 #include <string>
 
 #include <tbb/parallel_sort.h>
+#if defined(__SSE__)
+#include <xmmintrin.h>
+#endif
 
 #include "core/bvh.h"
 #include "core/device_scene.h"
@@ -104,7 +107,14 @@ using Four = float __attribute__((vector_size(16)));
 
 inline Four max4(Four a, Four b) { return a > b ? a : b; }
 using Four32 = int __attribute__((vector_size(16)));
-inline unsigned mask_of(Four32 m) { return (m[0] & 1) | (m[1] & 2) | (m[2] & 4) | (m[3] & 8); }
+// The lanes of a comparison result as four bits (lane i -> bit i): one instruction on SSE.
+inline unsigned mask_of(Four32 m) {
+#if defined(__SSE__)
+  return unsigned(_mm_movemask_ps(reinterpret_cast<__m128>(m)));
+#else
+  return (m[0] & 1) | (m[1] & 2) | (m[2] & 4) | (m[3] & 8);
+#endif
+}
 
 // Four children's oriented boxes side by side (structure of arrays). A child is an inner node
 // (count 0, child = its wide node) or a leaf (count = its triangles, child = its TriangleLeaf).
@@ -461,16 +471,30 @@ struct SurfaceSdf::Impl {
     const std::vector<uint32_t> order = morton_order(points);
     parallel_chunks(points.size(), 256, [&](std::size_t b, std::size_t e) {
       uint32_t candidate[kPacket] = {};
+      Query prev[kPacket];
+      int prev_n = 0;
       for (std::size_t i = b; i < e; i += kPacket) {
         const int n = int(std::min<std::size_t>(kPacket, e - i));
         Vec3 p[kPacket];
         for (int l = 0; l < n; ++l) p[l] = points[order[i + l]];
         Query q[kPacket];
+        if (prev_n) {
+          for (int l = 0; l < n; ++l) {
+            int k = 0;
+            double dk = squared_norm(p[l] - prev[0].best.point);
+            for (int m = 1; m < prev_n; ++m) {
+              const double dm = squared_norm(p[l] - prev[m].best.point);
+              if (dm < dk) dk = dm, k = m;
+            }
+            candidate[l] = prev[k].best_triangle;
+          }
+        }
         closest(p, n, candidate, q);
         for (int l = 0; l < n; ++l) {
           values[order[i + l]] = out(p[l], q[l]);
-          candidate[l] = q[l].best_triangle;
+          prev[l] = q[l];
         }
+        prev_n = n;
       }
     });
   }
