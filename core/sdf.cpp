@@ -107,6 +107,7 @@ using Four = float __attribute__((vector_size(16)));
 
 inline Four max4(Four a, Four b) { return a > b ? a : b; }
 using Four32 = int __attribute__((vector_size(16)));
+constexpr int kBitCount[16] = {0, 1, 1, 2, 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4};
 // The lanes of a comparison result as four bits (lane i -> bit i): one instruction on SSE.
 inline unsigned mask_of(Four32 m) {
 #if defined(__SSE__)
@@ -124,6 +125,7 @@ struct alignas(64) WideNode {
   Four lo[3], hi[3];
   uint32_t child[4];
   uint32_t count[4];
+  uint32_t leaf_mask;  // bit c: child c is a leaf
 
   // Lower bounds of the squared distance from p to each child's triangles. `slack` (per query)
   // covers float rounding of the projections and the axes' departure from orthonormality, so a
@@ -146,6 +148,7 @@ struct alignas(64) WideNode {
     }
     child[c] = child_index;
     count[c] = triangles;
+    if (triangles) leaf_mask |= 1u << c;
   }
 
   static WideNode empty() {
@@ -412,12 +415,19 @@ struct SurfaceSdf::Impl {
         in_range[l] = mask_of(r);
         key = r && d2[l] < key ? d2[l] : key;
       }
-      int order[4] = {0, 1, 2, 3};
-      for (int i = 1; i < 4; ++i)
-        for (int j = i; j > 0 && key[order[j]] < key[order[j - 1]]; --j) std::swap(order[j], order[j - 1]);
-      for (int i = 0; i < 4; ++i) {
+      // Children nearest first, ranked without branches (ties by child index): the rank of c is
+      // the number of children before it.
+      const unsigned live = mask_of(key < far);
+      if (!live) continue;
+      int order[4];
+      for (int c = 0; c < 4; ++c) {
+        const Four kc = {key[c], key[c], key[c], key[c]};
+        order[kBitCount[mask_of(key < kc) | (mask_of(key == kc) & ((1u << c) - 1))]] = c;
+      }
+      const unsigned live_leaves = live & w.leaf_mask;
+      for (int i = 0; live_leaves && i < 4; ++i) {
         const int c = order[i];
-        if (key[c] == INFINITY || w.count[c] == 0) continue;
+        if (!(live_leaves >> c & 1)) continue;
         const TriangleLeaf& leaf = tree.leaves[w.child[c]];
         for (unsigned bits = active; bits; bits &= bits - 1) {
           const int l = __builtin_ctz(bits);
@@ -446,9 +456,10 @@ struct SurfaceSdf::Impl {
           }
         }
       }
+      const unsigned live_inner = live & ~w.leaf_mask;
       for (int i = 3; i >= 0; --i) {
         const int c = order[i];
-        if (key[c] == INFINITY || w.count[c] != 0) continue;
+        if (!(live_inner >> c & 1)) continue;
         Entry& child = stack[top++];
         for (int k = 0; k < kPacket / 4; ++k)
           child.d2[k] = Four{d2[4 * k][c], d2[4 * k + 1][c], d2[4 * k + 2][c], d2[4 * k + 3][c]};
