@@ -27,7 +27,11 @@ namespace { struct Counters { long pts = 0, pops = 0, lanepops = 0, leaflanes = 
 #endif
 namespace mchex {
 
-ClosestPoint closest_point_on_triangle(Vec3 p, Vec3 a, Vec3 b, Vec3 c) {
+namespace {
+
+// The body of closest_point_on_triangle, inlined into the search's inner loop (a call there costs
+// a tenth of the search).
+[[gnu::always_inline]] inline ClosestPoint closest_point_inline(Vec3 p, Vec3 a, Vec3 b, Vec3 c) {
   // Voronoi-region walk over the triangle's features (Ericson, Real-Time Collision Detection,
   // 5.1.5): the region is what decides which pseudonormal gives the sign.
   const Vec3 ab = b - a, ac = c - a, ap = p - a;
@@ -73,6 +77,10 @@ ClosestPoint closest_point_on_triangle(Vec3 p, Vec3 a, Vec3 b, Vec3 c) {
   }
   return best;
 }
+
+}  // namespace
+
+ClosestPoint closest_point_on_triangle(Vec3 p, Vec3 a, Vec3 b, Vec3 c) { return closest_point_inline(p, a, b, c); }
 
 namespace {
 
@@ -442,7 +450,7 @@ struct SurfaceSdf::Impl {
             if (t2[t] > best2[l]) continue;
             const uint32_t slot = leaf.slot[t];
             const auto& v = leaf_corners[slot];
-            const ClosestPoint cp = closest_point_on_triangle(p[l], v[0], v[1], v[2]);
+            const ClosestPoint cp = closest_point_inline(p[l], v[0], v[1], v[2]);
             SDF_COUNT(exact);
 #ifdef SDF_STATS
             if (cp.squared_distance < q[l].best.squared_distance) counters.better++; else if (cp.squared_distance == q[l].best.squared_distance) counters.tie++; else counters.worse++;
