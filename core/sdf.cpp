@@ -169,51 +169,63 @@ struct alignas(64) WideNode {
 
 // The box of a group of triangles. Frame: the group's mean normal when the group is nearly flat,
 // else the coordinate axes.
-OrientedBox bound_triangles(const TriangleSurface& s, std::span<const uint32_t> triangles) {
+// `seen` (one entry per surface vertex, never equal to `stamp` on entry) lets each vertex be
+// visited once (a closed mesh's vertex is in about six triangles).
+OrientedBox bound_triangles(const TriangleSurface& s, std::span<const uint32_t> triangles, std::vector<uint32_t>& seen,
+                            uint32_t stamp) {
   Vec3 normal{};
   double area = 0;
+  std::vector<Vec3> corners;
+  corners.reserve(triangles.size() + 2);
   for (uint32_t t : triangles) {
     const auto& v = s.triangles[t];
     const Vec3 c = cross(s.vertices[v[1]] - s.vertices[v[0]], s.vertices[v[2]] - s.vertices[v[0]]);
     normal += c;
     area += norm(c);
+    for (uint32_t i : v)
+      if (seen[i] != stamp) seen[i] = stamp, corners.push_back(s.vertices[i]);
   }
-  std::vector<uint32_t> corner_ids;  // each vertex once (a closed mesh's vertex is in ~6 triangles)
-  corner_ids.reserve(3 * triangles.size());
-  for (uint32_t t : triangles)
-    for (uint32_t v : s.triangles[t]) corner_ids.push_back(v);
-  std::sort(corner_ids.begin(), corner_ids.end());
-  corner_ids.erase(std::unique(corner_ids.begin(), corner_ids.end()), corner_ids.end());
-  std::vector<Vec3> corners(corner_ids.size());
-  for (std::size_t i = 0; i < corners.size(); ++i) corners[i] = s.vertices[corner_ids[i]];
   Vec3 a0{0, 0, 1}, a1{1, 0, 0};
   if (norm(normal) > 0.5 * area && area > 0) {  // a nearly flat piece: its own frame
     a0 = normalized(normal);
-    // The in-plane axes of least area: the corners' extents along kAngles directions over a
-    // quarter turn (the thickness along a0 does not depend on them).
-    constexpr int kAngles = 24;
+    // The in-plane axes of least area (the thickness along a0 does not depend on them): eight
+    // turns over a quarter turn, then eight finer turns around the best of them.
+    constexpr int kTurns = 8;
     static const auto turns = [] {
-      std::array<std::pair<double, double>, kAngles> cs;
-      for (int k = 0; k < kAngles; ++k)
-        cs[k] = {std::cos((k + 0.5) * (M_PI / 2) / kAngles), std::sin((k + 0.5) * (M_PI / 2) / kAngles)};
+      std::array<std::array<std::pair<double, double>, kTurns>, 2> cs;  // [coarse, fine offsets]
+      for (int k = 0; k < kTurns; ++k) {
+        const double coarse = (k + 0.5) * (M_PI / 2) / kTurns, fine = (k - 3.5) * (M_PI / 2) / (kTurns * kTurns);
+        cs[0][k] = {std::cos(coarse), std::sin(coarse)};
+        cs[1][k] = {std::cos(fine), std::sin(fine)};
+      }
       return cs;
     }();
     const Vec3 u = normalized(cross(a0, std::abs(a0.x) < 0.6 ? Vec3{1, 0, 0} : Vec3{0, 1, 0}));
     const Vec3 w = cross(a0, u);
-    double l[kAngles][2], h[kAngles][2];
-    for (int k = 0; k < kAngles; ++k) l[k][0] = l[k][1] = INFINITY, h[k][0] = h[k][1] = -INFINITY;
-    for (const Vec3& c : corners) {
-      const double x = dot(u, c), y = dot(w, c);
-      for (int k = 0; k < kAngles; ++k) {
-        const double p1 = turns[k].first * x + turns[k].second * y, p2 = turns[k].first * y - turns[k].second * x;
-        l[k][0] = std::min(l[k][0], p1), h[k][0] = std::max(h[k][0], p1);
-        l[k][1] = std::min(l[k][1], p2), h[k][1] = std::max(h[k][1], p2);
-      }
+    std::vector<std::pair<double, double>> flat(corners.size());
+    for (std::size_t i = 0; i < corners.size(); ++i) flat[i] = {dot(u, corners[i]), dot(w, corners[i])};
+    auto least_area = [&](const std::array<std::pair<double, double>, kTurns>& dirs) {
+      double l[kTurns][2], h[kTurns][2];
+      for (int k = 0; k < kTurns; ++k) l[k][0] = l[k][1] = INFINITY, h[k][0] = h[k][1] = -INFINITY;
+      for (const auto& [x, y] : flat)
+        for (int k = 0; k < kTurns; ++k) {
+          const double p1 = dirs[k].first * x + dirs[k].second * y, p2 = dirs[k].first * y - dirs[k].second * x;
+          l[k][0] = std::min(l[k][0], p1), h[k][0] = std::max(h[k][0], p1);
+          l[k][1] = std::min(l[k][1], p2), h[k][1] = std::max(h[k][1], p2);
+        }
+      int best = 0;
+      for (int k = 1; k < kTurns; ++k)
+        if ((h[k][0] - l[k][0]) * (h[k][1] - l[k][1]) < (h[best][0] - l[best][0]) * (h[best][1] - l[best][1])) best = k;
+      return dirs[best];
+    };
+    const auto [c0, s0] = least_area(turns[0]);
+    std::array<std::pair<double, double>, kTurns> around;
+    for (int k = 0; k < kTurns; ++k) {  // the coarse turn plus each fine offset
+      const auto [c1, s1] = turns[1][k];
+      around[k] = {c0 * c1 - s0 * s1, s0 * c1 + c0 * s1};
     }
-    int best = 0;
-    for (int k = 1; k < kAngles; ++k)
-      if ((h[k][0] - l[k][0]) * (h[k][1] - l[k][1]) < (h[best][0] - l[best][0]) * (h[best][1] - l[best][1])) best = k;
-    a1 = turns[best].first * u + turns[best].second * w;
+    const auto [c, sn] = least_area(around);
+    a1 = c * u + sn * w;
   }
   OrientedBox out;
   const Vec3 a2 = cross(a0, a1);
@@ -308,7 +320,10 @@ struct SearchTree {
     const std::span<const uint32_t> all(bvh.leaf_triangles);
     auto subtree = [&](uint32_t n) { return all.subspan(slots[n].first, slots[n].second - slots[n].first); };
     std::vector<OrientedBox> boxes(bvh.nodes.size());
-    parallel_for(bvh.nodes.size(), [&](std::size_t n) { boxes[n] = bound_triangles(s, subtree(uint32_t(n))); });
+    parallel_chunks(bvh.nodes.size(), 1024, [&](std::size_t b, std::size_t e) {
+      std::vector<uint32_t> seen(s.vertices.size(), UINT32_MAX);
+      for (std::size_t n = b; n < e; ++n) boxes[n] = bound_triangles(s, subtree(uint32_t(n)), seen, uint32_t(n));
+    });
 
     auto leaf = [&](uint32_t n) {
       const BvhNode& node = bvh.nodes[n];
