@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <limits>
 #include <numeric>
@@ -114,6 +115,12 @@ constexpr int kPacket = 8;  // points searched together (a 2x2x2 brick of a grid
 using Four = float __attribute__((vector_size(16)));
 
 inline Four max4(Four a, Four b) { return a > b ? a : b; }
+
+// A float at or above x >= 0 (the next float up, as nextafter(x, inf), inlined).
+inline float round_up(double x) {
+  const float f = float(x);
+  return f < INFINITY ? std::bit_cast<float>(std::bit_cast<uint32_t>(f) + 1) : f;
+}
 using Four32 = int __attribute__((vector_size(16)));
 constexpr int kBitCount[16] = {0, 1, 1, 2, 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4};
 // The lanes of a comparison result as four bits (lane i -> bit i): one instruction on SSE.
@@ -406,7 +413,7 @@ struct SurfaceSdf::Impl {
       const auto& c = surface.triangles[candidate[l]];
       q[l] = {closest_point_on_triangle(x, surface.vertices[c[0]], surface.vertices[c[1]], surface.vertices[c[2]]),
               candidate[l]};
-      best2[l] = std::nextafter(float(q[l].best.squared_distance), INFINITY);
+      best2[l] = round_up(q[l].best.squared_distance);
     }
     struct Entry {
       Four d2[kPacket / 4];
@@ -474,7 +481,7 @@ struct SurfaceSdf::Impl {
             if (cp.squared_distance < q[l].best.squared_distance ||
                 (cp.squared_distance == q[l].best.squared_distance && id < q[l].best_triangle)) {
               q[l] = {cp, id};
-              best2[l] = std::nextafter(float(cp.squared_distance), INFINITY);
+              best2[l] = round_up(cp.squared_distance);
             }
           }
         }
