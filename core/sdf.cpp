@@ -122,6 +122,17 @@ inline float round_up(double x) {
   return f < INFINITY ? std::bit_cast<float>(std::bit_cast<uint32_t>(f) + 1) : f;
 }
 using Four32 = int __attribute__((vector_size(16)));
+// Lanes of four rows side by side -> out[c][k] = {rows[0][c], .., rows[3][c]} (a 4x4 transpose).
+inline void transpose(const Four* rows, Four (*out)[2], int k) {
+  const Four t0 = __builtin_shufflevector(rows[0], rows[1], 0, 4, 1, 5);
+  const Four t1 = __builtin_shufflevector(rows[0], rows[1], 2, 6, 3, 7);
+  const Four t2 = __builtin_shufflevector(rows[2], rows[3], 0, 4, 1, 5);
+  const Four t3 = __builtin_shufflevector(rows[2], rows[3], 2, 6, 3, 7);
+  out[0][k] = __builtin_shufflevector(t0, t2, 0, 1, 4, 5);
+  out[1][k] = __builtin_shufflevector(t0, t2, 2, 3, 6, 7);
+  out[2][k] = __builtin_shufflevector(t1, t3, 0, 1, 4, 5);
+  out[3][k] = __builtin_shufflevector(t1, t3, 2, 3, 6, 7);
+}
 constexpr int kBitCount[16] = {0, 1, 1, 2, 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4};
 // The lanes of a comparison result as four bits (lane i -> bit i): one instruction on SSE.
 inline unsigned mask_of(Four32 m) {
@@ -434,16 +445,13 @@ struct SurfaceSdf::Impl {
       SDF_COUNT(pops);
       const WideNode& w = tree.nodes[e.node];
       Four d2[kPacket];
-      unsigned in_range[kPacket];  // per point: children in its range
       Four key = far;
-      for (int l = 0; l < kPacket; ++l) d2[l] = far, in_range[l] = 0;
+      for (int l = 0; l < kPacket; ++l) d2[l] = far;
       for (unsigned bits = active; bits; bits &= bits - 1) {
         const int l = __builtin_ctz(bits);
         d2[l] = w.distance2(pf[l], slack[l]);
         SDF_COUNT(lanepops);
-        const auto r = d2[l] <= best2[l];
-        in_range[l] = mask_of(r);
-        key = r && d2[l] < key ? d2[l] : key;
+        key = d2[l] <= best2[l] && d2[l] < key ? d2[l] : key;
       }
       // Children nearest first, ranked without branches (ties by child index): the rank of c is
       // the number of children before it.
@@ -454,14 +462,26 @@ struct SurfaceSdf::Impl {
         const Four kc = {key[c], key[c], key[c], key[c]};
         order[kBitCount[mask_of(key < kc) | (mask_of(key == kc) & ((1u << c) - 1))]] = c;
       }
-      const unsigned live_leaves = live & w.leaf_mask;
-      for (int i = 0; live_leaves && i < 4; ++i) {
-        const int c = order[i];
-        if (!(live_leaves >> c & 1)) continue;
+      // Per child: its distances from the eight points (the transpose of d2), and the points it
+      // is in range of.
+      Four by_child[4][kPacket / 4];
+      unsigned lanes[4] = {0, 0, 0, 0};
+      for (int k = 0; k < kPacket / 4; ++k) {
+        transpose(d2 + 4 * k, by_child, k);
+        for (int c = 0; c < 4; ++c) lanes[c] |= mask_of(by_child[c][k] <= best2v[k]) << (4 * k);
+      }
+      // Leaf children in rank order, gathered without branches.
+      int leaf_order[4], leaves_live = 0;
+      for (int i = 0; i < 4; ++i) {
+        leaf_order[leaves_live] = order[i];
+        leaves_live += (live & w.leaf_mask) >> order[i] & 1;
+      }
+      for (int i = 0; i < leaves_live; ++i) {
+        const int c = leaf_order[i];
         const TriangleLeaf& leaf = tree.leaves[w.child[c]];
-        for (unsigned bits = active; bits; bits &= bits - 1) {
+        for (unsigned bits = lanes[c]; bits; bits &= bits - 1) {
           const int l = __builtin_ctz(bits);
-          if (!(in_range[l] >> c & 1) || d2[l][c] > best2[l]) continue;
+          if (d2[l][c] > best2[l]) continue;
           const Four t2 = leaf.distance2(pf[l], slack[l]);
           SDF_COUNT(leaflanes);
 #ifdef SDF_STATS
@@ -474,9 +494,6 @@ struct SurfaceSdf::Impl {
             const auto& v = leaf_corners[slot];
             const ClosestPoint cp = closest_point_inline(p[l], v[0], v[1], v[2]);
             SDF_COUNT(exact);
-#ifdef SDF_STATS
-            if (cp.squared_distance < q[l].best.squared_distance) counters.better++; else if (cp.squared_distance == q[l].best.squared_distance) counters.tie++; else counters.worse++;
-#endif
             const uint32_t id = bvh.leaf_triangles[slot];
             if (cp.squared_distance < q[l].best.squared_distance ||
                 (cp.squared_distance == q[l].best.squared_distance && id < q[l].best_triangle)) {
@@ -486,14 +503,14 @@ struct SurfaceSdf::Impl {
           }
         }
       }
+      // Inner children pushed farthest first, each written and kept only if live (no branch).
       const unsigned live_inner = live & ~w.leaf_mask;
       for (int i = 3; i >= 0; --i) {
         const int c = order[i];
-        if (!(live_inner >> c & 1)) continue;
-        Entry& child = stack[top++];
-        for (int k = 0; k < kPacket / 4; ++k)
-          child.d2[k] = Four{d2[4 * k][c], d2[4 * k + 1][c], d2[4 * k + 2][c], d2[4 * k + 3][c]};
+        Entry& child = stack[top];
+        for (int k = 0; k < kPacket / 4; ++k) child.d2[k] = by_child[c][k];
         child.node = w.child[c];
+        top += live_inner >> c & 1;
       }
     }
   }
