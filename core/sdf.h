@@ -3,7 +3,7 @@
 // SurfaceSdf is the CPU reference for triangle surfaces: the closest point comes from a
 // nearest-first search of a BVH that Embree builds (core/bvh.h), O(log T) per point against the
 // paper's brute-force loop over all triangles, with every candidate measured in double (points
-// are searched in Morton order, eight neighbours sharing one walk of the tree);
+// are searched in Morton order, 32 neighbours sharing one walk of the tree);
 // the sign from the angle-weighted pseudonormal of the closest feature (Baerentzen & Aanaes 2005).
 // That sign is exact for closed, consistently oriented 2-manifold surfaces. On open surfaces,
 // non-manifold edges or triangle soups it never fails but is only locally meaningful: each point
@@ -52,7 +52,7 @@ class SurfaceSdf final : public SignedDistance {
 // The permutation that orders points along a Morton (Z-order) curve over their bounding box
 // (21 bits per axis; non-finite coordinates sort anywhere). Nearest-triangle searches run in this
 // order, here and on the devices: consecutive points are then neighbours in all three directions,
-// so one point's answer seeds the next and successive searches find the tree's nodes in cache.
+// so one packet's answers seed the next and successive searches find the tree's nodes in cache.
 std::vector<uint32_t> morton_order(std::span<const Vec3> points);
 
 // Reference for the benchmarks and tests: the paper's method, every point against every
