@@ -28,41 +28,16 @@
 // same points). All coordinates are exact multiples of 1/12 of the leaf's edge, so the octree
 // keys every point by integers and neighbours compute bit-identical coordinates.
 //
-// Concave transitions (paper, Section 2 and Section 7: these templates "only allow convex grid
-// depth transitions") have no template here: a leaf with finer neighbours across two adjacent
-// faces (6 marks, the concave edge) or three faces around a corner (7 marks, the concave corner)
-// is refined (core/octree.h says what that costs). What such templates must satisfy, as far as it
-// is established (tests/test_templates.cpp FacePatternDependsOnlyOnItsFourCornerMarks checks the
-// first two facts on every face of every template):
-//   - a face pattern must be invariant under the symmetries of the square that fix its marks, or
-//     the two cells on the face could pick mirror images; the new 3-marked face must therefore be
-//     symmetric about its diagonal through the unmarked corner;
-//   - parity: a hex mesh of a cell has an even number of boundary quads (6 hexes = 2 inner faces +
-//     boundary faces), and every face pattern above has an odd count (1, 3, 7, 9). A concave-corner
-//     template has 3 full faces (9 each) and 3 three-marked faces, so the 3-marked face pattern
-//     needs an ODD count. The obvious pattern (the 5 child squares along the two refined edges and
-//     the 2D node pattern, 3 quads around one inner point, on the remaining [4, 12]^2) has 8, so
-//     no concave-corner template can use it (a concave-edge template, with two such faces, could);
-//   - keeping the 5 child squares, the remaining hexagon (4,4) (8,4) (12,4) (12,12) (4,12) (4,8)
-//     needs an even number of quads, F = 6 / 2 + i - 1 by Euler's formula with i inner points, so
-//     i is even; i = 0 is impossible (every split into two quads has three collinear corners), and
-//     the diagonal-symmetric layouts with i = 2 are: two points (a, a), (b, b) on the diagonal,
-//     6 < a < b < 8 (a kite at (4, 4), two strips, a kite at (12, 12); a = 6.5, b = 7 gives a worst
-//     corner angle of about 152 degrees, sine 0.47, and needs 24ths, so kTemplateUnits = 24), or a
-//     mirror pair p, q with quads (4,4) (8,4) p (12,12), (8,4) (12,4) (12,12) p and their mirrors
-//     (slivers). Dropping child squares at the marked ends b, c (7 quads, 3 inner points) is the
-//     other odd option; it needs a corner angle near 180 degrees at the raised point.
-// The 3D fill of the concave edge (the box [0, 12] x [4, 12]^2 left by its 15 child cubes, faces:
-// 3 x 2 child squares on y = 4 and z = 4, the upper part of the 2D edge pattern on y = 12 and
-// z = 12, the 3-marked face's remainder on x = 0 and x = 12) and of the concave corner (the cube
-// [4, 12]^3 left by its 19 child cubes) is not designed yet. Both are needed: with a concave-edge
-// template alone a coarse block enclosed by finer cells still fills, since its corner leaves
-// (7 marks) refine, which gives the leaves along its edges 7 marks, and the corners of what is left
-// refine again, layer by layer. The element-saving templates of
-// CMU-CBML/Element-Saving-Hexahedral-3-Refinement-Templates (removeHangingNodeMethod1, its types
-// 5 and 6 for 3 marks on a face and 6 marks) use other face patterns for ALL marks (their node
-// template is 5 hexes), so they cannot be mixed with these; taking them over means replacing
-// every template and the cell-type table at once.
+// Concave transitions (paper, Sections 2 and 7: these templates "only allow convex grid depth
+// transitions") have no template here: a leaf with finer neighbours across two adjacent faces (the
+// concave edge, 6 marks) or three faces around a corner (7 marks) is refined (core/octree.h says
+// what that costs). Two facts constrain any template added for them, and
+// tests/test_templates.cpp FacePatternDependsOnlyOnItsFourCornerMarks checks them on every face:
+// a face pattern must be invariant under the square's symmetries that fix its marks (else the two
+// cells on a face could pick mirror images), and, since a hex mesh of a cell has an even number
+// of boundary quads while every pattern above has an odd count (1, 3, 7, 9), a concave-corner
+// template (3 full faces + 3 three-marked faces) needs a three-marked face pattern with an odd
+// count: the 5 child squares plus a 3-quad corner fill (8) cannot be it.
 //
 // Each template is stored once, in a canonical orientation (node at corner 0, edge on corners
 // 0-1, face on corners 0-3 = z = 0); a leaf's marked pattern selects the kind and the rotation
