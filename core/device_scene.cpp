@@ -4,6 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "core/local_refinement.h"
 #include "core/mc33.h"
 
 namespace mchex {
@@ -125,6 +126,11 @@ std::vector<uint32_t> packed_mc33_configs() {
       words[mask * 64 + faces] = uint32_t(c.subcase) | uint32_t(c.map[0]) << kConfigMap0Shift |
                                  uint32_t(c.map[1]) << kConfigMap1Shift | uint32_t(c.preferred) << kConfigPreferredShift;
     }
+  for (int s = 0; s < kNumSubcases; ++s) {
+    const auto& info = kSubcaseInfo[s];
+    words.push_back(uint32_t(info.tunnel_partner) | uint32_t(info.tunnel + 1) << kConfigTunnelShift |
+                    uint32_t(local_refinement_hexes(Subcase(s))) << kConfigHexesShift);
+  }
   return words;
 }
 

@@ -85,9 +85,16 @@ struct DeviceScene32 {
 
 // MC33 lookup of core/mc33.h mc33_config(mask, face_joins) as one 32-bit word per index
 // mask * 64 + face_joins: subcase | map[0] << 8 | map[1] << 16 | preferred << 24.
+// After them, one word per subcase s (kNumSubcases of them, at kConfigSubcaseBase + s):
+// tunnel_partner | (tunnel + 1) << 8 | hexes << 16 (core/mc33.h kSubcaseInfo, core/local_refinement.h
+// local_refinement_hexes). They live in the buffer, not in constant arrays, because SIMD compilers
+// that run invocations as vector lanes (llvmpipe) copy a constant array into per-invocation memory
+// before indexing it by a varying value: on lavapipe that copy cost more than the classification.
 inline constexpr int kConfigWords = 256 * 64;
 inline constexpr int kConfigMap0Shift = 8, kConfigMap1Shift = 16, kConfigPreferredShift = 24;
-std::vector<uint32_t> packed_mc33_configs();
+inline constexpr int kConfigSubcaseBase = kConfigWords;
+inline constexpr int kConfigTunnelShift = 8, kConfigHexesShift = 16;
+std::vector<uint32_t> packed_mc33_configs();  // kConfigWords + kNumSubcases words
 
 // A CellCode (host/backend.h) as two 32-bit words, the form a kernel writes:
 //   word 0: subcase | sign_mask << 8 | face_joins << 16 | (tunnel + 1) << 24 | inverted << 26
