@@ -86,6 +86,23 @@ VulkanBackend& lavapipe() {
   return backend;
 }
 
+// The surface SDF's two walks (kernels/sdf.h): the subgroup walk (lavapipe's default) and one
+// walk per invocation (the fallback for devices without subgroup arithmetic, and GPUs).
+VulkanBackend& lavapipe_walk(VulkanOptions::SdfWalk walk) {
+  static VulkanBackend subgroup([] {
+    VulkanOptions o = lavapipe_options();
+    o.sdf_walk = VulkanOptions::SdfWalk::kSubgroup;
+    return o;
+  }());
+  static VulkanBackend single([] {
+    VulkanOptions o = lavapipe_options();
+    o.sdf_walk = VulkanOptions::SdfWalk::kSingle;
+    return o;
+  }());
+  return walk == VulkanOptions::SdfWalk::kSubgroup ? subgroup : single;
+}
+constexpr VulkanOptions::SdfWalk kWalks[] = {VulkanOptions::SdfWalk::kSubgroup, VulkanOptions::SdfWalk::kSingle};
+
 std::uint64_t bits(double x) { return std::bit_cast<std::uint64_t>(x); }
 
 // A complex whose cells own their 8 points, so each cell's values are set independently.
@@ -462,16 +479,24 @@ TEST(vulkan, SurfaceSdfIsBitIdenticalOnClosedOpenAndDegenerateSurfaces) {
   soup.vertices.push_back({0.9, 0.9, 0.9});
   soup.triangles.push_back({v0, v0 + 1, v0 + 2});      // collinear: zero area
   surfaces.emplace_back("soup", soup);
+  // lavapipe has subgroup arithmetic (subgroups of 8): it runs the subgroup walk by default.
+  EXPECT_TRUE(lavapipe().sdf_subgroup_walk());
+  EXPECT_TRUE(lavapipe_walk(VulkanOptions::SdfWalk::kSubgroup).sdf_subgroup_walk());
+  EXPECT_FALSE(lavapipe_walk(VulkanOptions::SdfWalk::kSingle).sdf_subgroup_walk());
   for (const auto& [name, s] : surfaces) {
     SCOPED_TRACE(name);
     const std::vector<Vec3> pts = adversarial_points(s, rng);
     const SurfaceSdf reference(s);
-    std::vector<double> want(pts.size()), got(pts.size());
+    std::vector<double> want(pts.size());
     reference.evaluate(pts, want);
     SdfSource source;
     source.surface = &s;
-    lavapipe().signed_distance(source, pts, got);
-    expect_bit_equal(got, want, pts);
+    for (const VulkanOptions::SdfWalk walk : kWalks) {
+      SCOPED_TRACE(walk == VulkanOptions::SdfWalk::kSubgroup ? "subgroup walk" : "single walk");
+      std::vector<double> got(pts.size());
+      lavapipe_walk(walk).signed_distance(source, pts, got);
+      expect_bit_equal(got, want, pts);
+    }
   }
 }
 
