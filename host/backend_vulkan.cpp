@@ -27,7 +27,10 @@ namespace {
 constexpr std::uint32_t kGroup = 64, kScanGroup = 256, kScanBlock = 1024;
 // Consecutive turns per invocation of the surface SDF: each search is seeded with the previous
 // turn's answer (kernels/sdf.h), which on Morton-ordered batches makes the first bound tight.
-constexpr std::size_t kSdfPointsPerInvocation = 4;
+// On lavapipe 16 measured faster than 1 or 4 (perf/bench_backends). 64 gave WRONG values there
+// (a few far points, garbage doubles: not understood; tests/test_vulkan.cpp's fine-torus grid
+// catches it), so do not raise this without finding out why.
+constexpr std::size_t kSdfPointsPerInvocation = 16;
 
 // Whether a device's compute shaders have what shaders/surface_sdf.comp uses (subgroup basic and
 // arithmetic operations; Vulkan 1.1 VkPhysicalDeviceSubgroupProperties).
@@ -198,8 +201,10 @@ struct VulkanBackend::Impl {
     if (options.sdf_walk == VulkanOptions::SdfWalk::kSubgroup && !subgroups)
       throw InputError("backend 'vulkan': device '" + chosen->name +
                        "' has no subgroup arithmetic in compute shaders, which the subgroup SDF walk needs");
-    sdf_subgroup = options.sdf_walk == VulkanOptions::SdfWalk::kSubgroup ||
-                   (options.sdf_walk == VulkanOptions::SdfWalk::kAuto && subgroups && chosen->type_name() == "cpu");
+    // kAuto: one walk per invocation. On lavapipe the subgroup walk measured slower (perf/
+    // bench_backends: 10.7x to 15x the cpu reference against 5.8x to 9.2x), and it is not yet
+    // measured on a GPU.
+    sdf_subgroup = options.sdf_walk == VulkanOptions::SdfWalk::kSubgroup;
     surface_sdf = device->make_pipeline(sdf_subgroup ? spirv::surface_sdf : spirv::surface_sdf_single, 12, 16);
     shape_sdf = device->make_pipeline(spirv::shape_sdf, 2, 8);
     pipeline_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -30,10 +30,9 @@ struct VulkanOptions {
   // Largest number of elements (points, cells) per dispatch; 0: only the device's limits.
   // Tests force small chunks with it to exercise the chunking.
   std::size_t max_chunk = 0;
-  // How the surface SDF walks the tree (kernels/sdf.h): kAuto takes the subgroup walk (a
-  // subgroup's invocations share one walk) on CPU devices whose compute shaders have subgroup
-  // arithmetic (lavapipe runs a subgroup as one SIMD vector), else one walk per invocation.
-  // Tests force each to check both.
+  // How the surface SDF walks the tree (kernels/sdf.h): kSubgroup, a subgroup's invocations
+  // share one walk (needs subgroup arithmetic in compute shaders, else InputError); kSingle and
+  // kAuto, one walk per invocation (measured faster on lavapipe). Tests run both.
   enum class SdfWalk { kAuto, kSubgroup, kSingle };
   SdfWalk sdf_walk = SdfWalk::kAuto;
 
