@@ -25,9 +25,25 @@ namespace {
 
 // Workgroup sizes of the shaders (their local_size_x).
 constexpr std::uint32_t kGroup = 64, kScanGroup = 256, kScanBlock = 1024;
-// Consecutive points per invocation of the surface SDF: each search is seeded with the previous
-// point's triangle (kernels/sdf.h), which on grid-ordered batches makes the first bound tight.
-constexpr std::size_t kSdfPointsPerInvocation = 4;
+// Consecutive turns per invocation of the surface SDF: each search is seeded with the previous
+// turn's answer (kernels/sdf.h), which on Morton-ordered batches makes the first bound tight.
+// On lavapipe 16 measured faster than 1 or 4 (perf/bench_backends). 64 gave WRONG values there
+// (a few far points, garbage doubles: not understood; tests/test_vulkan.cpp's fine-torus grid
+// catches it), so do not raise this without finding out why.
+constexpr std::size_t kSdfPointsPerInvocation = 16;
+
+// Whether a device's compute shaders have what shaders/surface_sdf.comp uses (subgroup basic and
+// arithmetic operations; Vulkan 1.1 VkPhysicalDeviceSubgroupProperties).
+bool has_subgroup_arithmetic(const vk::PhysicalDevice& d) {
+  VkPhysicalDeviceSubgroupProperties sub{};
+  sub.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_PROPERTIES;
+  VkPhysicalDeviceProperties2 props{};
+  props.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2;
+  props.pNext = &sub;
+  vkGetPhysicalDeviceProperties2(d.handle, &props);
+  const VkSubgroupFeatureFlags need = VK_SUBGROUP_FEATURE_BASIC_BIT | VK_SUBGROUP_FEATURE_ARITHMETIC_BIT;
+  return (sub.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT) && (sub.supportedOperations & need) == need;
+}
 
 std::string api_string(std::uint32_t v) {
   return fmt::format("{}.{}.{}", VK_API_VERSION_MAJOR(v), VK_API_VERSION_MINOR(v),
@@ -79,6 +95,7 @@ struct VulkanBackend::Impl {
   VulkanBackend::Profile profile;
 
   vk::Pipeline refinement, classify, scan_blocks, scan_totals, scan_add, surface_sdf, shape_sdf;
+  bool sdf_subgroup = false;  // surface_sdf is shaders/surface_sdf.comp (else surface_sdf_single.comp)
   vk::Buffer configs;  // core/device_scene.h packed_mc33_configs()
 
   // The device scene of the last surface (keyed by its address, array addresses and sizes, as
@@ -88,7 +105,8 @@ struct VulkanBackend::Impl {
     const void* vertices = nullptr;
     const void* triangles = nullptr;
     std::size_t num_vertices = 0, num_triangles = 0;
-    vk::Buffer nodes, slot_triangle, slot_corners, slot_features, face_normals, edge_normals, vertex_normals;
+    vk::Buffer wide_boxes, wide_links, leaf_bounds, leaf_slot, slot_triangle, slot_corners, slot_features,
+        face_normals, edge_normals, vertex_normals;
     double scale = 0;
   };
   std::optional<Scene> scene;
@@ -125,7 +143,10 @@ struct VulkanBackend::Impl {
     out.triangles = s.triangles.data();
     out.num_vertices = s.vertices.size();
     out.num_triangles = s.triangles.size();
-    out.nodes = upload(ds.nodes, "BVH nodes");
+    out.wide_boxes = upload(ds.wide_boxes, "search tree boxes");
+    out.wide_links = upload(ds.wide_links, "search tree links");
+    out.leaf_bounds = upload(ds.leaf_bounds, "triangle bounds");
+    out.leaf_slot = upload(ds.leaf_slot, "leaf slots");
     out.slot_triangle = upload(ds.slot_triangle, "leaf triangle ids");
     out.slot_corners = upload(ds.slot_corners, "triangle corners");
     out.slot_features = upload(ds.slot_features, "triangle features");
@@ -176,7 +197,15 @@ struct VulkanBackend::Impl {
     scan_blocks = device->make_pipeline(spirv::scan_blocks, 3, 4);
     scan_totals = device->make_pipeline(spirv::scan_totals, 1, 16);
     scan_add = device->make_pipeline(spirv::scan_add, 2, 4);
-    surface_sdf = device->make_pipeline(spirv::surface_sdf, 9, 16);
+    const bool subgroups = has_subgroup_arithmetic(*chosen);
+    if (options.sdf_walk == VulkanOptions::SdfWalk::kSubgroup && !subgroups)
+      throw InputError("backend 'vulkan': device '" + chosen->name +
+                       "' has no subgroup arithmetic in compute shaders, which the subgroup SDF walk needs");
+    // kAuto: one walk per invocation. On lavapipe the subgroup walk measured slower (perf/
+    // bench_backends: 10.7x to 15x the cpu reference against 5.8x to 9.2x), and it is not yet
+    // measured on a GPU.
+    sdf_subgroup = options.sdf_walk == VulkanOptions::SdfWalk::kSubgroup;
+    surface_sdf = device->make_pipeline(sdf_subgroup ? spirv::surface_sdf : spirv::surface_sdf_single, 12, 16);
     shape_sdf = device->make_pipeline(spirv::shape_sdf, 2, 8);
     pipeline_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     // Written now, not only at exit: a run that ends by an error still leaves the cache behind.
@@ -228,6 +257,7 @@ std::array<std::uint8_t, 16> VulkanBackend::pipeline_cache_uuid() const {
   return out;
 }
 std::size_t VulkanBackend::dispatches() const { return impl_->dispatches; }
+bool VulkanBackend::sdf_subgroup_walk() const { return impl_->sdf_subgroup; }
 VulkanBackend::Profile VulkanBackend::profile() const { return impl_->profile; }
 
 void VulkanBackend::signed_distance(const SdfSource& source, std::span<const Vec3> points,
@@ -270,7 +300,7 @@ void VulkanBackend::signed_distance(const SdfSource& source, std::span<const Vec
         double scale;
       } push{static_cast<std::uint32_t>(count), static_cast<std::uint32_t>(per_item), scene->scale};
       m.run(m.surface_sdf,
-            {{&scene->nodes}, {&scene->slot_triangle}, {&scene->slot_corners}, {&scene->slot_features},
+            {{&scene->wide_boxes}, {&scene->wide_links}, {&scene->leaf_bounds}, {&scene->leaf_slot}, {&scene->slot_triangle}, {&scene->slot_corners}, {&scene->slot_features},
              {&scene->face_normals}, {&scene->edge_normals}, {&scene->vertex_normals}, {&in}, {&out}},
             &push, (count + per_item - 1) / per_item, kGroup);
     } else {

@@ -30,6 +30,11 @@ struct VulkanOptions {
   // Largest number of elements (points, cells) per dispatch; 0: only the device's limits.
   // Tests force small chunks with it to exercise the chunking.
   std::size_t max_chunk = 0;
+  // How the surface SDF walks the tree (kernels/sdf.h): kSubgroup, a subgroup's invocations
+  // share one walk (needs subgroup arithmetic in compute shaders, else InputError); kSingle and
+  // kAuto, one walk per invocation (measured faster on lavapipe). Tests run both.
+  enum class SdfWalk { kAuto, kSubgroup, kSingle };
+  SdfWalk sdf_walk = SdfWalk::kAuto;
 
   static std::filesystem::path default_pipeline_cache_dir();
 };
@@ -59,6 +64,8 @@ class VulkanBackend : public Backend {
   std::array<std::uint8_t, 16> pipeline_cache_uuid() const;
   // Dispatches issued so far (each within the device's limits): tests check the chunking.
   std::size_t dispatches() const;
+  // Whether the surface SDF runs the subgroup walk (VulkanOptions::sdf_walk).
+  bool sdf_subgroup_walk() const;
   // Where the time went since creation (seconds): host copies into mapped buffers (and gathers),
   // dispatches (submit to fence: the device's work, JIT compilation on first use included), and
   // copies back out (and decoding).

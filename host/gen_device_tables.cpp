@@ -122,6 +122,10 @@ std::vector<Define> defines() {
       {"MCHEX_SLOT_CORNER_DOUBLES", 9, "core/device_scene.h slot_corners per slot"},
       {"MCHEX_SLOT_FEATURE_WORDS", 6, "core/device_scene.h slot_features per slot"},
       {"MCHEX_FP32_CANDIDATES", kFp32Candidates, "core/device_scene.h: candidate slots per point, kernels/sdf_fp32.h"},
+      {"MCHEX_WIDE_NODE_FLOAT4S", kWideNodeFloats / 4, "core/device_scene.h wide_boxes per node, in float4 groups"},
+      {"MCHEX_WIDE_NODE_LINKS", kWideNodeLinks, "core/device_scene.h wide_links per node"},
+      {"MCHEX_LEAF_BOUND_FLOAT4S", kLeafBoundFloats / 4, "core/device_scene.h leaf_bounds per leaf, in float4 groups"},
+      {"MCHEX_SDF_WIDE_STACK", kSdfWideStack, "core/device_scene.h: entries of kernels/sdf.h's walk stack"},
   };
 }
 

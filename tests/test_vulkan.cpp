@@ -86,6 +86,23 @@ VulkanBackend& lavapipe() {
   return backend;
 }
 
+// The surface SDF's two walks (kernels/sdf.h): the subgroup walk (lavapipe's default) and one
+// walk per invocation (the fallback for devices without subgroup arithmetic, and GPUs).
+VulkanBackend& lavapipe_walk(VulkanOptions::SdfWalk walk) {
+  static VulkanBackend subgroup([] {
+    VulkanOptions o = lavapipe_options();
+    o.sdf_walk = VulkanOptions::SdfWalk::kSubgroup;
+    return o;
+  }());
+  static VulkanBackend single([] {
+    VulkanOptions o = lavapipe_options();
+    o.sdf_walk = VulkanOptions::SdfWalk::kSingle;
+    return o;
+  }());
+  return walk == VulkanOptions::SdfWalk::kSubgroup ? subgroup : single;
+}
+constexpr VulkanOptions::SdfWalk kWalks[] = {VulkanOptions::SdfWalk::kSubgroup, VulkanOptions::SdfWalk::kSingle};
+
 std::uint64_t bits(double x) { return std::bit_cast<std::uint64_t>(x); }
 
 // A complex whose cells own their 8 points, so each cell's values are set independently.
@@ -462,15 +479,47 @@ TEST(vulkan, SurfaceSdfIsBitIdenticalOnClosedOpenAndDegenerateSurfaces) {
   soup.vertices.push_back({0.9, 0.9, 0.9});
   soup.triangles.push_back({v0, v0 + 1, v0 + 2});      // collinear: zero area
   surfaces.emplace_back("soup", soup);
+  // lavapipe has subgroup arithmetic (subgroups of 8), but the default is one walk per invocation.
+  EXPECT_FALSE(lavapipe().sdf_subgroup_walk());
+  EXPECT_TRUE(lavapipe_walk(VulkanOptions::SdfWalk::kSubgroup).sdf_subgroup_walk());
+  EXPECT_FALSE(lavapipe_walk(VulkanOptions::SdfWalk::kSingle).sdf_subgroup_walk());
   for (const auto& [name, s] : surfaces) {
     SCOPED_TRACE(name);
     const std::vector<Vec3> pts = adversarial_points(s, rng);
     const SurfaceSdf reference(s);
-    std::vector<double> want(pts.size()), got(pts.size());
+    std::vector<double> want(pts.size());
     reference.evaluate(pts, want);
     SdfSource source;
     source.surface = &s;
-    lavapipe().signed_distance(source, pts, got);
+    for (const VulkanOptions::SdfWalk walk : kWalks) {
+      SCOPED_TRACE(walk == VulkanOptions::SdfWalk::kSubgroup ? "subgroup walk" : "single walk");
+      std::vector<double> got(pts.size());
+      lavapipe_walk(walk).signed_distance(source, pts, got);
+      expect_bit_equal(got, want, pts);
+    }
+  }
+}
+
+// Grid points over a fine torus (perf/bench_backends's workload, smaller): many are exactly as far
+// from two or more triangles (the grid and the tessellation share symmetry planes), so the tie
+// rule decides, and each invocation's turns seed one another across the Morton order.
+TEST(vulkan, SurfaceSdfOnAGridOverAFineTorusIsBitIdentical) {
+  const TriangleSurface torus = tessellate(ShapeKind::kTorus, 256);
+  const Box cube = padded_cube(torus.bounds(), 0.1);
+  std::vector<Vec3> pts;
+  const int n = 40;
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i)
+        pts.push_back(cube.lo + Vec3{cube.size().x * i / (n - 1), cube.size().y * j / (n - 1), cube.size().z * k / (n - 1)});
+  std::vector<double> want(pts.size());
+  SurfaceSdf(torus).evaluate(pts, want);
+  SdfSource source;
+  source.surface = &torus;
+  for (const VulkanOptions::SdfWalk walk : kWalks) {
+    SCOPED_TRACE(walk == VulkanOptions::SdfWalk::kSubgroup ? "subgroup walk" : "single walk");
+    std::vector<double> got(pts.size());
+    lavapipe_walk(walk).signed_distance(source, pts, got);
     expect_bit_equal(got, want, pts);
   }
 }
