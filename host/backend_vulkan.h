@@ -71,7 +71,12 @@ class VulkanBackend : public Backend {
   // copies back out (and decoding).
   struct Profile {
     double upload = 0, device = 0, download = 0;
+    // Surface SDF points whose device search ran out of its loop budget (kernels/sdf.h: lavapipe
+    // cuts a shader's loops after 65,535 iterations), evaluated on the host by core instead.
+    std::size_t host_points = 0;
   };
+  // The loop budget the surface SDF runs under (kernels/sdf.h; 0: none).
+  std::uint32_t sdf_loop_budget() const;
   Profile profile() const;
 
   struct Impl;

@@ -17,6 +17,8 @@ __kernel void sdf_surface(SCENE_PARAMS_ __global const double *points, __global 
   uint last = min(n, first + per_item);
   SurfacePacket q;
   for (int l = 0; l < MCHEX_SDF_PACKET; ++l) q.seed[l] = 0u;
+  q.budget = 0u;  // OpenCL drivers do not cut loops (kernels/sdf.h)
+  q.spent = 0u;
   for (uint i = first; i < last; i += MCHEX_SDF_PACKET) {
     q.lanes = (int)min((uint)MCHEX_SDF_PACKET, last - i);
     for (int l = 0; l < q.lanes; ++l) {

@@ -43,6 +43,27 @@
 #ifndef GROUP_MIN
 #define GROUP_MIN(x) (x)  // no subgroup: each invocation (or OpenCL work item) walks for its own packet
 #endif
+#ifndef GROUP_MAX
+#define GROUP_MAX(x) (x)
+#endif
+
+// A loop budget, for llvmpipe (lavapipe): gallivm ends a shader's loops after 65,535 iterations
+// in all (LP_MAX_TGSI_LOOP_ITERATIONS, one counter shared by every loop of a SIMD batch of
+// invocations) and goes on with whatever the cut loop had, so a long walk would return a wrong
+// value silently. With a budget the walk counts, before each step, the most loop iterations the
+// step can take (every loop at its bound, whether or not a compiler unrolls it), stops when the
+// count would pass the budget and says so (`incomplete`: the host evaluates that point itself).
+// The count is kept per SIMD batch with GROUP_MAX (subgroupMax: llvmpipe's subgroup is its SIMD
+// batch), where a loop runs as long as any lane needs it; without GROUP_MAX each lane counts its
+// own and the host divides the budget by the lanes. Budget 0: no limit (every other device).
+//   one step: the walk's back edge; per point, children_distance2's 3; per child, its point
+//   loop and per point 4 triangles, each with closest_point_on_triangle's loop of 3; per child
+//   pushed, its point loop.
+#define MCHEX_SDF_LOOPS_PER_STEP \
+  (1 + MCHEX_SDF_PACKET * (1 + 3) + 4 * (1 + MCHEX_SDF_PACKET * (1 + 4 * (1 + 3))) + 4 * (1 + MCHEX_SDF_PACKET))
+//   one search's setup: per point, the seed's closest_point_on_triangle, and the stack's first
+//   entry; one more for the caller's loop over searches.
+#define MCHEX_SDF_LOOPS_PER_SEARCH (MCHEX_SDF_PACKET * (1 + 3) + MCHEX_SDF_PACKET + 1)
 
 #ifdef __OPENCL_C_VERSION__
 #define DVEC3 double3
@@ -259,17 +280,25 @@ STRUCT(SurfaceHit) {
 
 // A packet of points searched together: in p[0 .. lanes), seed (any slot per point: the result
 // does not depend on it, but a neighbour's answer makes the first bound tight); out hit.
+// budget and spent: the loop budget above (0: none) and the iterations counted so far, carried
+// from one search to the next of the same invocation; incomplete: set when the budget ran out
+// (the hits are then meaningless).
 STRUCT(SurfacePacket) {
   DVEC3 p[MCHEX_SDF_PACKET];
   uint seed[MCHEX_SDF_PACKET];
   SurfaceHit hit[MCHEX_SDF_PACKET];
   int lanes;
+  uint budget;
+  uint spent;
+  int incomplete;
 };
 
 INLINE SurfacePacket closest_on_surface(SCENE_PARAMS_ SurfacePacket q, double scale) {
   FVEC3 pf[MCHEX_SDF_PACKET];
   float slack[MCHEX_SDF_PACKET], best2[MCHEX_SDF_PACKET];
   uint best_triangle[MCHEX_SDF_PACKET];
+  q.incomplete = 0;
+  if (q.budget != 0u) q.spent = GROUP_MAX(q.spent) + CAST(uint, MCHEX_SDF_LOOPS_PER_SEARCH);
   for (int l = 0; l < MCHEX_SDF_PACKET; ++l) {
     pf[l] = F3(0.0f, 0.0f, 0.0f);
     slack[l] = 0.0f;
@@ -296,6 +325,13 @@ INLINE SurfacePacket closest_on_surface(SCENE_PARAMS_ SurfacePacket q, double sc
   for (int l = 0; l < MCHEX_SDF_PACKET; ++l) stack_d2[l] = 0.0f;
   int top = 1;
   while (top > 0) {
+    if (q.budget != 0u) {
+      q.spent = GROUP_MAX(q.spent) + CAST(uint, MCHEX_SDF_LOOPS_PER_STEP);
+      if (q.spent > q.budget) {
+        q.incomplete = 1;
+        break;
+      }
+    }
     --top;
     uint node = stack_node[top];
     FVEC4 d2[MCHEX_SDF_PACKET];
@@ -314,11 +350,6 @@ INLINE SurfacePacket closest_on_surface(SCENE_PARAMS_ SurfacePacket q, double sc
     // network on scalars (Knuth, TAOCP 5.3.4: five comparators sort four keys): no loop over a
     // local array written at run-time indices: an insertion sort written that way gave wrong
     // orders (and wrong values) on lavapipe (Mesa 22.3), not on PoCL; not investigated further.
-    float k[4];
-    k[0] = key.x;
-    k[1] = key.y;
-    k[2] = key.z;
-    k[3] = key.w;
     SortedChildren s = sort_children(key);
     int order[4];
     order[0] = s.o0;
@@ -329,7 +360,7 @@ INLINE SurfacePacket closest_on_surface(SCENE_PARAMS_ SurfacePacket q, double sc
     for (int i = 0; i < 4; ++i) {
       int c = order[i];
       uint count = wide_links[links + 4u + CAST(uint, c)];
-      if (k[c] != MCHEX_F_INF && count != 0u) {
+      if (lane4(key, c) != MCHEX_F_INF && count != 0u) {
         uint leaf = wide_links[links + CAST(uint, c)];
         uint first = leaf_slot[leaf];
         for (int l = 0; l < MCHEX_SDF_PACKET; ++l) {
@@ -356,7 +387,7 @@ INLINE SurfacePacket closest_on_surface(SCENE_PARAMS_ SurfacePacket q, double sc
     }
     for (int i = 3; i >= 0; --i) {
       int c = order[i];
-      if (k[c] != MCHEX_F_INF && wide_links[links + 4u + CAST(uint, c)] == 0u) {
+      if (lane4(key, c) != MCHEX_F_INF && wide_links[links + 4u + CAST(uint, c)] == 0u) {
         stack_node[top] = wide_links[links + CAST(uint, c)];
         for (int l = 0; l < MCHEX_SDF_PACKET; ++l) stack_d2[top * MCHEX_SDF_PACKET + l] = lane4(d2[l], c);
         ++top;

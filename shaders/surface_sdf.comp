@@ -6,5 +6,6 @@
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #define MCHEX_SDF_SUBGROUP
 #define GROUP_MIN(x) subgroupMin(x)
+#define GROUP_MAX(x) subgroupMax(x)
 #extension GL_GOOGLE_include_directive : require
 #include "shaders/surface_sdf.glsl"

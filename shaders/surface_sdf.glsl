@@ -28,7 +28,9 @@ layout(std430, binding = 8) readonly buffer EdgeNormals { double edge_normals[];
 layout(std430, binding = 9) readonly buffer VertexNormals { double vertex_normals[]; };
 layout(std430, binding = 10) readonly buffer Points { double points[]; };  // x, y, z per point
 layout(std430, binding = 11) writeonly buffer Values { double values[]; };
-layout(push_constant) uniform Push { uint n; uint per_item; double scale; } pc;
+// loop_budget: kernels/sdf.h's loop budget (0: none); a point whose search ran out of it gets NaN,
+// which the host replaces with core's value.
+layout(push_constant) uniform Push { uint n; uint per_item; uint loop_budget; uint pad; double scale; } pc;
 
 #include "kernels/sdf.h"
 
@@ -42,6 +44,8 @@ void main() {
   const uint base = gl_WorkGroupID.x * 64u * pc.per_item + (local / span) * span * pc.per_item + local % span;
   SurfacePacket q;
   q.seed[0] = 0u;
+  q.budget = pc.loop_budget;
+  q.spent = 0u;
   // Every invocation runs every turn (a subgroup's walk needs all of its invocations), those past
   // the batch's end with no point.
   for (uint turn = 0u; turn < pc.per_item; ++turn) {
@@ -50,8 +54,12 @@ void main() {
     q.p[0] = i < pc.n ? dvec3(points[3u * i], points[3u * i + 1u], points[3u * i + 2u]) : dvec3(0.0);
     q = closest_on_surface(q, pc.scale);
     if (i < pc.n) {
-      values[i] = signed_value_of(q.p[0], q.hit[0]);
-      q.seed[0] = q.hit[0].slot;
+      if (q.incomplete != 0) {
+        values[i] = double(uintBitsToFloat(0x7FC00000u));  // NaN
+      } else {
+        values[i] = signed_value_of(q.p[0], q.hit[0]);
+        q.seed[0] = q.hit[0].slot;
+      }
     }
   }
 }
