@@ -60,10 +60,40 @@ struct DeviceScene {
   std::vector<double> vertex_normals;         // 3 per vertex
   double scale = 0;                           // largest coordinate magnitude of the surface
 
+  // The search tree of the fp64 kernels (kernels/sdf.h): the shape of core/sdf.cpp's reference
+  // search, so that a device prunes as much as the reference does. The binary BVH above
+  // (`nodes`, kept for kernels/sdf_fp32.h) collapsed to four children per node, each child's
+  // triangles bounded by a box in a frame of its own (the group's mean normal where the group is
+  // nearly flat: a thin slab, not an axis-aligned box as thick as the piece is wide), and below
+  // each leaf a bound per triangle (its plane interval and its three edge lines). Every bound is
+  // float, computed in double from the float vectors the kernel uses and rounded outward, so
+  // pruning with it is conservative; the answer is still decided in double. Layouts (float4
+  // groups, one child or one triangle per lane, so a step measures four at once):
+  //   wide_boxes  kWideNodeFloats per node: axis[a][i] in group 3a + i, lo[a] in 9 + a,
+  //               hi[a] in 12 + a; an absent child has an empty box (lo = +inf, hi = -inf);
+  //   wide_links  kWideNodeLinks per node: child[4] then count[4]; count 0: child is a wide
+  //               node, else child is a leaf holding `count` triangles;
+  //   leaf_bounds kLeafBoundFloats per leaf: unit normal[i] in group i, plane_lo 3, plane_hi 4,
+  //               edge line e's unit in-plane normal[i] in 5 + 3e + i, its bound edge_hi[e] in
+  //               14 + e (|p - x|^2 >= plane^2 + edge^2 for x on the triangle);
+  //   leaf_slot   the first slot of each leaf (its triangles are slots leaf_slot .. + count).
+  std::vector<float> wide_boxes;
+  std::vector<uint32_t> wide_links;
+  std::vector<float> leaf_bounds;
+  std::vector<uint32_t> leaf_slot;
+  uint32_t wide_stack = 0;  // stack entries a nearest-first walk of this tree can need
+
   static DeviceScene build(const TriangleSurface& surface);
   std::size_t slots() const { return slot_triangle.size(); }
   std::size_t bytes() const;
 };
+
+inline constexpr int kWideNodeFloats = 60, kWideNodeLinks = 8, kLeafBoundFloats = 68;
+// The walk's stack in kernels/sdf.h (entries). A walk pops one node and pushes at most four, so
+// it holds at most 3 per level below the root plus one: the binary BVH is at most 64 deep
+// (core/bvh.cpp) and every wide level goes at least one binary level down, so 3 * 64 + 4 always
+// suffices; DeviceScene::build checks its tree's own need (wide_stack) against it.
+inline constexpr int kSdfWideStack = 196;
 
 // What kernels/sdf_fp32.h needs besides DeviceScene's nodes, for a device without fp64: the
 // corners rounded to float, and per slot / per node the slack that bounds how far core's double
@@ -85,9 +115,16 @@ struct DeviceScene32 {
 
 // MC33 lookup of core/mc33.h mc33_config(mask, face_joins) as one 32-bit word per index
 // mask * 64 + face_joins: subcase | map[0] << 8 | map[1] << 16 | preferred << 24.
+// After them, one word per subcase s (kNumSubcases of them, at kConfigSubcaseBase + s):
+// tunnel_partner | (tunnel + 1) << 8 | hexes << 16 (core/mc33.h kSubcaseInfo, core/local_refinement.h
+// local_refinement_hexes). They live in the buffer, not in constant arrays, because SIMD compilers
+// that run invocations as vector lanes (llvmpipe) copy a constant array into per-invocation memory
+// before indexing it by a varying value: on lavapipe that copy cost more than the classification.
 inline constexpr int kConfigWords = 256 * 64;
 inline constexpr int kConfigMap0Shift = 8, kConfigMap1Shift = 16, kConfigPreferredShift = 24;
-std::vector<uint32_t> packed_mc33_configs();
+inline constexpr int kConfigSubcaseBase = kConfigWords;
+inline constexpr int kConfigTunnelShift = 8, kConfigHexesShift = 16;
+std::vector<uint32_t> packed_mc33_configs();  // kConfigWords + kNumSubcases words
 
 // A CellCode (host/backend.h) as two 32-bit words, the form a kernel writes:
 //   word 0: subcase | sign_mask << 8 | face_joins << 16 | (tunnel + 1) << 24 | inverted << 26

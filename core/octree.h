@@ -57,6 +57,9 @@
 // a closed surface, fills completely). With the surface at the finest level, the adaptive grid
 // therefore has at least about (bounding box of the surface band / cube) of a uniform grid's cells:
 // perf/bench_adaptive prints that fraction ("hull") beside the ratio.
+// Templates for the concave edge and corner would remove this cost; core/templates.h records what
+// they must satisfy (a 3-marked face pattern with an odd number of quads, among others) and where
+// their design stands.
 //
 // The complex (build_adaptive_complex): every leaf replaced by its template. Points are keyed by
 // exact integer coordinates at a common resolution, 4 * 3^max_depth units per cube edge (template

@@ -28,6 +28,17 @@
 // same points). All coordinates are exact multiples of 1/12 of the leaf's edge, so the octree
 // keys every point by integers and neighbours compute bit-identical coordinates.
 //
+// Concave transitions (paper, Sections 2 and 7: these templates "only allow convex grid depth
+// transitions") have no template here: a leaf with finer neighbours across two adjacent faces (the
+// concave edge, 6 marks) or three faces around a corner (7 marks) is refined (core/octree.h says
+// what that costs). Two facts constrain any template added for them, and
+// tests/test_templates.cpp FacePatternDependsOnlyOnItsFourCornerMarks checks them on every face:
+// a face pattern must be invariant under the square's symmetries that fix its marks (else the two
+// cells on a face could pick mirror images), and, since a hex mesh of a cell has an even number
+// of boundary quads while every pattern above has an odd count (1, 3, 7, 9), a concave-corner
+// template (3 full faces + 3 three-marked faces) needs a three-marked face pattern with an odd
+// count: the 5 child squares plus a 3-quad corner fill (8) cannot be it.
+//
 // Each template is stored once, in a canonical orientation (node at corner 0, edge on corners
 // 0-1, face on corners 0-3 = z = 0); a leaf's marked pattern selects the kind and the rotation
 // (one of core/mc33.h's 24 cube rotations) that carries the canonical marks onto it.

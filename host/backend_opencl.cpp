@@ -183,7 +183,7 @@ struct OpenclBackend::Impl {
 
   // The device scene of the last surface.
   SurfaceKey scene_key;
-  std::vector<cl::Buffer> scene;  // nodes, slot_triangle, slot_corners, slot_features, face, edge, vertex normals
+  std::vector<cl::Buffer> scene;  // kernels/sdf.h SCENE_PARAMS_ order: wide tree, leaf bounds and slots, slot arrays, normals
   double scene_scale = 0;
 
   std::size_t max_alloc() const { return std::size_t(info.max_buffer_bytes); }
@@ -228,6 +228,11 @@ struct OpenclBackend::Impl {
     host_unified = options.zero_copy && device.getInfo<CL_DEVICE_HOST_UNIFIED_MEMORY>() == CL_TRUE;
   }
 
+  int sdf_packet() const { return info.type == "gpu" ? 1 : 8; }
+  // Surface points per work item: several packets on a CPU device (each seeded by the one
+  // before), one on a GPU.
+  cl_uint sdf_points_per_item() const { return info.type == "gpu" ? 1 : cl_uint(4 * sdf_packet()); }
+
   std::string source_text() const {
     std::string s;
     for (std::size_t i = 0; i < embedded::kOpenclSources_count; ++i) s += embedded::kOpenclSources[i], s += "\n";
@@ -244,7 +249,11 @@ struct OpenclBackend::Impl {
   void build_program() {
     // -cl-std=CL1.2; no fast-math flags: the kernels must round like the CPU reference (and the
     // fp32 path's error bounds assume IEEE rounding). -DMCHEX_FP32: no double anywhere.
-    const std::string build = "-cl-std=CL1.2 " + std::string(fp32 ? "-DMCHEX_FP32 " : "") + options.build_options;
+    // MCHEX_SDF_PACKET: points per shared walk of the surface SDF (kernels/sdf.h). A CPU device
+    // runs a work item's code as scalar code, so eight Morton neighbours sharing one walk share
+    // its loads and branches (the cpu reference's packets); a GPU keeps one point per item.
+    const std::string build = "-cl-std=CL1.2 " + std::string(fp32 ? "-DMCHEX_FP32 " : "") +
+                              fmt::format("-DMCHEX_SDF_PACKET={} ", sdf_packet()) + options.build_options;
     const std::string source = source_text();
     const fs::path dir = options.cache_dir.empty() ? default_cache_dir() : fs::path(options.cache_dir);
     std::uint64_t key = fnv1a(source);
@@ -432,7 +441,10 @@ struct OpenclBackend::Impl {
     if (key == scene_key && !scene.empty()) return;
     const DeviceScene d = DeviceScene::build(s);
     scene.clear();
-    scene.push_back(constant_buffer(d.nodes));
+    scene.push_back(constant_buffer(d.wide_boxes));
+    scene.push_back(constant_buffer(d.wide_links));
+    scene.push_back(constant_buffer(d.leaf_bounds));
+    scene.push_back(constant_buffer(d.leaf_slot));
     scene.push_back(constant_buffer(d.slot_triangle));
     scene.push_back(constant_buffer(d.slot_corners));
     scene.push_back(constant_buffer(d.slot_features));
@@ -506,9 +518,7 @@ void OpenclBackend::signed_distance(const SdfSource& source, std::span<const Vec
     const std::size_t n = m.chunk(3 * sizeof(double));
     cl::Buffer in(m.context, CL_MEM_READ_ONLY, 3 * sizeof(double) * std::min(n, points.size()));
     cl::Buffer out(m.context, CL_MEM_WRITE_ONLY, sizeof(double) * std::min(n, points.size()));
-    // CPU devices run many points per work item (each seeded by the previous one); GPUs want
-    // many small items.
-    const cl_uint per_item = m.info.type == "gpu" ? 1 : 16;
+    const cl_uint per_item = m.sdf_points_per_item();
     cl::Kernel& k = m.kernel(surface ? "sdf_surface" : "sdf_shape");
     for (std::size_t first = 0; first < points.size(); first += n) {
       const std::size_t count = std::min(n, points.size() - first);

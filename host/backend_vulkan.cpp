@@ -25,9 +25,34 @@ namespace {
 
 // Workgroup sizes of the shaders (their local_size_x).
 constexpr std::uint32_t kGroup = 64, kScanGroup = 256, kScanBlock = 1024;
-// Consecutive points per invocation of the surface SDF: each search is seeded with the previous
-// point's triangle (kernels/sdf.h), which on grid-ordered batches makes the first bound tight.
-constexpr std::size_t kSdfPointsPerInvocation = 4;
+// Consecutive turns per invocation of the surface SDF: each search is seeded with the previous
+// turn's answer (kernels/sdf.h), which on Morton-ordered batches makes the first bound tight.
+// On lavapipe 16 measured faster than 1 or 4 (perf/bench_backends). (64 once gave garbage values
+// there: llvmpipe's loop limit, which the loop budget below now guards against.)
+constexpr std::size_t kSdfPointsPerInvocation = 16;
+
+// llvmpipe (lavapipe) ends a shader's loops after this many iterations in all, per SIMD batch
+// (gallivm's LP_MAX_TGSI_LOOP_ITERATIONS), silently; kernels/sdf.h's walk keeps under it by a
+// budget. The margin covers the loops its count leaves out (the searches' setup beyond
+// MCHEX_SDF_LOOPS_PER_SEARCH is none; this is slack for the wrapper's own).
+constexpr std::uint32_t kLlvmpipeLoopLimit = 65535, kLoopBudgetMargin = 1024;
+
+VkPhysicalDeviceSubgroupProperties subgroup_properties(const vk::PhysicalDevice& d) {
+  VkPhysicalDeviceSubgroupProperties sub{};
+  sub.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_PROPERTIES;
+  VkPhysicalDeviceProperties2 props{};
+  props.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2;
+  props.pNext = &sub;
+  vkGetPhysicalDeviceProperties2(d.handle, &props);
+  return sub;
+}
+
+// Whether a device's compute shaders have what shaders/surface_sdf.comp and
+// surface_sdf_single_counted.comp use (subgroup basic and arithmetic operations).
+bool has_subgroup_arithmetic(const VkPhysicalDeviceSubgroupProperties& sub) {
+  const VkSubgroupFeatureFlags need = VK_SUBGROUP_FEATURE_BASIC_BIT | VK_SUBGROUP_FEATURE_ARITHMETIC_BIT;
+  return (sub.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT) && (sub.supportedOperations & need) == need;
+}
 
 std::string api_string(std::uint32_t v) {
   return fmt::format("{}.{}.{}", VK_API_VERSION_MAJOR(v), VK_API_VERSION_MINOR(v),
@@ -79,6 +104,10 @@ struct VulkanBackend::Impl {
   VulkanBackend::Profile profile;
 
   vk::Pipeline refinement, classify, scan_blocks, scan_totals, scan_add, surface_sdf, shape_sdf;
+  bool sdf_subgroup = false;  // surface_sdf is shaders/surface_sdf.comp (else surface_sdf_single*.comp)
+  std::uint32_t sdf_loop_budget = 0;  // kernels/sdf.h (0: none)
+  std::size_t sdf_points_per_invocation = kSdfPointsPerInvocation;
+  std::unique_ptr<SurfaceSdf> host_sdf;  // core's, of the scene's surface, for points past the loop budget
   vk::Buffer configs;  // core/device_scene.h packed_mc33_configs()
 
   // The device scene of the last surface (keyed by its address, array addresses and sizes, as
@@ -88,7 +117,8 @@ struct VulkanBackend::Impl {
     const void* vertices = nullptr;
     const void* triangles = nullptr;
     std::size_t num_vertices = 0, num_triangles = 0;
-    vk::Buffer nodes, slot_triangle, slot_corners, slot_features, face_normals, edge_normals, vertex_normals;
+    vk::Buffer wide_boxes, wide_links, leaf_bounds, leaf_slot, slot_triangle, slot_corners, slot_features,
+        face_normals, edge_normals, vertex_normals;
     double scale = 0;
   };
   std::optional<Scene> scene;
@@ -105,6 +135,7 @@ struct VulkanBackend::Impl {
         scene->num_triangles == s.triangles.size())
       return *scene;
     scene.reset();
+    host_sdf.reset();
     const DeviceScene ds = DeviceScene::build(s);
     const std::uint32_t limit = device->physical().max_storage_buffer_range;
     auto upload = [&](const auto& v, const char* what) {
@@ -125,7 +156,10 @@ struct VulkanBackend::Impl {
     out.triangles = s.triangles.data();
     out.num_vertices = s.vertices.size();
     out.num_triangles = s.triangles.size();
-    out.nodes = upload(ds.nodes, "BVH nodes");
+    out.wide_boxes = upload(ds.wide_boxes, "search tree boxes");
+    out.wide_links = upload(ds.wide_links, "search tree links");
+    out.leaf_bounds = upload(ds.leaf_bounds, "triangle bounds");
+    out.leaf_slot = upload(ds.leaf_slot, "leaf slots");
     out.slot_triangle = upload(ds.slot_triangle, "leaf triangle ids");
     out.slot_corners = upload(ds.slot_corners, "triangle corners");
     out.slot_features = upload(ds.slot_features, "triangle features");
@@ -176,7 +210,30 @@ struct VulkanBackend::Impl {
     scan_blocks = device->make_pipeline(spirv::scan_blocks, 3, 4);
     scan_totals = device->make_pipeline(spirv::scan_totals, 1, 16);
     scan_add = device->make_pipeline(spirv::scan_add, 2, 4);
-    surface_sdf = device->make_pipeline(spirv::surface_sdf, 9, 16);
+    const VkPhysicalDeviceSubgroupProperties sub = subgroup_properties(*chosen);
+    const bool subgroups = has_subgroup_arithmetic(sub);
+    if (options.sdf_walk == VulkanOptions::SdfWalk::kSubgroup && !subgroups)
+      throw InputError("backend 'vulkan': device '" + chosen->name +
+                       "' has no subgroup arithmetic in compute shaders, which the subgroup SDF walk needs");
+    // kAuto: one walk per invocation. On lavapipe the subgroup walk measured slower (perf/
+    // bench_backends: 10.7x to 15x the cpu reference against 5.8x to 9.2x), and it is not yet
+    // measured on a GPU.
+    sdf_subgroup = options.sdf_walk == VulkanOptions::SdfWalk::kSubgroup;
+    // On llvmpipe the walk runs under kernels/sdf.h's loop budget. Its count is exact per SIMD
+    // batch where the shader can take the subgroup's maximum (the subgroup walk; the single walk's
+    // counted variant), else each lane counts alone and gets its share of the limit, one point
+    // per invocation.
+    std::span<const std::uint32_t> code = sdf_subgroup ? spirv::surface_sdf : spirv::surface_sdf_single;
+    if (chosen->driver_id == VK_DRIVER_ID_MESA_LLVMPIPE) {
+      sdf_loop_budget = kLlvmpipeLoopLimit - kLoopBudgetMargin;
+      if (!sdf_subgroup && subgroups) {
+        code = spirv::surface_sdf_single_counted;
+      } else if (!sdf_subgroup) {
+        sdf_loop_budget /= std::max<std::uint32_t>(sub.subgroupSize, 16);
+        sdf_points_per_invocation = 1;
+      }
+    }
+    surface_sdf = device->make_pipeline(code, 12, 24);
     shape_sdf = device->make_pipeline(spirv::shape_sdf, 2, 8);
     pipeline_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     // Written now, not only at exit: a run that ends by an error still leaves the cache behind.
@@ -228,7 +285,9 @@ std::array<std::uint8_t, 16> VulkanBackend::pipeline_cache_uuid() const {
   return out;
 }
 std::size_t VulkanBackend::dispatches() const { return impl_->dispatches; }
+bool VulkanBackend::sdf_subgroup_walk() const { return impl_->sdf_subgroup; }
 VulkanBackend::Profile VulkanBackend::profile() const { return impl_->profile; }
+std::uint32_t VulkanBackend::sdf_loop_budget() const { return impl_->sdf_loop_budget; }
 
 void VulkanBackend::signed_distance(const SdfSource& source, std::span<const Vec3> points,
                                     std::span<double> values) {
@@ -243,7 +302,7 @@ void VulkanBackend::signed_distance(const SdfSource& source, std::span<const Vec
     std::fill(values.begin(), values.end(), -std::numeric_limits<double>::infinity());
     return;
   }
-  const std::size_t per_item = source.surface ? kSdfPointsPerInvocation : 1;
+  const std::size_t per_item = source.surface ? m.sdf_points_per_invocation : 1;
   const std::size_t chunk = std::min(n, m.chunk_for(sizeof(Vec3), kGroup * per_item));
   vk::Buffer in = m.device->make_buffer(chunk * sizeof(Vec3));
   vk::Buffer out = m.device->make_buffer(chunk * sizeof(double));
@@ -266,11 +325,12 @@ void VulkanBackend::signed_distance(const SdfSource& source, std::span<const Vec
     });
     if (scene) {
       struct {
-        std::uint32_t n, per_item;
+        std::uint32_t n, per_item, loop_budget, pad;
         double scale;
-      } push{static_cast<std::uint32_t>(count), static_cast<std::uint32_t>(per_item), scene->scale};
+      } push{static_cast<std::uint32_t>(count), static_cast<std::uint32_t>(per_item), m.sdf_loop_budget, 0,
+             scene->scale};
       m.run(m.surface_sdf,
-            {{&scene->nodes}, {&scene->slot_triangle}, {&scene->slot_corners}, {&scene->slot_features},
+            {{&scene->wide_boxes}, {&scene->wide_links}, {&scene->leaf_bounds}, {&scene->leaf_slot}, {&scene->slot_triangle}, {&scene->slot_corners}, {&scene->slot_features},
              {&scene->face_normals}, {&scene->edge_normals}, {&scene->vertex_normals}, {&in}, {&out}},
             &push, (count + per_item - 1) / per_item, kGroup);
     } else {
@@ -285,6 +345,23 @@ void VulkanBackend::signed_distance(const SdfSource& source, std::span<const Vec
       const double* src = static_cast<const double*>(out.data());
       for (std::size_t i = 0; i < count; ++i) values[order[begin + i]] = src[i];
     });
+  }
+  if (scene && m.sdf_loop_budget != 0) {
+    // Points whose search ran out of the loop budget came back NaN (shaders/surface_sdf.glsl); a
+    // finite point never has a NaN value, so core evaluates exactly those (and non-finite points,
+    // whose value core decides anyway).
+    std::vector<std::size_t> redo;
+    for (std::size_t i = 0; i < n; ++i)
+      if (std::isnan(values[i])) redo.push_back(i);
+    if (!redo.empty()) {
+      if (!m.host_sdf) m.host_sdf = std::make_unique<SurfaceSdf>(*source.surface);
+      std::vector<Vec3> p(redo.size());
+      std::vector<double> v(redo.size());
+      for (std::size_t k = 0; k < redo.size(); ++k) p[k] = points[redo[k]];
+      m.host_sdf->evaluate(p, v);
+      for (std::size_t k = 0; k < redo.size(); ++k) values[redo[k]] = v[k];
+      m.profile.host_points += redo.size();
+    }
   }
   if (!scene && chunk == n) {
     m.resident.emplace(std::move(out));

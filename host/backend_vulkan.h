@@ -30,6 +30,11 @@ struct VulkanOptions {
   // Largest number of elements (points, cells) per dispatch; 0: only the device's limits.
   // Tests force small chunks with it to exercise the chunking.
   std::size_t max_chunk = 0;
+  // How the surface SDF walks the tree (kernels/sdf.h): kSubgroup, a subgroup's invocations
+  // share one walk (needs subgroup arithmetic in compute shaders, else InputError); kSingle and
+  // kAuto, one walk per invocation (measured faster on lavapipe). Tests run both.
+  enum class SdfWalk { kAuto, kSubgroup, kSingle };
+  SdfWalk sdf_walk = SdfWalk::kAuto;
 
   static std::filesystem::path default_pipeline_cache_dir();
 };
@@ -59,12 +64,19 @@ class VulkanBackend : public Backend {
   std::array<std::uint8_t, 16> pipeline_cache_uuid() const;
   // Dispatches issued so far (each within the device's limits): tests check the chunking.
   std::size_t dispatches() const;
+  // Whether the surface SDF runs the subgroup walk (VulkanOptions::sdf_walk).
+  bool sdf_subgroup_walk() const;
   // Where the time went since creation (seconds): host copies into mapped buffers (and gathers),
   // dispatches (submit to fence: the device's work, JIT compilation on first use included), and
   // copies back out (and decoding).
   struct Profile {
     double upload = 0, device = 0, download = 0;
+    // Surface SDF points whose device search ran out of its loop budget (kernels/sdf.h: lavapipe
+    // cuts a shader's loops after 65,535 iterations), evaluated on the host by core instead.
+    std::size_t host_points = 0;
   };
+  // The loop budget the surface SDF runs under (kernels/sdf.h; 0: none).
+  std::uint32_t sdf_loop_budget() const;
   Profile profile() const;
 
   struct Impl;

@@ -110,6 +110,9 @@ std::vector<Define> defines() {
       {"MCHEX_CONFIG_MAP0_SHIFT", kConfigMap0Shift, "core/device_scene.h packed_mc33_configs()"},
       {"MCHEX_CONFIG_MAP1_SHIFT", kConfigMap1Shift, ""},
       {"MCHEX_CONFIG_PREFERRED_SHIFT", kConfigPreferredShift, ""},
+      {"MCHEX_CONFIG_SUBCASE_BASE", kConfigSubcaseBase, "then one word per subcase: partner | (tunnel + 1) << 8 | hexes << 16"},
+      {"MCHEX_CONFIG_TUNNEL_SHIFT", kConfigTunnelShift, ""},
+      {"MCHEX_CONFIG_HEXES_SHIFT", kConfigHexesShift, ""},
       {"MCHEX_CODE_SIGN_SHIFT", kCodeSignShift, "core/device_scene.h: CellCode word 0"},
       {"MCHEX_CODE_FACE_SHIFT", kCodeFaceShift, ""},
       {"MCHEX_CODE_TUNNEL_SHIFT", kCodeTunnelShift, "stores tunnel + 1"},
@@ -119,6 +122,10 @@ std::vector<Define> defines() {
       {"MCHEX_SLOT_CORNER_DOUBLES", 9, "core/device_scene.h slot_corners per slot"},
       {"MCHEX_SLOT_FEATURE_WORDS", 6, "core/device_scene.h slot_features per slot"},
       {"MCHEX_FP32_CANDIDATES", kFp32Candidates, "core/device_scene.h: candidate slots per point, kernels/sdf_fp32.h"},
+      {"MCHEX_WIDE_NODE_FLOAT4S", kWideNodeFloats / 4, "core/device_scene.h wide_boxes per node, in float4 groups"},
+      {"MCHEX_WIDE_NODE_LINKS", kWideNodeLinks, "core/device_scene.h wide_links per node"},
+      {"MCHEX_LEAF_BOUND_FLOAT4S", kLeafBoundFloats / 4, "core/device_scene.h leaf_bounds per leaf, in float4 groups"},
+      {"MCHEX_SDF_WIDE_STACK", kSdfWideStack, "core/device_scene.h: entries of kernels/sdf.h's walk stack"},
   };
 }
 

@@ -13,6 +13,8 @@ extern const std::span<const std::uint32_t> scan_blocks;       // shaders/scan_b
 extern const std::span<const std::uint32_t> scan_totals;       // shaders/scan_totals.comp
 extern const std::span<const std::uint32_t> scan_add;          // shaders/scan_add.comp
 extern const std::span<const std::uint32_t> surface_sdf;       // shaders/surface_sdf.comp
+extern const std::span<const std::uint32_t> surface_sdf_single;  // shaders/surface_sdf_single.comp
+extern const std::span<const std::uint32_t> surface_sdf_single_counted;  // shaders/surface_sdf_single_counted.comp
 extern const std::span<const std::uint32_t> shape_sdf;         // shaders/shape_sdf.comp
 
 }  // namespace mchex::spirv

@@ -166,8 +166,11 @@ INLINE int interior_join(CellValues v) {
     k2 = 3;
     positive = p1;
   }
-  int c1 = ((v.f[k1] > 0.0) == positive) ? k1 : k1 + 4;
-  int c2 = ((v.f[k2] > 0.0) == positive) ? k2 : k2 + 4;
+  // v.f[k1], v.f[k2] picked by selects, not indexed: see classify_pattern on constant indices.
+  EXACT double f1 = qa < 0.0 ? v.f[0] : v.f[1];
+  EXACT double f2 = qa < 0.0 ? v.f[2] : v.f[3];
+  int c1 = ((f1 > 0.0) == positive) ? k1 : k1 + 4;
+  int c2 = ((f2 > 0.0) == positive) ? k2 : k2 + 4;
   return c1 | (c2 << 4);
 }
 
@@ -191,6 +194,11 @@ INLINE int component_of(int adj[8], int c) {
 // (the host checks). A cell with one sign everywhere (mask 0 or 255, nearly every cell of a grid)
 // takes the short way: no edge is cut, no face is ambiguous and the subcase has no tunnel partner,
 // so the loops below would change nothing.
+//
+// Arrays (the values, the links, the tables) are only ever indexed by loop counters that unroll to
+// constants: SIMD compilers that run invocations as vector lanes (llvmpipe) spill an array indexed
+// by a varying value to per-invocation memory, which on lavapipe cost more than the work itself.
+// Per-subcase facts come from the `configs` buffer for the same reason (core/device_scene.h).
 INLINE CellWords classify_pattern(CLASSIFY_PARAMS_ CellValues v, int mask) {
   if (mask == 0 || mask == 255) {
     uint e = configs[mask * 64];
@@ -204,7 +212,6 @@ INLINE CellWords classify_pattern(CLASSIFY_PARAMS_ CellValues v, int mask) {
   int cut = 0;
   for (int e = 0; e < 12; ++e)
     if (((mask >> kCubeEdges[2 * e]) & 1) != ((mask >> kCubeEdges[2 * e + 1]) & 1)) cut |= 1 << e;
-  int ambiguous = kAmbiguousFaces[mask];
   int adj[8];
   for (int c = 0; c < 8; ++c) {
     int same = ((mask >> c) & 1) != 0 ? mask : (~mask & 255);
@@ -212,23 +219,29 @@ INLINE CellWords classify_pattern(CLASSIFY_PARAMS_ CellValues v, int mask) {
   }
   int face_joins = 0;
   for (int fi = 0; fi < 6; ++fi) {
-    if (((ambiguous >> fi) & 1) == 0) continue;
     int q0 = kHexFaces[4 * fi], q1 = kHexFaces[4 * fi + 1], q2 = kHexFaces[4 * fi + 2], q3 = kHexFaces[4 * fi + 3];
-    bool first_positive = ((mask >> q0) & 1) != 0;
+    // Ambiguous (core/mc33.cpp compute_ambiguous_faces): both diagonals are same-sign pairs of
+    // opposite signs.
+    int s0 = (mask >> q0) & 1, s1 = (mask >> q1) & 1, s2 = (mask >> q2) & 1, s3 = (mask >> q3) & 1;
+    if (s0 != s2 || s1 != s3 || s0 == s1) continue;
+    bool first_positive = s0 != 0;
     int pa = first_positive ? q0 : q1;
     int pb = first_positive ? q2 : q3;
     int na = first_positive ? q1 : q0;
     int nb = first_positive ? q3 : q2;
-    bool joins = face_joins_positive(v.f[pa], v.f[pb], v.f[na], v.f[nb]);
+    bool joins = face_joins_positive(first_positive ? v.f[q0] : v.f[q1], first_positive ? v.f[q2] : v.f[q3],
+                                     first_positive ? v.f[q1] : v.f[q0], first_positive ? v.f[q3] : v.f[q2]);
     if (joins) face_joins |= 1 << fi;
     int u = joins ? pa : na;
     int w = joins ? pb : nb;
-    adj[u] |= 1 << w;
-    adj[w] |= 1 << u;
+    for (int k = 0; k < 8; ++k) {
+      if (k == u) adj[k] |= 1 << w;
+      if (k == w) adj[k] |= 1 << u;
+    }
   }
   uint entry = configs[mask * 64 + face_joins];
   int subcase = CAST(int, entry & 255u);
-  int partner = kSubcaseTunnelPartner[subcase];
+  int partner = CAST(int, configs[MCHEX_CONFIG_SUBCASE_BASE + subcase] & 255u);
   int tunnel = 0;
   if (partner != 0) {
     int join = interior_join(v);
@@ -241,7 +254,9 @@ INLINE CellWords classify_pattern(CLASSIFY_PARAMS_ CellValues v, int mask) {
     }
   }
   int preferred = CAST(int, (entry >> MCHEX_CONFIG_PREFERRED_SHIFT) & 255u);
-  int inv = tunnel != 0 ? (tunnel != kSubcaseTunnel[subcase] ? 1 : 0) : preferred;
+  int representative_tunnel =
+      CAST(int, (configs[MCHEX_CONFIG_SUBCASE_BASE + subcase] >> MCHEX_CONFIG_TUNNEL_SHIFT) & 255u) - 1;
+  int inv = tunnel != 0 ? (tunnel != representative_tunnel ? 1 : 0) : preferred;
   int symmetry = CAST(int, (entry >> (inv != 0 ? MCHEX_CONFIG_MAP1_SHIFT : MCHEX_CONFIG_MAP0_SHIFT)) & 255u);
   CellWords words;
   words.w0 = CAST(uint, subcase | (mask << MCHEX_CODE_SIGN_SHIFT) | (face_joins << MCHEX_CODE_FACE_SHIFT) |
@@ -260,7 +275,9 @@ INLINE CellWords classify_cell(CLASSIFY_PARAMS_ CellValues v) {
 // Hexes the mesher makes from the cell (core/local_refinement.h local_refinement_hexes: 8 + 2 * cut
 // edges for a cell cut directly, the sum over its leaves for one refined locally), a function of
 // the subcase alone, so the prefix sum of these is where each cell's hexes start in the output.
-INLINE uint cell_hexes(CellWords w) { return CAST(uint, kSubcaseHexes[w.w0 & 255u]); }
+INLINE uint cell_hexes(CLASSIFY_PARAMS_ CellWords w) {
+  return configs[MCHEX_CONFIG_SUBCASE_BASE + (w.w0 & 255u)] >> MCHEX_CONFIG_HEXES_SHIFT;
+}
 
 // The uniform grid's point numbering (core/grid.h UniformGrid: cells x fastest, points
 // i + (n+1)(j + (n+1)k), corners as UniformGrid::cell_corners), so a uniform complex needs no

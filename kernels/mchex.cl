@@ -3,10 +3,11 @@
 // mchex_tables.cl.h, dialect.h, sdf.h, refine.h, classify.h and this file (embedded into the
 // binary at build time), so there are no #include lines here.
 //
-// Work decomposition: one work item per refinement cell or MC cell; `per_item` consecutive points
-// per work item for the SDF, so that each point's search is seeded by the previous point's
-// triangle (grid order makes that seed nearly always the answer; the result does not depend on
-// it). Sizes are 32-bit: the host dispatches chunks that fit the device's allocation limit.
+// Work decomposition: one work item per refinement cell or MC cell; for the surface SDF,
+// `per_item` consecutive points (in Morton order) per work item, searched MCHEX_SDF_PACKET at a
+// time (kernels/sdf.h: one shared walk per packet), each packet's points seeded by the previous
+// packet's answers (on a grid nearly always the answer again; the result does not depend on it).
+// Sizes are 32-bit: the host dispatches chunks that fit the device's allocation limit.
 
 #ifndef MCHEX_FP32
 __kernel void sdf_surface(SCENE_PARAMS_ __global const double *points, __global double *values, uint n,
@@ -14,12 +15,21 @@ __kernel void sdf_surface(SCENE_PARAMS_ __global const double *points, __global 
   uint first = (uint)get_global_id(0) * per_item;
   if (first >= n) return;
   uint last = min(n, first + per_item);
-  uint seed = 0u;
-  for (uint i = first; i < last; ++i) {
-    double3 p = (double3)(points[3 * i], points[3 * i + 1], points[3 * i + 2]);
-    SurfaceHit hit = closest_on_surface(SCENE_ARGS_ p, seed, scale);
-    values[i] = signed_value_of(SCENE_ARGS_ p, hit);
-    seed = hit.slot;
+  SurfacePacket q;
+  for (int l = 0; l < MCHEX_SDF_PACKET; ++l) q.seed[l] = 0u;
+  q.budget = 0u;  // OpenCL drivers do not cut loops (kernels/sdf.h)
+  q.spent = 0u;
+  for (uint i = first; i < last; i += MCHEX_SDF_PACKET) {
+    q.lanes = (int)min((uint)MCHEX_SDF_PACKET, last - i);
+    for (int l = 0; l < q.lanes; ++l) {
+      uint j = i + (uint)l;
+      q.p[l] = (double3)(points[3 * j], points[3 * j + 1], points[3 * j + 2]);
+    }
+    q = closest_on_surface(SCENE_ARGS_ q, scale);
+    for (int l = 0; l < q.lanes; ++l) {
+      values[i + (uint)l] = signed_value_of(SCENE_ARGS_ q.p[l], q.hit[l]);
+      q.seed[l] = q.hit[l].slot;
+    }
   }
 }
 

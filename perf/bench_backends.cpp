@@ -10,6 +10,8 @@
 //
 //   bench_backends [--grid N] [--segments S] [--depth D] [--repeat R] [--platform NAME]
 //                  [--vulkan-device NAME] [--backends cpu,opencl,vulkan] [--kernels K1,K2,...]
+//   (backends also opencl-fp32: the forced single-precision path; vulkan-subgroup: the surface
+//   SDF's subgroup-shared walk instead of the default one walk per invocation)
 //
 // Workloads: surface SDF at the N^3 points of a grid over the tessellated torus (2 S x 0.4 S
 // triangles; S = 256 gives 52,224), analytic-shape SDF (torus) on the same points, refinement
@@ -146,7 +148,7 @@ int main(int argc, char** argv) {
   };
   std::vector<Named> backends;
   std::map<std::string, OpenclBackend*> ocls;
-  VulkanBackend* vk = nullptr;
+  std::map<std::string, VulkanBackend*> vks;
   nlohmann::json unavailable = nlohmann::json::object();
   for (const std::string& name : split(wanted)) {
     try {
@@ -160,11 +162,14 @@ int main(int argc, char** argv) {
         auto b = std::make_unique<OpenclBackend>(o);
         ocls[name] = b.get();
         backends.push_back({name, std::move(b)});
-      } else if (name == "vulkan") {
+      } else if (name == "vulkan" || name == "vulkan-subgroup") {
+        // vulkan-subgroup: the surface SDF's subgroup-shared walk forced (kernels/sdf.h), to
+        // compare with the one walk per invocation that every device takes by default.
         VulkanOptions o;
         o.device = vulkan_device;
+        if (name == "vulkan-subgroup") o.sdf_walk = VulkanOptions::SdfWalk::kSubgroup;
         auto b = std::make_unique<VulkanBackend>(o);
-        vk = b.get();
+        vks[name] = b.get();
         backends.push_back({name, std::move(b)});
       } else {
         std::fprintf(stderr, "bench_backends: unknown backend %s\n", name.c_str());
@@ -212,7 +217,8 @@ int main(int argc, char** argv) {
       for (int r = 0; r < repeat; ++r) {
         OpenclBackend* ocl = ocls.count(name) ? ocls[name] : nullptr;
         if (ocl) ocl->reset_profile();
-        const VulkanBackend::Profile before = vk && name == "vulkan" ? vk->profile() : VulkanBackend::Profile{};
+        VulkanBackend* vk = vks.count(name) ? vks[name] : nullptr;
+        const VulkanBackend::Profile before = vk ? vk->profile() : VulkanBackend::Profile{};
         const double s = seconds_of([&] { out = run(); });
         if (s >= m.best) continue;
         m.best = s;
@@ -225,11 +231,13 @@ int main(int argc, char** argv) {
             m.profile["fp32: candidates per point (mean)"] = double(st.candidates) / double(st.points - st.host_points);
           }
         }
-        if (vk && name == "vulkan") {
+        if (vk) {
           const VulkanBackend::Profile after = vk->profile();
           m.profile["upload"] = after.upload - before.upload;
           m.profile["device"] = after.device - before.device;
           m.profile["download"] = after.download - before.download;
+          if (after.host_points != before.host_points)
+            m.profile["points past the loop budget, on the host (count)"] = double(after.host_points - before.host_points);
         }
       }
       if (name == "cpu") reference[kernel] = out;
@@ -311,7 +319,7 @@ int main(int argc, char** argv) {
     std::printf("%-7s %s / %s\n", name.c_str(), b->device().platform.c_str(), b->device().name.c_str());
     j["devices"][name] = b->device().platform + " / " + b->device().name;
   }
-  if (vk) j["vulkan_pipeline_seconds"] = vk->pipeline_seconds();
+  for (const auto& [name, vk] : vks) j[name + "_pipeline_seconds"] = vk->pipeline_seconds();
 
   // Rates in M items/s; "x cpu" is the backend's time over the cpu's (the targets: SDF
   // within 2x on PoCL, 4x on lavapipe).
@@ -349,7 +357,8 @@ int main(int argc, char** argv) {
       double accounted = 0;
       for (const auto& [part, s] : m.profile) {
         std::printf(" %s %.4f", part.c_str(), s);
-        if (part.rfind("fp32:", 0) != 0) accounted += s;  // counts, not seconds
+        const bool count = part.find("(count)") != std::string::npos || part.find("(mean)") != std::string::npos;
+        if (!count) accounted += s;
       }
       std::printf("  | host-side and launch %.4f\n", m.best - accounted);
       j["profile_s"][name][kernel] = m.profile;

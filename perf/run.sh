@@ -11,4 +11,6 @@ for bench in "$build"/perf/bench_*; do
   echo "== $(basename "$bench")"
   "$bench" | tee /dev/stderr | grep '^{' >>"$out"
 done 2>&1
+echo "== bench_end_to_end.py"
+/usr/bin/python3 "$here/bench_end_to_end.py" --build "$build" 2>&1 | tee /dev/stderr | grep '^{' >>"$out"
 echo "results: $out"

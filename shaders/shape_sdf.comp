@@ -9,16 +9,7 @@ layout(local_size_x = 64) in;
 layout(std430, binding = 0) readonly buffer Points { double points[]; };  // x, y, z per point
 layout(std430, binding = 1) writeonly buffer Values { double values[]; };
 layout(push_constant) uniform Push { uint n; int kind; } pc;
-// kernels/sdf.h also holds the surface SDF, whose functions name the scene buffers; they are
-// declared here so it compiles, and never used (nor bound) by this shader.
-layout(std430, binding = 2) readonly buffer Nodes { BvhNode nodes[]; };
-layout(std430, binding = 3) readonly buffer SlotTriangle { uint slot_triangle[]; };
-layout(std430, binding = 4) readonly buffer SlotCorners { double slot_corners[]; };
-layout(std430, binding = 5) readonly buffer SlotFeatures { uint slot_features[]; };
-layout(std430, binding = 6) readonly buffer FaceNormals { double face_normals[]; };
-layout(std430, binding = 7) readonly buffer EdgeNormals { double edge_normals[]; };
-layout(std430, binding = 8) readonly buffer VertexNormals { double vertex_normals[]; };
-
+#define MCHEX_SHAPES_ONLY  // kernels/sdf.h without the surface SDF (and its buffers)
 #include "kernels/sdf.h"
 
 void main() {

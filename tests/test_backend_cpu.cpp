@@ -77,7 +77,13 @@ TEST(Backend, CellCodeWordsRoundTrip) {
 
 TEST(Backend, PackedConfigsAreCoreTable) {
   const auto words = packed_mc33_configs();
-  ASSERT_EQ(words.size(), std::size_t(kConfigWords));
+  ASSERT_EQ(words.size(), std::size_t(kConfigWords + kNumSubcases));
+  for (int s = 0; s < kNumSubcases; ++s) {
+    const uint32_t w = words[kConfigSubcaseBase + s];
+    EXPECT_EQ(w & 0xFF, uint32_t(kSubcaseInfo[s].tunnel_partner)) << s;
+    EXPECT_EQ(int(w >> kConfigTunnelShift & 0xFF) - 1, kSubcaseInfo[s].tunnel) << s;
+    EXPECT_EQ(int(w >> kConfigHexesShift), local_refinement_hexes(Subcase(s))) << s;
+  }
   for (int mask = 0; mask < 256; ++mask)
     for (int faces = 0; faces < 64; ++faces) {
       const Mc33Config& c = mc33_config(uint8_t(mask), uint8_t(faces));

@@ -181,6 +181,96 @@ TEST(templates, FaceNeighboursConformForEveryAdmissibleMarking) {
   EXPECT_GT(pairs, 100);
 }
 
+// The invariant the conformity of the complex rests on (core/templates.h): the quads a template
+// puts on a cell face depend only on that face's 4 corner marks. Checked directly on every face
+// of every template in every rotation, independently of which template or rotation produced it:
+// the face's quads and marks, moved by the symmetry of the square that puts the marks in a
+// canonical position, must be one pattern per mark class, and the pattern must be invariant under
+// the symmetries that fix its marks (else the two cells sharing the face could pick mirror images).
+// Each pattern's quad count is odd (1, 3, 7, 9): a hex mesh of a cell has an even number of
+// boundary quads (6 H = 2 interior faces + boundary), so any new face pattern that a template uses
+// on an odd number of its faces (e.g. the 3-marked faces of a concave-corner template, 3 of them)
+// must have an odd count too.
+TEST(templates, FacePatternDependsOnlyOnItsFourCornerMarks) {
+  using P2 = std::array<int, 2>;
+  using Quad2 = std::array<P2, 4>;
+  struct Pattern {
+    int marks = 0;              // bit u + 2 v for the face corner (12 u, 12 v)
+    std::vector<Quad2> quads;   // each quad's corners sorted, the list sorted
+    bool operator==(const Pattern&) const = default;
+  };
+  // The 8 symmetries of the square [0, 12]^2: optional swap of (u, v), then optional flips.
+  auto move = [](P2 p, int g) {
+    if (g & 4) std::swap(p[0], p[1]);
+    if (g & 1) p[0] = kTemplateUnits - p[0];
+    if (g & 2) p[1] = kTemplateUnits - p[1];
+    return p;
+  };
+  auto moved = [&](const Pattern& a, int g) {
+    Pattern b;
+    for (int c = 0; c < 4; ++c)
+      if (a.marks >> c & 1) {
+        const P2 q = move({kTemplateUnits * (c & 1), kTemplateUnits * (c >> 1)}, g);
+        b.marks |= 1 << (q[0] / kTemplateUnits + 2 * (q[1] / kTemplateUnits));
+      }
+    for (Quad2 q : a.quads) {
+      for (P2& p : q) p = move(p, g);
+      std::sort(q.begin(), q.end());
+      b.quads.push_back(q);
+    }
+    std::sort(b.quads.begin(), b.quads.end());
+    return b;
+  };
+  std::map<int, Pattern> by_class;  // canonical marks -> canonical pattern
+  int faces = 0;
+  for (TemplateKind k : kinds())
+    for (int r = 0; r < kNumCubeRotations; ++r) {
+      std::uint8_t cell_marks = 0;
+      for (int c = 0; c < 8; ++c)
+        if (template_canonical_marks(k) >> c & 1) cell_marks |= static_cast<std::uint8_t>(1u << kCubeSymmetries[r].corner[c]);
+      std::vector<std::array<Key, 8>> hexes;
+      for (const TemplateHex& h : template_hexes(k)) hexes.push_back(placed(h, r, {0, 0, 0}));
+      for (int axis = 0; axis < 3; ++axis)
+        for (int side : {0, kTemplateUnits}) {
+          const int ua = (axis + 1) % 3 < (axis + 2) % 3 ? (axis + 1) % 3 : (axis + 2) % 3;
+          const int va = 3 - axis - ua;
+          Pattern f;
+          for (int c = 0; c < 8; ++c)
+            if (kCubeCorners[c][axis] * kTemplateUnits == side && (cell_marks >> c & 1))
+              f.marks |= 1 << (kCubeCorners[c][ua] + 2 * kCubeCorners[c][va]);
+          for (const auto& h : hexes)
+            for (const Face& q : faces_of(h))
+              if (std::all_of(q.begin(), q.end(), [&](const Key& p) { return p[axis] == side; })) {
+                Quad2 q2;
+                for (int i = 0; i < 4; ++i) q2[i] = {q[i][ua], q[i][va]};
+                std::sort(q2.begin(), q2.end());
+                f.quads.push_back(q2);
+              }
+          std::sort(f.quads.begin(), f.quads.end());
+          ++faces;
+          // Invariant under the symmetries that fix the marks.
+          for (int g = 0; g < 8; ++g)
+            if (moved(f, g).marks == f.marks) {
+              EXPECT_EQ(moved(f, g).quads, f.quads) << template_name(k) << " rotation " << r << " axis " << axis << " side " << side;
+            }
+          // Canonical: the symmetry giving the smallest marks (any one: the pattern is invariant).
+          Pattern best = f;
+          for (int g = 1; g < 8; ++g)
+            if (moved(f, g).marks < best.marks) best = moved(f, g);
+          const auto it = by_class.emplace(best.marks, best).first;
+          EXPECT_EQ(it->second, best) << template_name(k) << " rotation " << r << ": marks " << best.marks
+                                      << " have two different face patterns";
+        }
+    }
+  EXPECT_EQ(faces, 4 * kNumCubeRotations * 6);
+  // The classes the four templates use: no mark, one corner, an edge, all four (canonical marks
+  // 0, 1, 3, 15), with 1, 3, 7 and 9 quads (core/templates.h's face patterns).
+  std::map<int, std::size_t> counts;
+  for (const auto& [m, p] : by_class) counts[m] = p.quads.size();
+  EXPECT_EQ(counts, (std::map<int, std::size_t>{{0, 1}, {1, 3}, {3, 7}, {15, 9}}));
+  for (const auto& [m, n] : counts) EXPECT_EQ(n % 2, 1u) << "face pattern with marks " << m;
+}
+
 // The hand classification in core/cell_types.h: cube 1, node 1, edge 3, face 3 = 8 types, one
 // fewer than the paper's 9 (reported there). The names record which template each came from.
 TEST(cell_types, BasicCellsAreTheHandClassification) {

@@ -86,6 +86,23 @@ VulkanBackend& lavapipe() {
   return backend;
 }
 
+// The surface SDF's two walks (kernels/sdf.h): the subgroup walk (lavapipe's default) and one
+// walk per invocation (the fallback for devices without subgroup arithmetic, and GPUs).
+VulkanBackend& lavapipe_walk(VulkanOptions::SdfWalk walk) {
+  static VulkanBackend subgroup([] {
+    VulkanOptions o = lavapipe_options();
+    o.sdf_walk = VulkanOptions::SdfWalk::kSubgroup;
+    return o;
+  }());
+  static VulkanBackend single([] {
+    VulkanOptions o = lavapipe_options();
+    o.sdf_walk = VulkanOptions::SdfWalk::kSingle;
+    return o;
+  }());
+  return walk == VulkanOptions::SdfWalk::kSubgroup ? subgroup : single;
+}
+constexpr VulkanOptions::SdfWalk kWalks[] = {VulkanOptions::SdfWalk::kSubgroup, VulkanOptions::SdfWalk::kSingle};
+
 std::uint64_t bits(double x) { return std::bit_cast<std::uint64_t>(x); }
 
 // A complex whose cells own their 8 points, so each cell's values are set independently.
@@ -462,15 +479,47 @@ TEST(vulkan, SurfaceSdfIsBitIdenticalOnClosedOpenAndDegenerateSurfaces) {
   soup.vertices.push_back({0.9, 0.9, 0.9});
   soup.triangles.push_back({v0, v0 + 1, v0 + 2});      // collinear: zero area
   surfaces.emplace_back("soup", soup);
+  // lavapipe has subgroup arithmetic (subgroups of 8), but the default is one walk per invocation.
+  EXPECT_FALSE(lavapipe().sdf_subgroup_walk());
+  EXPECT_TRUE(lavapipe_walk(VulkanOptions::SdfWalk::kSubgroup).sdf_subgroup_walk());
+  EXPECT_FALSE(lavapipe_walk(VulkanOptions::SdfWalk::kSingle).sdf_subgroup_walk());
   for (const auto& [name, s] : surfaces) {
     SCOPED_TRACE(name);
     const std::vector<Vec3> pts = adversarial_points(s, rng);
     const SurfaceSdf reference(s);
-    std::vector<double> want(pts.size()), got(pts.size());
+    std::vector<double> want(pts.size());
     reference.evaluate(pts, want);
     SdfSource source;
     source.surface = &s;
-    lavapipe().signed_distance(source, pts, got);
+    for (const VulkanOptions::SdfWalk walk : kWalks) {
+      SCOPED_TRACE(walk == VulkanOptions::SdfWalk::kSubgroup ? "subgroup walk" : "single walk");
+      std::vector<double> got(pts.size());
+      lavapipe_walk(walk).signed_distance(source, pts, got);
+      expect_bit_equal(got, want, pts);
+    }
+  }
+}
+
+// Grid points over a fine torus (perf/bench_backends's workload, smaller): many are exactly as far
+// from two or more triangles (the grid and the tessellation share symmetry planes), so the tie
+// rule decides, and each invocation's turns seed one another across the Morton order.
+TEST(vulkan, SurfaceSdfOnAGridOverAFineTorusIsBitIdentical) {
+  const TriangleSurface torus = tessellate(ShapeKind::kTorus, 256);
+  const Box cube = padded_cube(torus.bounds(), 0.1);
+  std::vector<Vec3> pts;
+  const int n = 40;
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i)
+        pts.push_back(cube.lo + Vec3{cube.size().x * i / (n - 1), cube.size().y * j / (n - 1), cube.size().z * k / (n - 1)});
+  std::vector<double> want(pts.size());
+  SurfaceSdf(torus).evaluate(pts, want);
+  SdfSource source;
+  source.surface = &torus;
+  for (const VulkanOptions::SdfWalk walk : kWalks) {
+    SCOPED_TRACE(walk == VulkanOptions::SdfWalk::kSubgroup ? "subgroup walk" : "single walk");
+    std::vector<double> got(pts.size());
+    lavapipe_walk(walk).signed_distance(source, pts, got);
     expect_bit_equal(got, want, pts);
   }
 }
@@ -494,4 +543,38 @@ TEST(vulkan, SurfaceSdfChunkedEqualsWholeAndEmptySurfaceIsOutside) {
   std::vector<double> v(3, 0.0);
   lavapipe().signed_distance(source, std::vector<Vec3>(3), v);
   for (double x : v) EXPECT_EQ(x, -std::numeric_limits<double>::infinity());
+}
+
+// llvmpipe ends any shader's loops after 65,535 iterations in all (gallivm's loop limiter,
+// LP_MAX_TGSI_LOOP_ITERATIONS, shared by every loop of an invocation) and carries on with what it
+// has. Points at the centre of a finely tessellated sphere are the walk's worst case: every
+// triangle is nearly as close as the nearest, so pruning opens almost the whole tree.
+TEST(vulkan, SurfaceSdfAtTheCentreOfAFineSphereWhereTheWalkOpensTheWholeTree) {
+  const TriangleSurface sphere = tessellate(ShapeKind::kSphere, 160);
+  std::vector<Vec3> pts;
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(-1e-3, 1e-3);
+  for (int i = 0; i < 256; ++i) pts.push_back(i % 2 ? Vec3{0, 0, 0} : Vec3{u(rng), u(rng), u(rng)});
+  // and easy ones, near the surface, which the device answers itself.
+  for (int i = 0; i < 256; ++i) pts.push_back(Vec3{std::cos(0.1 * i), std::sin(0.1 * i), 0.01 * (i % 20)} * 1.05);
+  const SurfaceSdf reference(sphere);
+  std::vector<double> want(pts.size()), got(pts.size());
+  reference.evaluate(pts, want);
+  SdfSource source;
+  source.surface = &sphere;
+  SCOPED_TRACE(std::to_string(sphere.triangles.size()) + " triangles");
+  for (const VulkanOptions::SdfWalk walk : kWalks) {
+    SCOPED_TRACE(walk == VulkanOptions::SdfWalk::kSubgroup ? "subgroup walk" : "single walk");
+    VulkanBackend& b = lavapipe_walk(walk);
+    EXPECT_EQ(b.sdf_loop_budget(), 65535u - 1024u);  // llvmpipe: the budget is on, the whole limit usable
+    std::fill(got.begin(), got.end(), 0.0);
+    const std::size_t before = b.profile().host_points;
+    b.signed_distance(source, pts, got);
+    expect_bit_equal(got, want, pts);
+    // Some searches here do run out of the budget (else this test would not test it); the rest
+    // are the device's own answers.
+    const std::size_t redone = b.profile().host_points - before;
+    EXPECT_GT(redone, 0u);
+    EXPECT_LT(redone, pts.size());
+  }
 }
