@@ -136,7 +136,6 @@ struct VulkanBackend::Impl {
   struct Scene32 {
     std::unique_ptr<Fp32Surface> host;
     vk::Buffer nodes, node_slack, slot_corners, slot_slack;
-    std::uint32_t max_leaf = 0;
     float scale = 0;
   };
   std::optional<Scene32> scene32;
@@ -173,7 +172,6 @@ struct VulkanBackend::Impl {
     out.node_slack = upload(d.node_slack, "node slacks");
     out.slot_corners = upload(d.slot_corners, "triangle corners");
     out.slot_slack = upload(d.slot_slack, "triangle slacks");
-    out.max_leaf = d.max_leaf;
     out.scale = d.scale;
     scene32.emplace(std::move(out));
     return *scene32;
@@ -251,7 +249,7 @@ struct VulkanBackend::Impl {
           sdf_points_per_invocation = 1;
         }
       }
-      surface_sdf32 = device->make_pipeline(code, 6, 20);
+      surface_sdf32 = device->make_pipeline(code, 6, 16);
       pipeline_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       device->save_cache();
       return;
@@ -331,11 +329,10 @@ struct VulkanBackend::Impl {
           for (int c = 0; c < 3; ++c) dst[3 * i + c] = float(points[order[begin + i]][c]);
       });
       struct {
-        std::uint32_t n, per_item, loop_budget, max_leaf;
+        std::uint32_t n, per_item, loop_budget;
         float scale;
-      } push{static_cast<std::uint32_t>(count), static_cast<std::uint32_t>(per_item), sdf_loop_budget, sc.max_leaf,
-             sc.scale};
-      static_assert(sizeof(push) == 20);
+      } push{static_cast<std::uint32_t>(count), static_cast<std::uint32_t>(per_item), sdf_loop_budget, sc.scale};
+      static_assert(sizeof(push) == 16);
       run(surface_sdf32, {{&sc.nodes}, {&sc.node_slack}, {&sc.slot_corners}, {&sc.slot_slack}, {&in}, {&out}}, &push,
           (count + per_item - 1) / per_item, kGroup);
       timed(profile.download, [&] {

@@ -51,7 +51,6 @@ Fp32Surface::Fp32Surface(const TriangleSurface& s)
   arrays_.node_slack = std::move(d32.node_slack);
   arrays_.slot_corners = std::move(d32.slot_corners);
   arrays_.slot_slack = std::move(d32.slot_slack);
-  for (const BvhNode& n : d.nodes) arrays_.max_leaf = std::max(arrays_.max_leaf, n.count);
   arrays_.nodes = std::move(d.nodes);
   // Rounded up, so that the kernel's W bounds every coordinate magnitude.
   arrays_.scale = std::nextafter(float(d.scale), INFINITY);
@@ -67,7 +66,6 @@ Fp32DeviceArrays Fp32Surface::take_device_arrays() {
   Fp32DeviceArrays out = std::move(arrays_);
   arrays_ = Fp32DeviceArrays{};
   arrays_.scale = out.scale;
-  arrays_.max_leaf = out.max_leaf;
   return out;
 }
 

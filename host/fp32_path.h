@@ -43,8 +43,7 @@ inline constexpr std::uint32_t kFp32Overflow = kFp32Candidates + 1, kFp32OutOfBu
 struct Fp32DeviceArrays {
   std::vector<BvhNode> nodes;
   std::vector<float> node_slack, slot_corners, slot_slack;
-  float scale = 0;             // the surface's largest coordinate magnitude, rounded up to float
-  std::uint32_t max_leaf = 0;  // the most slots in one leaf: the loop budget's step bound
+  float scale = 0;  // the surface's largest coordinate magnitude, rounded up to float
 };
 
 // One surface on the fp32 path: the arrays to upload (taken once), and what turns records into

@@ -50,12 +50,14 @@
 // 65,535 iterations in all per SIMD batch and goes on with what the cut loop had, which here would
 // be a candidate set missing triangles. With a budget (0: none, every other device) the walk
 // counts, before each step, the most loop iterations the step can take, every loop at its bound:
-// the walk's back edge; at a leaf, its slot loop and per slot offer32's loop over the candidates.
-// When the count would pass the budget the walk stops and says so (overflow 2: the host evaluates
-// the point). GROUP_MAX keeps the count per SIMD batch (subgroupMax: llvmpipe's subgroup is its
-// batch, where a loop runs as long as any lane needs it); without it each lane counts its own and
-// the host divides the budget by the lanes. max_leaf: the most slots in one leaf of the scene.
-#define MCHEX_FP32_LOOPS_PER_STEP(max_leaf) (2u + (max_leaf) * (1u + CAST(uint, MCHEX_FP32_CANDIDATES)))
+// the walk's back edge; at a leaf of `slots` slots (0: an inner or pruned node), its slot loop and
+// per slot offer32's loop over the candidates. When the count would pass the budget the walk stops
+// and says so (overflow 2: the host evaluates the point). GROUP_MAX keeps the count per SIMD batch
+// (subgroupMax: llvmpipe's subgroup is its batch, where a loop runs as long as any lane needs it,
+// so a step adds the most any lane's step can take); without it each lane counts its own and the
+// host divides the budget by the lanes.
+#define MCHEX_FP32_LOOPS_PER_STEP(slots) \
+  ((slots) == 0u ? 1u : 2u + (slots) * (1u + CAST(uint, MCHEX_FP32_CANDIDATES)))
 //   one search's setup: the seed's offer32, and the caller's loop over points and its loop that
 //   writes the candidates (each loop counted once more than its bound, for its exit test).
 #define MCHEX_FP32_LOOPS_PER_SEARCH (3u + 2u * CAST(uint, MCHEX_FP32_CANDIDATES))
@@ -204,11 +206,11 @@ INLINE Candidates32 offer32(Candidates32 s, uint k, Bounds32 b) {
 }
 
 // The candidate slots for p (float coordinates of the double point), seeded with any slot.
-// scale: the surface's largest coordinate magnitude; budget, spent, max_leaf: the loop budget
-// above (budget 0: none). The walk ends as soon as the answer is an overflow: nothing it could
+// scale: the surface's largest coordinate magnitude; budget, spent: the loop budget above
+// (budget 0: none). The walk ends as soon as the answer is an overflow: nothing it could
 // find after that would change it.
 INLINE Candidates32 surface_candidates32_within(SCENE32_PARAMS_ FVEC3 p, uint seed, float scale, uint budget,
-                                                uint spent, uint max_leaf) {
+                                                uint spent) {
   float mp = max_abs3f(p);
   float w = (mp + scale) * (1.0f + CAST(float, MCHEX_F_2M20));
   float w2 = w * w * (1.0f + CAST(float, MCHEX_F_2M20));
@@ -226,7 +228,8 @@ INLINE Candidates32 surface_candidates32_within(SCENE32_PARAMS_ FVEC3 p, uint se
   stack_lower[0] = -FLOAT_INFINITY;
   while (top > 0 && s.overflow == 0) {
     if (budget != 0u) {
-      s.spent = GROUP_MAX(s.spent) + MCHEX_FP32_LOOPS_PER_STEP(max_leaf);
+      uint slots = stack_lower[top - 1] > s.upper ? 0u : nodes[stack_node[top - 1]].count;
+      s.spent = GROUP_MAX(s.spent) + GROUP_MAX(MCHEX_FP32_LOOPS_PER_STEP(slots));
       if (s.spent > budget) {
         s.overflow = 2;
         break;
@@ -271,7 +274,7 @@ INLINE Candidates32 surface_candidates32_within(SCENE32_PARAMS_ FVEC3 p, uint se
 }
 
 INLINE Candidates32 surface_candidates32(SCENE32_PARAMS_ FVEC3 p, uint seed, float scale) {
-  return surface_candidates32_within(SCENE32_ARGS_ p, seed, scale, 0u, 0u, 0u);
+  return surface_candidates32_within(SCENE32_ARGS_ p, seed, scale, 0u, 0u);
 }
 
 #endif

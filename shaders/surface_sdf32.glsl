@@ -26,8 +26,8 @@ layout(std430, binding = 2) readonly buffer SlotCorners32 { float slot_corners32
 layout(std430, binding = 3) readonly buffer SlotSlack { float slot_slack[]; };
 layout(std430, binding = 4) readonly buffer Points { float points[]; };  // x, y, z per point, rounded to float
 layout(std430, binding = 5) writeonly buffer Records { uint records[]; };
-// loop_budget: kernels/sdf_fp32.h's (0: none); max_leaf: the scene's most slots in one leaf.
-layout(push_constant) uniform Push { uint n; uint per_item; uint loop_budget; uint max_leaf; float scale; } pc;
+// loop_budget: kernels/sdf_fp32.h's (0: none).
+layout(push_constant) uniform Push { uint n; uint per_item; uint loop_budget; float scale; } pc;
 
 #include "kernels/sdf_fp32.h"
 
@@ -39,7 +39,7 @@ void main() {
     const uint i = first + turn;
     if (i >= pc.n) break;
     const vec3 p = vec3(points[3u * i], points[3u * i + 1u], points[3u * i + 2u]);
-    const Candidates32 s = surface_candidates32_within(p, seed, pc.scale, pc.loop_budget, spent, pc.max_leaf);
+    const Candidates32 s = surface_candidates32_within(p, seed, pc.scale, pc.loop_budget, spent);
     const uint out_at = uint(MCHEX_FP32_CANDIDATES + 1) * i;
     records[out_at] = s.overflow == 2 ? uint(MCHEX_FP32_CANDIDATES + 2)
                     : s.overflow != 0 ? uint(MCHEX_FP32_CANDIDATES + 1) : uint(s.count);

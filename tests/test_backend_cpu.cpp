@@ -50,7 +50,9 @@ TEST(Backend, DeviceListStartsWithTheReference) {
     EXPECT_TRUE(d.type == "cpu" || d.type == "gpu" || d.type == "other");
     // A device without fp64 is usable: the fp32 path (host/fp32_path.h).
     EXPECT_TRUE(d.precision == "fp64" || d.precision == "fp32") << d.name;
-    if (!d.fp64) EXPECT_EQ(d.precision, "fp32") << d.name;
+    if (!d.fp64) {
+      EXPECT_EQ(d.precision, "fp32") << d.name;
+    }
   }
 }
 
