@@ -35,7 +35,8 @@ struct VulkanOptions {
   std::size_t max_chunk = 0;
   // How the surface SDF walks the tree (kernels/sdf.h): kSubgroup, a subgroup's invocations
   // share one walk (needs subgroup arithmetic in compute shaders, else InputError); kSingle and
-  // kAuto, one walk per invocation (measured faster on lavapipe). Tests run both.
+  // kAuto, one walk per invocation (measured faster on lavapipe). Tests run both. (The fp32 path
+  // has one walk per invocation only: kernels/sdf_fp32.h.)
   enum class SdfWalk { kAuto, kSubgroup, kSingle };
   SdfWalk sdf_walk = SdfWalk::kAuto;
   // Run the fp32 path even on a device with fp64 (tests: the fp32 path on lavapipe). The
