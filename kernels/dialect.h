@@ -41,12 +41,16 @@
 #define INLINE inline
 #define MCHEX_FMA(a, b, c) fma(a, b, c)
 #define FABS(x) fabs(x)
+#define LOWEST_BIT(x) (31 - CAST(int, clz((x) & (0u - (x)))))  // index of the lowest set bit of x != 0
+#define POPCOUNT(x) CAST(uint, popcount(x))
 #else
 #define EXACT precise
 #define STRUCT(name) struct name
 #define CAST(type, x) type(x)
 #define INLINE
 #define FABS(x) abs(x)
+#define LOWEST_BIT(x) findLSB(x)
+#define POPCOUNT(x) uint(bitCount(x))
 // Vulkan does not promise a fused, once-rounded fma (GLSL.std.450 Fma may be split), so the
 // sign-exact determinant of kernels/classify.h uses Dekker's product there instead.
 #endif

@@ -56,11 +56,15 @@
 // The count is kept per SIMD batch with GROUP_MAX (subgroupMax: llvmpipe's subgroup is its SIMD
 // batch), where a loop runs as long as any lane needs it; without GROUP_MAX each lane counts its
 // own and the host divides the budget by the lanes. Budget 0: no limit (every other device).
-//   one step: the walk's back edge; per point, children_distance2's 3; per child, its point
-//   loop and per point 4 triangles, each with closest_point_on_triangle's loop of 3; per child
-//   pushed, its point loop.
+//   one step: the walk's back edge; per point, children_distance2's 3 and clearing its bits;
+//   4 for finding the leaf children, and per leaf child (at most 4) its point loop; per child pushed, its point loop (the fixed part); then per point its exact tests,
+//   each one iteration plus closest_point_on_triangle's loop of 3, at least one and at most 16
+//   (the loop body runs once even when no point keeps a triangle).
+#define MCHEX_SDF_LOOPS_PER_TEST (1 + 3)
+#define MCHEX_SDF_LOOPS_PER_STEP_FIXED \
+  (1 + MCHEX_SDF_PACKET * (1 + 3) + MCHEX_SDF_PACKET + 4 + 4 * (1 + MCHEX_SDF_PACKET) + 4 * (1 + MCHEX_SDF_PACKET))
 #define MCHEX_SDF_LOOPS_PER_STEP \
-  (1 + MCHEX_SDF_PACKET * (1 + 3) + 4 * (1 + MCHEX_SDF_PACKET * (1 + 4 * (1 + 3))) + 4 * (1 + MCHEX_SDF_PACKET))
+  (MCHEX_SDF_LOOPS_PER_STEP_FIXED + MCHEX_SDF_PACKET * (1 + 16 * MCHEX_SDF_LOOPS_PER_TEST))
 //   one search's setup: per point, the seed's closest_point_on_triangle, and the stack's first
 //   entry; one more for the caller's loop over searches.
 #define MCHEX_SDF_LOOPS_PER_SEARCH (MCHEX_SDF_PACKET * (1 + 3) + MCHEX_SDF_PACKET + 1)
@@ -326,11 +330,14 @@ INLINE SurfacePacket closest_on_surface(SCENE_PARAMS_ SurfacePacket q, double sc
   int top = 1;
   while (top > 0) {
     if (q.budget != 0u) {
-      q.spent = GROUP_MAX(q.spent) + CAST(uint, MCHEX_SDF_LOOPS_PER_STEP);
-      if (q.spent > q.budget) {
+      // The step's fixed loops now; its exact tests when they are known (below). Stop unless the
+      // most a step can take still fits.
+      q.spent = GROUP_MAX(q.spent);
+      if (q.spent + CAST(uint, MCHEX_SDF_LOOPS_PER_STEP) > q.budget) {
         q.incomplete = 1;
         break;
       }
+      q.spent += CAST(uint, MCHEX_SDF_LOOPS_PER_STEP_FIXED);
     }
     --top;
     uint node = stack_node[top];
@@ -357,31 +364,48 @@ INLINE SurfacePacket closest_on_surface(SCENE_PARAMS_ SurfacePacket q, double sc
     order[2] = s.o2;
     order[3] = s.o3;
     uint links = CAST(uint, MCHEX_WIDE_NODE_LINKS) * node;
-    for (int i = 0; i < 4; ++i) {
-      int c = order[i];
+    // The leaf children's triangles that each point's float bound keeps, as bits 4 c + t, then
+    // measured exactly in one loop per point. Collecting first and measuring once costs a few
+    // more exact tests than measuring child by child (the bound does not shrink between leaf
+    // children of one node), but a SIMD compiler that runs every if-body under a mask (llvmpipe)
+    // then runs the exact test max(1, kept) times per step instead of once per triangle slot.
+    uint kept[MCHEX_SDF_PACKET];
+    for (int l = 0; l < MCHEX_SDF_PACKET; ++l) kept[l] = 0u;
+    // The leaf children in range, visited by a loop over their bits (not an if per child, which
+    // a masked SIMD compiler would run four times per step whatever the bits).
+    uint leaves = 0u;
+    for (int c = 0; c < 4; ++c)
+      if (lane4(key, c) != MCHEX_F_INF && wide_links[links + 4u + CAST(uint, c)] != 0u) leaves |= 1u << CAST(uint, c);
+    while (leaves != 0u) {
+      int c = LOWEST_BIT(leaves);
+      leaves &= leaves - 1u;
       uint count = wide_links[links + 4u + CAST(uint, c)];
-      if (lane4(key, c) != MCHEX_F_INF && count != 0u) {
-        uint leaf = wide_links[links + CAST(uint, c)];
-        uint first = leaf_slot[leaf];
-        for (int l = 0; l < MCHEX_SDF_PACKET; ++l) {
-          if (lane4(d2[l], c) <= best2[l]) {
-            FVEC4 t2 = triangles_distance2(SCENE_ARGS_ leaf, pf[l], slack[l]);
-            for (uint t = 0u; t < count; ++t) {
-              if (lane4(t2, CAST(int, t)) <= best2[l]) {
-                uint slot = first + t;
-                ClosestPoint cp = closest_point_on_triangle(q.p[l], slot_corner(SCENE_ARGS_ slot, 0),
-                                                            slot_corner(SCENE_ARGS_ slot, 1), slot_corner(SCENE_ARGS_ slot, 2));
-                uint id = slot_triangle[slot];
-                if (cp.squared_distance < q.hit[l].best.squared_distance ||
-                    (cp.squared_distance == q.hit[l].best.squared_distance && id < best_triangle[l])) {
-                  q.hit[l].best = cp;
-                  q.hit[l].slot = slot;
-                  best_triangle[l] = id;
-                  best2[l] = bound_up(cp.squared_distance);
-                }
-              }
-            }
-          }
+      uint leaf = wide_links[links + CAST(uint, c)];
+      for (int l = 0; l < MCHEX_SDF_PACKET; ++l) {
+        if (lane4(d2[l], c) <= best2[l]) {
+          FVEC4 t2 = triangles_distance2(SCENE_ARGS_ leaf, pf[l], slack[l]);
+          uint bits = (t2.x <= best2[l] ? 1u : 0u) | (t2.y <= best2[l] ? 2u : 0u) | (t2.z <= best2[l] ? 4u : 0u) |
+                      (t2.w <= best2[l] ? 8u : 0u);
+          kept[l] |= (bits & ((1u << count) - 1u)) << (4u * CAST(uint, c));
+        }
+      }
+    }
+    for (int l = 0; l < MCHEX_SDF_PACKET; ++l) {
+      uint bits = kept[l];
+      if (q.budget != 0u) q.spent += 1u + CAST(uint, MCHEX_SDF_LOOPS_PER_TEST) * max(1u, POPCOUNT(bits));
+      while (bits != 0u) {
+        int b = LOWEST_BIT(bits);
+        bits &= bits - 1u;
+        uint slot = leaf_slot[wide_links[links + CAST(uint, b >> 2)]] + CAST(uint, b & 3);
+        ClosestPoint cp = closest_point_on_triangle(q.p[l], slot_corner(SCENE_ARGS_ slot, 0),
+                                                    slot_corner(SCENE_ARGS_ slot, 1), slot_corner(SCENE_ARGS_ slot, 2));
+        uint id = slot_triangle[slot];
+        if (cp.squared_distance < q.hit[l].best.squared_distance ||
+            (cp.squared_distance == q.hit[l].best.squared_distance && id < best_triangle[l])) {
+          q.hit[l].best = cp;
+          q.hit[l].slot = slot;
+          best_triangle[l] = id;
+          best2[l] = bound_up(cp.squared_distance);
         }
       }
     }

@@ -10,8 +10,8 @@
 //
 //   bench_backends [--grid N] [--segments S] [--depth D] [--repeat R] [--platform NAME]
 //                  [--vulkan-device NAME] [--backends cpu,opencl,vulkan] [--kernels K1,K2,...]
-//   (backends also opencl-fp32, vulkan-fp32: the forced single-precision path; vulkan-single: the
-//   surface SDF's one-walk-per-invocation shader instead of the subgroup walk)
+//   (backends also opencl-fp32, vulkan-fp32: the forced single-precision path; vulkan-subgroup:
+//   the surface SDF's subgroup-shared walk instead of the default one walk per invocation)
 //
 // Workloads: surface SDF at the N^3 points of a grid over the tessellated torus (2 S x 0.4 S
 // triangles; S = 256 gives 52,224), analytic-shape SDF (torus) on the same points, refinement
@@ -162,12 +162,12 @@ int main(int argc, char** argv) {
         auto b = std::make_unique<OpenclBackend>(o);
         ocls[name] = b.get();
         backends.push_back({name, std::move(b)});
-      } else if (name == "vulkan" || name == "vulkan-single" || name == "vulkan-fp32") {
-        // vulkan-single: the surface SDF's one-walk-per-invocation shader forced (kernels/sdf.h),
-        // to compare with the subgroup walk that CPU devices take by default.
+      } else if (name == "vulkan" || name == "vulkan-subgroup" || name == "vulkan-fp32") {
+        // vulkan-subgroup: the surface SDF's subgroup-shared walk forced (kernels/sdf.h), to
+        // compare with the one walk per invocation that every device takes by default.
         VulkanOptions o;
         o.device = vulkan_device;
-        if (name == "vulkan-single") o.sdf_walk = VulkanOptions::SdfWalk::kSingle;
+        if (name == "vulkan-subgroup") o.sdf_walk = VulkanOptions::SdfWalk::kSubgroup;
         o.force_fp32 = name == "vulkan-fp32";  // host/fp32_path.h, as opencl-fp32
         auto b = std::make_unique<VulkanBackend>(o);
         vks[name] = b.get();
