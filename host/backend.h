@@ -87,7 +87,8 @@ struct DeviceInfo {
   bool fp64 = false;
   // How a backend computes on it: "fp64" (the kernels repeat core's double arithmetic), or "fp32"
   // (no fp64, or MCHEX_FORCE_FP32: single-precision kernels decide what they can prove, the host
-  // computes every value in double; results are the same, bit for bit). Empty in device lists.
+  // computes every value in double; results are the same, bit for bit). In device lists: what the
+  // backend would use there (the environment's MCHEX_FORCE_FP32 included).
   std::string precision;
   std::uint64_t max_buffer_bytes = 0;  // largest single allocation / storage buffer range
   std::uint64_t global_memory_bytes = 0;

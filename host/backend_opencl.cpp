@@ -121,29 +121,6 @@ SurfaceKey key_of(const TriangleSurface* s) {
 
 }  // namespace
 
-namespace {
-
-// kernels/sdf_fp32.h's candidates -> core's value: SurfaceSdf's rule (least squared distance by
-// core/sdf.h closest_point_on_triangle, the lowest triangle id among equal ones, the sign of the
-// closest feature's pseudonormal) over the candidate triangles, which hold its answer.
-double value_from_candidates(const TriangleSurface& s, const Pseudonormals& normals, std::span<const uint32_t> slot_triangle,
-                             Vec3 p, const std::uint32_t* slots, std::uint32_t count) {
-  ClosestPoint best{p, std::numeric_limits<double>::infinity(), -1};
-  std::uint32_t best_t = 0;
-  for (std::uint32_t k = 0; k < count; ++k) {
-    const std::uint32_t t = slot_triangle[slots[k]];
-    const auto& tri = s.triangles[t];
-    const ClosestPoint cp = closest_point_on_triangle(p, s.vertices[tri[0]], s.vertices[tri[1]], s.vertices[tri[2]]);
-    if (cp.squared_distance < best.squared_distance || (cp.squared_distance == best.squared_distance && t < best_t)) {
-      best = cp;
-      best_t = t;
-    }
-  }
-  return pseudonormal_signed_value(p, best.point, best.squared_distance, normals.of(best_t, best.region, s));
-}
-
-}  // namespace
-
 struct OpenclBackend::Impl {
   OpenclOptions options;
   DeviceInfo info;
@@ -164,11 +141,8 @@ struct OpenclBackend::Impl {
   // The fp32 path's scene of the last surface: DeviceScene's nodes with DeviceScene32's float
   // corners and slacks on the device; on the host what turns candidates into core's values.
   struct Scene32 {
-    SurfaceKey key;
     std::vector<cl::Buffer> buffers;  // nodes, node_slack, slot_corners32, slot_slack
-    std::vector<uint32_t> slot_triangle;
-    std::unique_ptr<Pseudonormals> normals;
-    std::unique_ptr<SurfaceSdf> whole;  // core's SDF for overflowing points, made when first needed
+    std::unique_ptr<Fp32Surface> host;
     float scale = 0;
   } scene32;
 
@@ -222,8 +196,7 @@ struct OpenclBackend::Impl {
     platform = it->first;
     device = it->second;
     info = describe(platform, device);
-    const char* force = std::getenv("MCHEX_FORCE_FP32");
-    fp32 = !info.fp64 || options.force_fp32 || (force && *force && std::string(force) != "0");
+    fp32 = !info.fp64 || options.force_fp32 || fp32_forced_by_environment();
     info.precision = fp32 ? "fp32" : "fp64";
     host_unified = options.zero_copy && device.getInfo<CL_DEVICE_HOST_UNIFIED_MEMORY>() == CL_TRUE;
   }
@@ -368,32 +341,26 @@ struct OpenclBackend::Impl {
   }
 
   void upload_scene32(const TriangleSurface& s) {
-    const SurfaceKey key = key_of(&s);
-    if (key == scene32.key && !scene32.buffers.empty()) return;
-    const DeviceScene d = DeviceScene::build(s);
-    const DeviceScene32 d32 = DeviceScene32::build(d);
+    if (scene32.host && scene32.host->is_of(s)) return;
     scene32 = Scene32{};
+    scene32.host = std::make_unique<Fp32Surface>(s);
+    const Fp32DeviceArrays d = scene32.host->take_device_arrays();
     scene32.buffers.push_back(constant_buffer(d.nodes));
-    scene32.buffers.push_back(constant_buffer(d32.node_slack));
-    scene32.buffers.push_back(constant_buffer(d32.slot_corners));
-    scene32.buffers.push_back(constant_buffer(d32.slot_slack));
-    scene32.slot_triangle = d.slot_triangle;
-    scene32.normals = std::make_unique<Pseudonormals>(s);
-    // Rounded up, so that the kernel's W bounds every coordinate magnitude.
-    scene32.scale = std::nextafter(float(d.scale), INFINITY);
-    scene32.key = key;
+    scene32.buffers.push_back(constant_buffer(d.node_slack));
+    scene32.buffers.push_back(constant_buffer(d.slot_corners));
+    scene32.buffers.push_back(constant_buffer(d.slot_slack));
+    scene32.scale = d.scale;
   }
 
-  // The fp32 path of signed_distance for a surface (kernels/sdf_fp32.h).
+  // The fp32 path of signed_distance for a surface (kernels/sdf_fp32.h; the values from the
+  // candidates: host/fp32_path.h).
   void surface_sdf32(const TriangleSurface& s, std::span<const Vec3> points, std::span<double> values) {
     upload_scene32(s);
-    constexpr std::size_t kWords = kFp32Candidates + 1;
-    const std::size_t n = std::min(chunk(kWords * sizeof(std::uint32_t)), points.size());
+    const std::size_t n = std::min(chunk(kFp32RecordWords * sizeof(std::uint32_t)), points.size());
     cl::Buffer in(context, CL_MEM_READ_ONLY, 3 * sizeof(float) * n);
-    cl::Buffer out(context, CL_MEM_WRITE_ONLY, kWords * sizeof(std::uint32_t) * n);
+    cl::Buffer out(context, CL_MEM_WRITE_ONLY, kFp32RecordWords * sizeof(std::uint32_t) * n);
     std::vector<float> p32(3 * n);
-    std::vector<std::uint32_t> cand(kWords * n);
-    std::vector<std::size_t> whole;  // points the host evaluates with SurfaceSdf
+    std::vector<std::uint32_t> cand(kFp32RecordWords * n);
     const cl_uint per_item = info.type == "gpu" ? 1 : 16;
     cl::Kernel& k = kernel("sdf_surface32");
     for (std::size_t first = 0; first < points.size(); first += n) {
@@ -410,30 +377,10 @@ struct OpenclBackend::Impl {
       k.setArg(arg++, per_item);
       k.setArg(arg++, scene32.scale);
       run("sdf_surface32", k, (count + per_item - 1) / per_item, 8);
-      read(out, cand.data(), kWords * count);
-      std::uint64_t candidates = 0;
-      for (std::size_t i = 0; i < count; ++i) {
-        const std::uint32_t c = cand[kWords * i];
-        if (c > kWords - 1) whole.push_back(first + i);
-        else candidates += c;
-      }
-      fp32_stats.candidates += candidates;
-      parallel_for(count, [&](std::size_t i) {
-        const std::uint32_t c = cand[kWords * i];
-        if (c <= kWords - 1)
-          values[first + i] = value_from_candidates(s, *scene32.normals, scene32.slot_triangle, points[first + i],
-                                                    &cand[kWords * i + 1], c);
-      });
+      read(out, cand.data(), kFp32RecordWords * count);
+      scene32.host->values_from_records(points, {}, first, std::span(cand).first(kFp32RecordWords * count), values,
+                                        fp32_stats);
     }
-    fp32_stats.points += points.size();
-    fp32_stats.host_points += whole.size();
-    if (whole.empty()) return;
-    if (!scene32.whole) scene32.whole = std::make_unique<SurfaceSdf>(s);
-    std::vector<Vec3> wp(whole.size());
-    std::vector<double> wv(whole.size());
-    for (std::size_t i = 0; i < whole.size(); ++i) wp[i] = points[whole[i]];
-    scene32.whole->evaluate(wp, wv);
-    for (std::size_t i = 0; i < whole.size(); ++i) values[whole[i]] = wv[i];
   }
 
   void upload_scene(const TriangleSurface& s) {
@@ -744,7 +691,10 @@ std::vector<DeviceInfo> list_opencl_devices() {
   std::vector<DeviceInfo> out;
   try {
     for (const cl::Platform& p : platforms())
-      for (const cl::Device& d : devices_of(p)) out.push_back(describe(p, d));
+      for (const cl::Device& d : devices_of(p)) {
+        out.push_back(describe(p, d));
+        out.back().precision = out.back().fp64 && !fp32_forced_by_environment() ? "fp64" : "fp32";
+      }
   } catch (const cl::Error& e) {
     fail(e, "listing devices");
   }

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "host/backend.h"
+#include "host/fp32_path.h"  // Fp32Stats
 
 namespace mchex {
 
@@ -36,14 +37,6 @@ struct OpenclOptions {
   // The environment variable MCHEX_FORCE_FP32=1 does the same. A device without fp64 always
   // runs them.
   bool force_fp32 = false;
-};
-
-// The fp32 path's division of work (kernels/sdf_fp32.h): points whose value the host computed
-// from the device's candidate triangles, and points the host evaluated whole with core's
-// SurfaceSdf (more than MCHEX_FP32_CANDIDATES candidates). Analytic shapes, refinement errors and
-// classification run on the host in double on this path and are not counted here.
-struct Fp32Stats {
-  std::uint64_t points = 0, candidates = 0, host_points = 0;
 };
 
 // Device time per kernel (from OpenCL profiling events) and host<->device transfer time.

@@ -14,6 +14,10 @@
 #include "core/sdf.h"
 #include "core/device_scene.h"
 #include "core/error.h"
+#include "core/parallel.h"
+#include "core/refinement_error.h"
+#include "core/shapes.h"
+#include "host/backend_cpu.h"
 #include "host/vk_context.h"
 #include "host/vk_spirv.h"
 
@@ -73,8 +77,9 @@ DeviceInfo device_info(const vk::PhysicalDevice& d) {
   info.version = "Vulkan " + api_string(d.api_version) + ", driver " + d.driver_info;
   if (d.api_version < VK_API_VERSION_1_2) info.note = "below Vulkan 1.2";
   else if (d.compute_queue_family < 0) info.note = "no compute queue";
-  else if (!d.shader_float64) info.note = "no shaderFloat64 (the vulkan backend computes in fp64)";
-  else if (!d.shader_int64) info.note = "no shaderInt64 (the device prefix sum needs it)";
+  // What the backend would run on it: the shaders' double arithmetic and 64-bit prefix sum need
+  // both features; without either (or forced) the fp32 path.
+  info.precision = d.shader_float64 && d.shader_int64 && !fp32_forced_by_environment() ? "fp64" : "fp32";
   return info;
 }
 
@@ -108,6 +113,9 @@ struct VulkanBackend::Impl {
   std::uint32_t sdf_loop_budget = 0;  // kernels/sdf.h (0: none)
   std::size_t sdf_points_per_invocation = kSdfPointsPerInvocation;
   std::unique_ptr<SurfaceSdf> host_sdf;  // core's, of the scene's surface, for points past the loop budget
+  bool fp32 = false;                      // the fp32 path (VulkanOptions::force_fp32)
+  vk::Pipeline surface_sdf32;             // shaders/surface_sdf32*.comp, the fp32 path's only pipeline
+  Fp32Stats fp32_stats;
   vk::Buffer configs;  // core/device_scene.h packed_mc33_configs()
 
   // The device scene of the last surface (keyed by its address, array addresses and sizes, as
@@ -123,11 +131,51 @@ struct VulkanBackend::Impl {
   };
   std::optional<Scene> scene;
 
+  // The fp32 path's scene of the last surface: kernels/sdf_fp32.h's buffers, and on the host what
+  // turns the device's candidate records into core's values.
+  struct Scene32 {
+    std::unique_ptr<Fp32Surface> host;
+    vk::Buffer nodes, node_slack, slot_corners, slot_slack;
+    float scale = 0;
+  };
+  std::optional<Scene32> scene32;
+
   // The output buffer of the last signed_distance call when it was one chunk, and the host array
   // it was copied into (ClassifyOptions::values_from_last_sdf).
   std::optional<vk::Buffer> resident;
   const double* resident_data = nullptr;
   std::size_t resident_size = 0;
+
+  // A scene array in a storage buffer of its own. The scene is bound whole (every point may need
+  // any triangle): an array over one storage buffer is a resource limit of this device, not a
+  // chunking matter.
+  template <class T>
+  vk::Buffer upload(const std::vector<T>& v, const char* what) {
+    const std::size_t bytes = v.size() * sizeof(T);
+    const std::uint32_t limit = device->physical().max_storage_buffer_range;
+    if (bytes > limit)
+      throw ResourceError(fmt::format("backend 'vulkan': the surface's {} need {} MiB in one storage buffer; "
+                                      "device '{}' allows {} MiB (use --backend cpu)",
+                                      what, bytes >> 20, info.name, limit >> 20));
+    vk::Buffer b = device->make_buffer(std::max<std::size_t>(bytes, sizeof(T)));
+    timed(profile.upload, [&] { std::memcpy(b.data(), v.data(), bytes); });
+    return b;
+  }
+
+  Scene32& scene32_of(const TriangleSurface& s) {
+    if (scene32 && scene32->host->is_of(s)) return *scene32;
+    scene32.reset();
+    Scene32 out;
+    out.host = std::make_unique<Fp32Surface>(s);
+    const Fp32DeviceArrays d = out.host->take_device_arrays();
+    out.nodes = upload(d.nodes, "search tree nodes");
+    out.node_slack = upload(d.node_slack, "node slacks");
+    out.slot_corners = upload(d.slot_corners, "triangle corners");
+    out.slot_slack = upload(d.slot_slack, "triangle slacks");
+    out.scale = d.scale;
+    scene32.emplace(std::move(out));
+    return *scene32;
+  }
 
   const Scene& scene_of(const TriangleSurface& s) {
     if (scene && scene->surface == &s && scene->vertices == s.vertices.data() &&
@@ -137,19 +185,6 @@ struct VulkanBackend::Impl {
     scene.reset();
     host_sdf.reset();
     const DeviceScene ds = DeviceScene::build(s);
-    const std::uint32_t limit = device->physical().max_storage_buffer_range;
-    auto upload = [&](const auto& v, const char* what) {
-      const std::size_t bytes = v.size() * sizeof(v[0]);
-      // The scene is bound whole (every point may need any triangle): an array over one storage
-      // buffer is a resource limit of this device, not a chunking matter.
-      if (bytes > limit)
-        throw ResourceError(fmt::format("backend 'vulkan': the surface's {} need {} MiB in one storage buffer; "
-                                        "device '{}' allows {} MiB (use --backend cpu)",
-                                        what, bytes >> 20, info.name, limit >> 20));
-      vk::Buffer b = device->make_buffer(bytes);
-      timed(profile.upload, [&] { std::memcpy(b.data(), v.data(), bytes); });
-      return b;
-    };
     Scene out;
     out.surface = &s;
     out.vertices = s.vertices.data();
@@ -191,27 +226,39 @@ struct VulkanBackend::Impl {
     if (!chosen)
       throw InputError(want.empty() ? "backend 'vulkan': no Vulkan 1.2 device with a compute queue found"
                                     : "backend 'vulkan': no Vulkan 1.2 device matches '" + want + "'");
-    // The shaders compute in fp64 to equal the cpu reference bit for bit; a device without it
-    // would need a float path with a host-side guard band, which this backend does not have.
-    if (!chosen->shader_float64)
-      throw InputError("backend 'vulkan': device '" + chosen->name +
-                       "' lacks shaderFloat64, which the vulkan backend needs (use --backend cpu or opencl)");
-    if (!chosen->shader_int64)
-      throw InputError("backend 'vulkan': device '" + chosen->name +
-                       "' lacks shaderInt64, which the device prefix sum needs");
+    // The fp64 shaders repeat core's double arithmetic and sum hex counts in 64 bits; a device
+    // without either feature (or forced) takes the fp32 path, whose one shader has neither.
     info = device_info(*chosen);
-    info.precision = "fp64";
+    fp32 = !chosen->shader_float64 || !chosen->shader_int64 || options.force_fp32 || fp32_forced_by_environment();
+    info.precision = fp32 ? "fp32" : "fp64";
     device.emplace(instance, *chosen, options.cache_dir);
     max_chunk = options.max_chunk;
 
     const auto start = std::chrono::steady_clock::now();
+    const VkPhysicalDeviceSubgroupProperties sub = subgroup_properties(*chosen);
+    const bool subgroups = has_subgroup_arithmetic(sub);
+    if (fp32) {
+      // kernels/sdf_fp32.h under llvmpipe's loop limit, counted per subgroup where the shader can
+      // take the subgroup's maximum, else by each lane for its share of the limit, one point per
+      // invocation (as the fp64 walk below).
+      std::span<const std::uint32_t> code = subgroups ? spirv::surface_sdf32_counted : spirv::surface_sdf32;
+      if (chosen->driver_id == VK_DRIVER_ID_MESA_LLVMPIPE) {
+        sdf_loop_budget = kLlvmpipeLoopLimit - kLoopBudgetMargin;
+        if (!subgroups) {
+          sdf_loop_budget /= std::max<std::uint32_t>(sub.subgroupSize, 16);
+          sdf_points_per_invocation = 1;
+        }
+      }
+      surface_sdf32 = device->make_pipeline(code, 6, 16);
+      pipeline_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      device->save_cache();
+      return;
+    }
     refinement = device->make_pipeline(spirv::refinement_error, 3, 4);
     classify = device->make_pipeline(spirv::classify, 7, 24);
     scan_blocks = device->make_pipeline(spirv::scan_blocks, 3, 4);
     scan_totals = device->make_pipeline(spirv::scan_totals, 1, 16);
     scan_add = device->make_pipeline(spirv::scan_add, 2, 4);
-    const VkPhysicalDeviceSubgroupProperties sub = subgroup_properties(*chosen);
-    const bool subgroups = has_subgroup_arithmetic(sub);
     if (options.sdf_walk == VulkanOptions::SdfWalk::kSubgroup && !subgroups)
       throw InputError("backend 'vulkan': device '" + chosen->name +
                        "' has no subgroup arithmetic in compute shaders, which the subgroup SDF walk needs");
@@ -247,7 +294,8 @@ struct VulkanBackend::Impl {
 
   ~Impl() {
     if (!device) return;
-    for (vk::Pipeline* p : {&refinement, &classify, &scan_blocks, &scan_totals, &scan_add, &surface_sdf, &shape_sdf})
+    for (vk::Pipeline* p :
+         {&refinement, &classify, &scan_blocks, &scan_totals, &scan_add, &surface_sdf, &shape_sdf, &surface_sdf32})
       device->destroy(*p);
   }
 
@@ -259,6 +307,40 @@ struct VulkanBackend::Impl {
     n = std::min<std::size_t>(n, std::size_t(d.max_work_group_count[0]) * group);
     if (max_chunk) n = std::min(n, max_chunk);
     return std::max<std::size_t>(n, 1);
+  }
+
+  // The fp32 path of signed_distance for a surface: kernels/sdf_fp32.h's candidate records on the
+  // device, the values from them on the host (host/fp32_path.h). Points go in Morton order, as on
+  // the fp64 path, so that each invocation's run of points seed one another.
+  void surface_sdf_fp32(const TriangleSurface& s, std::span<const Vec3> points, std::span<double> values) {
+    Scene32& sc = scene32_of(s);
+    const std::size_t n = points.size();
+    const std::size_t per_item = sdf_points_per_invocation;
+    const std::size_t chunk = std::min(n, chunk_for(kFp32RecordWords * sizeof(std::uint32_t), kGroup * per_item));
+    vk::Buffer in = device->make_buffer(chunk * 3 * sizeof(float));
+    vk::Buffer out = device->make_buffer(chunk * kFp32RecordWords * sizeof(std::uint32_t));
+    std::vector<std::uint32_t> records(chunk * kFp32RecordWords);
+    const std::vector<std::uint32_t> order = morton_order(points);
+    for (std::size_t begin = 0; begin < n; begin += chunk) {
+      const std::size_t count = std::min(chunk, n - begin);
+      timed(profile.upload, [&] {
+        float* dst = mapped<float>(in);
+        for (std::size_t i = 0; i < count; ++i)
+          for (int c = 0; c < 3; ++c) dst[3 * i + c] = float(points[order[begin + i]][c]);
+      });
+      struct {
+        std::uint32_t n, per_item, loop_budget;
+        float scale;
+      } push{static_cast<std::uint32_t>(count), static_cast<std::uint32_t>(per_item), sdf_loop_budget, sc.scale};
+      static_assert(sizeof(push) == 16);
+      run(surface_sdf32, {{&sc.nodes}, {&sc.node_slack}, {&sc.slot_corners}, {&sc.slot_slack}, {&in}, {&out}}, &push,
+          (count + per_item - 1) / per_item, kGroup);
+      timed(profile.download, [&] {
+        const std::span<std::uint32_t> chunk_records = std::span(records).first(count * kFp32RecordWords);
+        std::memcpy(chunk_records.data(), out.data(), chunk_records.size_bytes());
+        sc.host->values_from_records(points, order, begin, chunk_records, values, fp32_stats);
+      });
+    }
   }
 
   void run(const vk::Pipeline& p, std::initializer_list<vk::BufferRange> buffers, const void* push,
@@ -288,6 +370,7 @@ std::size_t VulkanBackend::dispatches() const { return impl_->dispatches; }
 bool VulkanBackend::sdf_subgroup_walk() const { return impl_->sdf_subgroup; }
 VulkanBackend::Profile VulkanBackend::profile() const { return impl_->profile; }
 std::uint32_t VulkanBackend::sdf_loop_budget() const { return impl_->sdf_loop_budget; }
+Fp32Stats VulkanBackend::fp32_stats() const { return impl_->fp32_stats; }
 
 void VulkanBackend::signed_distance(const SdfSource& source, std::span<const Vec3> points,
                                     std::span<double> values) {
@@ -300,6 +383,13 @@ void VulkanBackend::signed_distance(const SdfSource& source, std::span<const Vec
   if (source.surface && source.surface->triangles.empty()) {
     // core/sdf.cpp: an empty surface has nothing inside.
     std::fill(values.begin(), values.end(), -std::numeric_limits<double>::infinity());
+    return;
+  }
+  if (m.fp32) {
+    // Analytic shapes cost a few operations per point, all of which decide the value: nothing a
+    // float shader could leave out, so the fp32 path evaluates them on the host (as opencl's).
+    if (source.surface) m.surface_sdf_fp32(*source.surface, points, values);
+    else ShapeSdf(source.shape).evaluate(points, values);
     return;
   }
   const std::size_t per_item = source.surface ? m.sdf_points_per_invocation : 1;
@@ -377,6 +467,12 @@ void VulkanBackend::refinement_error(std::span<const std::array<double, kChildLa
   Impl& m = *impl_;
   const std::size_t n = lattice.size();
   if (n == 0) return;
+  if (m.fp32) {
+    // Every operation of the error measure decides its value (it is compared with a threshold):
+    // on the fp32 path it is core's, on the host.
+    parallel_for(n, [&](std::size_t i) { errors[i] = mchex::refinement_error(lattice[i], sizes[i]); });
+    return;
+  }
   const std::size_t chunk = std::min(n, m.chunk_for(sizeof(lattice[0]), kGroup));
   vk::Buffer in = m.device->make_buffer(chunk * sizeof(lattice[0]));
   vk::Buffer size = m.device->make_buffer(chunk * sizeof(double));
@@ -400,6 +496,12 @@ void VulkanBackend::classify_cells(const HexComplex& complex, std::span<const do
   const std::size_t cells = complex.cells.size();
   out.offsets[0] = 0;
   if (cells == 0) return;
+  if (m.fp32) {
+    // Not on the device in single precision (a float classification with a double filter is not
+    // built): core's classification on the host, as opencl's fp32 path.
+    make_cpu_backend()->classify_cells(complex, values, out, options);
+    return;
+  }
   const bool uniform = options.uniform_cells_per_axis > 0;
   const bool want_words = !out.words.empty();
 

@@ -1,7 +1,9 @@
 // The `vulkan` backend (host/backend.h): the data-parallel stages as GLSL compute shaders
-// (shaders/*.comp), compiled to SPIR-V at build time and run through Vulkan 1.2 on any device
-// with fp64 (Mesa lavapipe on this machine). Results equal the cpu reference bit for bit: SDF
-// values, refinement errors, CellCodes and hex offsets (test_vulkan checks each).
+// (shaders/*.comp), compiled to SPIR-V at build time and run through Vulkan 1.2 (Mesa lavapipe on
+// this machine): in double precision on a device with shaderFloat64 and shaderInt64, else (or
+// forced) the fp32 path of kernels/sdf_fp32.h, whose values the host computes in double
+// (host/fp32_path.h). Results equal the cpu reference bit for bit: SDF values, refinement errors,
+// CellCodes and hex offsets (test_vulkan checks each, on both paths).
 //
 // Large batches are cut into chunks that fit the device's limits: every binding within
 // maxStorageBufferRange (128 MiB on lavapipe) and every dispatch within
@@ -17,6 +19,7 @@
 #include <vector>
 
 #include "host/backend.h"
+#include "host/fp32_path.h"
 
 namespace mchex {
 
@@ -32,17 +35,24 @@ struct VulkanOptions {
   std::size_t max_chunk = 0;
   // How the surface SDF walks the tree (kernels/sdf.h): kSubgroup, a subgroup's invocations
   // share one walk (needs subgroup arithmetic in compute shaders, else InputError); kSingle and
-  // kAuto, one walk per invocation (measured faster on lavapipe). Tests run both.
+  // kAuto, one walk per invocation (measured faster on lavapipe). Tests run both. (The fp32 path
+  // has one walk per invocation only: kernels/sdf_fp32.h.)
   enum class SdfWalk { kAuto, kSubgroup, kSingle };
   SdfWalk sdf_walk = SdfWalk::kAuto;
+  // Run the fp32 path even on a device with fp64 (tests: the fp32 path on lavapipe). The
+  // environment variable MCHEX_FORCE_FP32=1 does the same. A device without shaderFloat64 or
+  // shaderInt64 always runs it: the surface SDF's candidate search on the device
+  // (shaders/surface_sdf32*.comp), the values, analytic shapes, refinement errors and
+  // classification on the host in double.
+  bool force_fp32 = false;
 
   static std::filesystem::path default_pipeline_cache_dir();
 };
 
 class VulkanBackend : public Backend {
  public:
-  // Throws InputError (exit 1, one line) when Vulkan has no usable device here, or the chosen
-  // one lacks what the shaders need (shaderFloat64, shaderInt64).
+  // Throws InputError (exit 1, one line) when Vulkan has no usable device here (below Vulkan 1.2,
+  // or no compute queue).
   explicit VulkanBackend(const VulkanOptions& options = {});
   ~VulkanBackend() override;
 
@@ -75,9 +85,12 @@ class VulkanBackend : public Backend {
     // cuts a shader's loops after 65,535 iterations), evaluated on the host by core instead.
     std::size_t host_points = 0;
   };
-  // The loop budget the surface SDF runs under (kernels/sdf.h; 0: none).
+  // The loop budget the surface SDF runs under (kernels/sdf.h, or kernels/sdf_fp32.h on the fp32
+  // path; 0: none).
   std::uint32_t sdf_loop_budget() const;
   Profile profile() const;
+  // The fp32 path's division of work since creation (all zero on the fp64 path).
+  Fp32Stats fp32_stats() const;
 
   struct Impl;
 

@@ -440,6 +440,7 @@ int run_devices(bool as_json) {
                    {"device", d.name},
                    {"type", d.type},
                    {"fp64", d.fp64},
+                   {"precision", d.precision},
                    {"max_buffer_bytes", d.max_buffer_bytes},
                    {"global_memory_bytes", d.global_memory_bytes},
                    {"compute_units", d.compute_units ? json(d.compute_units) : json(nullptr)},
@@ -449,12 +450,12 @@ int run_devices(bool as_json) {
     fmt::print("{}\n", j.dump(2));
     return 0;
   }
-  fmt::print("{:<8} {:<30} {:<36} {:<5} {:<4} {:>5} {:>12} {:>12}\n", "backend", "platform", "device", "type", "fp64",
-             "units", "max buffer", "memory");
+  fmt::print("{:<8} {:<30} {:<36} {:<5} {:<4} {:<9} {:>5} {:>12} {:>12}\n", "backend", "platform", "device", "type",
+             "fp64", "precision", "units", "max buffer", "memory");
   for (const DeviceInfo& d : list) {
     auto mib = [](std::uint64_t b) { return b ? fmt::format("{} MiB", b >> 20) : std::string("-"); };
-    fmt::print("{:<8} {:<30} {:<36} {:<5} {:<4} {:>5} {:>12} {:>12}\n", d.backend, d.platform, d.name, d.type,
-               d.fp64 ? "yes" : "no", d.compute_units ? std::to_string(d.compute_units) : std::string("-"),
+    fmt::print("{:<8} {:<30} {:<36} {:<5} {:<4} {:<9} {:>5} {:>12} {:>12}\n", d.backend, d.platform, d.name, d.type,
+               d.fp64 ? "yes" : "no", d.precision, d.compute_units ? std::to_string(d.compute_units) : std::string("-"),
                mib(d.max_buffer_bytes), mib(d.global_memory_bytes));
     if (!d.version.empty()) fmt::print("         {}\n", d.version);
     if (!d.note.empty()) fmt::print("         not usable: {}\n", d.note);

@@ -16,5 +16,8 @@ extern const std::span<const std::uint32_t> surface_sdf;       // shaders/surfac
 extern const std::span<const std::uint32_t> surface_sdf_single;  // shaders/surface_sdf_single.comp
 extern const std::span<const std::uint32_t> surface_sdf_single_counted;  // shaders/surface_sdf_single_counted.comp
 extern const std::span<const std::uint32_t> shape_sdf;         // shaders/shape_sdf.comp
+// The fp32 path (no double, no 64-bit integer): shaders/surface_sdf32.comp, *_counted.comp.
+extern const std::span<const std::uint32_t> surface_sdf32;
+extern const std::span<const std::uint32_t> surface_sdf32_counted;
 
 }  // namespace mchex::spirv

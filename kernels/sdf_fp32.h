@@ -1,6 +1,6 @@
 // The surface SDF on a device without fp64 (kernels/dialect.h, MCHEX_FP32): single precision
 // decides WHICH triangles can hold the answer, the host computes the answer from them in double
-// (host/backend_opencl.cpp), so the value is core/sdf.h SurfaceSdf's bit for bit.
+// (host/fp32_path.h, for kernels/mchex.cl and shaders/surface_sdf32*.comp), so the value is core/sdf.h SurfaceSdf's bit for bit.
 //
 // For every point p the kernel returns a candidate set: the slots whose triangle may be the one
 // SurfaceSdf picks (the least squared distance as core computes it in double, the lowest triangle
@@ -44,6 +44,25 @@
 
 #ifndef MCHEX_SDF_STACK
 #define MCHEX_SDF_STACK 72  // > the BVH's maximum depth (64, core/bvh.cpp): one pending sibling per level
+#endif
+
+// A loop budget, for llvmpipe (lavapipe), as kernels/sdf.h's: gallivm ends a shader's loops after
+// 65,535 iterations in all per SIMD batch and goes on with what the cut loop had, which here would
+// be a candidate set missing triangles. With a budget (0: none, every other device) the walk
+// counts, before each step, the most loop iterations the step can take, every loop at its bound:
+// the walk's back edge; at a leaf of `slots` slots (0: an inner or pruned node), its slot loop and
+// per slot offer32's loop over the candidates. When the count would pass the budget the walk stops
+// and says so (overflow 2: the host evaluates the point). GROUP_MAX keeps the count per SIMD batch
+// (subgroupMax: llvmpipe's subgroup is its batch, where a loop runs as long as any lane needs it,
+// so a step adds the most any lane's step can take); without it each lane counts its own and the
+// host divides the budget by the lanes.
+#define MCHEX_FP32_LOOPS_PER_STEP(slots) \
+  ((slots) == 0u ? 1u : 2u + (slots) * (1u + CAST(uint, MCHEX_FP32_CANDIDATES)))
+//   one search's setup: the seed's offer32, and the caller's loop over points and its loop that
+//   writes the candidates (each loop counted once more than its bound, for its exit test).
+#define MCHEX_FP32_LOOPS_PER_SEARCH (3u + 2u * CAST(uint, MCHEX_FP32_CANDIDATES))
+#ifndef GROUP_MAX
+#define GROUP_MAX(x) (x)
 #endif
 
 #ifdef __OPENCL_C_VERSION__
@@ -148,6 +167,9 @@ INLINE float box_lower32(SCENE32_PARAMS_ uint n, FVEC3 p, float mp, float w, flo
          CAST(float, MCHEX_F_2M44) * w;
 }
 
+// overflow: 0, or 1 when more than MCHEX_FP32_CANDIDATES slots qualify, or 2 when the walk ran out
+// of its loop budget; either way the slots are not the answer and the host evaluates the point.
+// spent: the loop budget's count, carried from one search to the next of the same invocation.
 STRUCT(Candidates32) {
   uint slot[MCHEX_FP32_CANDIDATES];
   float lower[MCHEX_FP32_CANDIDATES];
@@ -155,6 +177,7 @@ STRUCT(Candidates32) {
   int overflow;
   float upper;
   uint nearest;  // the slot with the least upper bound: the next point's seed
+  uint spent;
 };
 
 INLINE Candidates32 offer32(Candidates32 s, uint k, Bounds32 b) {
@@ -183,8 +206,11 @@ INLINE Candidates32 offer32(Candidates32 s, uint k, Bounds32 b) {
 }
 
 // The candidate slots for p (float coordinates of the double point), seeded with any slot.
-// scale: the surface's largest coordinate magnitude.
-INLINE Candidates32 surface_candidates32(SCENE32_PARAMS_ FVEC3 p, uint seed, float scale) {
+// scale: the surface's largest coordinate magnitude; budget, spent: the loop budget above
+// (budget 0: none). The walk ends as soon as the answer is an overflow: nothing it could
+// find after that would change it.
+INLINE Candidates32 surface_candidates32_within(SCENE32_PARAMS_ FVEC3 p, uint seed, float scale, uint budget,
+                                                uint spent) {
   float mp = max_abs3f(p);
   float w = (mp + scale) * (1.0f + CAST(float, MCHEX_F_2M20));
   float w2 = w * w * (1.0f + CAST(float, MCHEX_F_2M20));
@@ -193,13 +219,22 @@ INLINE Candidates32 surface_candidates32(SCENE32_PARAMS_ FVEC3 p, uint seed, flo
   s.overflow = 0;
   s.upper = FLOAT_INFINITY;
   s.nearest = seed;
+  s.spent = budget != 0u ? GROUP_MAX(spent) + MCHEX_FP32_LOOPS_PER_SEARCH : 0u;
   s = offer32(s, seed, triangle_bounds32(SCENE32_ARGS_ p, mp, seed, w, w2));
   uint stack_node[MCHEX_SDF_STACK];
   float stack_lower[MCHEX_SDF_STACK];
   int top = 1;
   stack_node[0] = 0u;
   stack_lower[0] = -FLOAT_INFINITY;
-  while (top > 0) {
+  while (top > 0 && s.overflow == 0) {
+    if (budget != 0u) {
+      uint slots = stack_lower[top - 1] > s.upper ? 0u : nodes[stack_node[top - 1]].count;
+      s.spent = GROUP_MAX(s.spent) + GROUP_MAX(MCHEX_FP32_LOOPS_PER_STEP(slots));
+      if (s.spent > budget) {
+        s.overflow = 2;
+        break;
+      }
+    }
     --top;
     if (stack_lower[top] > s.upper) continue;
     uint n = stack_node[top];
@@ -236,6 +271,10 @@ INLINE Candidates32 surface_candidates32(SCENE32_PARAMS_ FVEC3 p, uint seed, flo
     }
   }
   return s;
+}
+
+INLINE Candidates32 surface_candidates32(SCENE32_PARAMS_ FVEC3 p, uint seed, float scale) {
+  return surface_candidates32_within(SCENE32_ARGS_ p, seed, scale, 0u, 0u);
 }
 
 #endif

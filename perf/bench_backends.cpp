@@ -10,8 +10,8 @@
 //
 //   bench_backends [--grid N] [--segments S] [--depth D] [--repeat R] [--platform NAME]
 //                  [--vulkan-device NAME] [--backends cpu,opencl,vulkan] [--kernels K1,K2,...]
-//   (backends also opencl-fp32: the forced single-precision path; vulkan-subgroup: the surface
-//   SDF's subgroup-shared walk instead of the default one walk per invocation)
+//   (backends also opencl-fp32, vulkan-fp32: the forced single-precision path; vulkan-subgroup:
+//   the surface SDF's subgroup-shared walk instead of the default one walk per invocation)
 //
 // Workloads: surface SDF at the N^3 points of a grid over the tessellated torus (2 S x 0.4 S
 // triangles; S = 256 gives 52,224), analytic-shape SDF (torus) on the same points, refinement
@@ -162,12 +162,13 @@ int main(int argc, char** argv) {
         auto b = std::make_unique<OpenclBackend>(o);
         ocls[name] = b.get();
         backends.push_back({name, std::move(b)});
-      } else if (name == "vulkan" || name == "vulkan-subgroup") {
+      } else if (name == "vulkan" || name == "vulkan-subgroup" || name == "vulkan-fp32") {
         // vulkan-subgroup: the surface SDF's subgroup-shared walk forced (kernels/sdf.h), to
         // compare with the one walk per invocation that every device takes by default.
         VulkanOptions o;
         o.device = vulkan_device;
         if (name == "vulkan-subgroup") o.sdf_walk = VulkanOptions::SdfWalk::kSubgroup;
+        o.force_fp32 = name == "vulkan-fp32";  // host/fp32_path.h, as opencl-fp32
         auto b = std::make_unique<VulkanBackend>(o);
         vks[name] = b.get();
         backends.push_back({name, std::move(b)});
@@ -219,6 +220,7 @@ int main(int argc, char** argv) {
         if (ocl) ocl->reset_profile();
         VulkanBackend* vk = vks.count(name) ? vks[name] : nullptr;
         const VulkanBackend::Profile before = vk ? vk->profile() : VulkanBackend::Profile{};
+        const Fp32Stats fp32_before = vk ? vk->fp32_stats() : Fp32Stats{};
         const double s = seconds_of([&] { out = run(); });
         if (s >= m.best) continue;
         m.best = s;
@@ -238,6 +240,14 @@ int main(int argc, char** argv) {
           m.profile["download"] = after.download - before.download;
           if (after.host_points != before.host_points)
             m.profile["points past the loop budget, on the host (count)"] = double(after.host_points - before.host_points);
+          const Fp32Stats st = vk->fp32_stats();
+          if (const std::uint64_t points = st.points - fp32_before.points) {
+            const std::uint64_t host = st.host_points - fp32_before.host_points;
+            m.profile["fp32: points the host evaluated whole (count)"] = double(host);
+            m.profile["fp32: of them past the loop budget (count)"] = double(st.budget_points - fp32_before.budget_points);
+            m.profile["fp32: candidates per point (mean)"] =
+                double(st.candidates - fp32_before.candidates) / double(points - host);
+          }
         }
       }
       if (name == "cpu") reference[kernel] = out;

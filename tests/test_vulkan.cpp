@@ -34,7 +34,9 @@
 #include "core/shapes.h"
 #include "core/surface.h"
 #include "tests/backend_samples.h"
+#include "host/backend_cpu.h"
 #include "host/backend_vulkan.h"
+#include "host/vk_spirv.h"
 
 namespace fs = std::filesystem;
 using namespace mchex;
@@ -68,6 +70,7 @@ class LavapipeEnvironment : public ::testing::Environment {
     ::setenv("VK_ICD_FILENAMES", icd.c_str(), 1);  // loaders before 1.3.207 read this name
     ::setenv("MESA_SHADER_CACHE_DIR", (scratch() / "mesa").c_str(), 1);
     ::unsetenv("MCHEX_VULKAN_DEVICE");
+    ::unsetenv("MCHEX_FORCE_FP32");  // the fp64 tests run fp64; the fp32 ones ask for it
   }
   void TearDown() override { fs::remove_all(scratch()); }
 };
@@ -577,4 +580,216 @@ TEST(vulkan, SurfaceSdfAtTheCentreOfAFineSphereWhereTheWalkOpensTheWholeTree) {
     EXPECT_GT(redone, 0u);
     EXPECT_LT(redone, pts.size());
   }
+}
+
+// ---- The fp32 path (kernels/sdf_fp32.h, host/fp32_path.h), forced on lavapipe ----------------
+
+namespace {
+
+VulkanBackend& lavapipe_fp32() {
+  static VulkanBackend backend([] {
+    VulkanOptions o = lavapipe_options();
+    o.force_fp32 = true;
+    return o;
+  }());
+  return backend;
+}
+
+// The capabilities a SPIR-V module declares (OpCapability, opcode 17: SPIR-V spec 2.3, 3.31).
+std::set<std::uint32_t> capabilities(std::span<const std::uint32_t> words) {
+  std::set<std::uint32_t> out;
+  for (std::size_t i = 5; i < words.size();) {  // after the 5-word header
+    const std::uint32_t count = words[i] >> 16, opcode = words[i] & 0xFFFF;
+    if (count == 0) break;
+    if (opcode == 17 && count == 2) out.insert(words[i + 1]);
+    i += count;
+  }
+  return out;
+}
+
+// fp32 SDF of `pts` on `b`, with the stats of this call.
+Fp32Stats fp32_sdf(VulkanBackend& b, const TriangleSurface& s, const std::vector<Vec3>& pts, std::vector<double>& got) {
+  const Fp32Stats before = b.fp32_stats();
+  got.assign(pts.size(), 0.0);
+  SdfSource source;
+  source.surface = &s;
+  b.signed_distance(source, pts, got);
+  Fp32Stats after = b.fp32_stats();
+  after.points -= before.points;
+  after.candidates -= before.candidates;
+  after.host_points -= before.host_points;
+  after.budget_points -= before.budget_points;
+  return after;
+}
+
+}  // namespace
+
+TEST(VulkanFp32, ForcedByTheOptionOrTheEnvironmentWithShadersFreeOfDoubleAndInt64) {
+  EXPECT_EQ(lavapipe_fp32().device().precision, "fp32");
+  EXPECT_EQ(lavapipe().device().precision, "fp64");
+  // lavapipe runs the subgroup-counted shader under the whole loop limit.
+  EXPECT_EQ(lavapipe_fp32().sdf_loop_budget(), 65535u - 1024u);
+  // A device without shaderFloat64 or shaderInt64 must be able to load them: Float64 is
+  // capability 10, Int64 11 (SPIR-V spec 3.31).
+  for (const auto code : {spirv::surface_sdf32, spirv::surface_sdf32_counted}) {
+    const std::set<std::uint32_t> caps = capabilities(code);
+    EXPECT_TRUE(caps.count(1)) << "no Shader capability: the parse is wrong";
+    EXPECT_FALSE(caps.count(10));
+    EXPECT_FALSE(caps.count(11));
+  }
+  EXPECT_TRUE(capabilities(spirv::surface_sdf_single).count(10));  // the parse does see Float64
+  // MCHEX_FORCE_FP32 (any value but empty and "0") does the same, and the device list says so.
+  for (const char* value : {"1", "0"}) {
+    ::setenv("MCHEX_FORCE_FP32", value, 1);
+    const std::string want = std::string(value) == "1" ? "fp32" : "fp64";
+    EXPECT_EQ(VulkanBackend(lavapipe_options()).device().precision, want) << value;
+    for (const DeviceInfo& d : list_vulkan_devices())
+      if (d.name.find("llvmpipe") != std::string::npos) {
+        EXPECT_EQ(d.precision, want) << value;
+      }
+  }
+  ::unsetenv("MCHEX_FORCE_FP32");
+}
+
+// Single precision finds the candidate triangles, the host computes the values in double: equal to
+// core bit for bit on the adversarial points (vertices, edges, faces, +-1e-14 to 1e-3 off them,
+// exact ties, far points), values at +-1e-10 of the diagonal off faces (the mesher's zero
+// tolerance scale, inside the float guard band), on closed, open and degenerate surfaces; in
+// chunks too.
+TEST(VulkanFp32, SurfaceSdfIsBitIdenticalOnClosedOpenAndDegenerateSurfaces) {
+  std::mt19937_64 rng(22);
+  std::vector<std::pair<std::string, TriangleSurface>> surfaces;
+  surfaces.emplace_back("torus", tessellate(ShapeKind::kTorus, 48));
+  surfaces.emplace_back("sphere", tessellate(ShapeKind::kSphere, 40));
+  TriangleSurface open = tessellate(ShapeKind::kSphere, 24);
+  open.triangles.erase(open.triangles.begin() + 40, open.triangles.begin() + 90);
+  surfaces.emplace_back("open sphere", open);
+  TriangleSurface soup = tessellate(ShapeKind::kTorus, 16);
+  for (std::size_t t = 0; t < soup.triangles.size(); t += 7) std::swap(soup.triangles[t][1], soup.triangles[t][2]);
+  for (std::size_t t = 0; t < 20; ++t) soup.triangles.push_back(soup.triangles[t]);
+  soup.vertices.push_back({0.3, 0.3, 0.3});
+  soup.vertices.push_back({0.6, 0.6, 0.6});
+  soup.vertices.push_back({0.9, 0.9, 0.9});
+  const std::uint32_t v0 = std::uint32_t(soup.vertices.size() - 3);
+  soup.triangles.push_back({v0, v0 + 1, v0});      // repeated vertex
+  soup.triangles.push_back({v0, v0 + 1, v0 + 2});  // collinear: zero area
+  surfaces.emplace_back("soup", soup);
+  VulkanBackend chunked([] {
+    VulkanOptions o = lavapipe_options(1000);
+    o.force_fp32 = true;
+    return o;
+  }());
+  for (const auto& [name, s] : surfaces) {
+    SCOPED_TRACE(name);
+    std::vector<Vec3> pts = adversarial_points(s, rng);
+    const double diag = s.bounds().diagonal();
+    for (std::size_t t = 0; t < s.triangles.size(); t += 5) {
+      const auto& tri = s.triangles[t];
+      const Vec3 a = s.vertices[tri[0]], b = s.vertices[tri[1]], c = s.vertices[tri[2]];
+      const Vec3 n = cross(b - a, c - a);
+      if (!(squared_norm(n) > 0)) continue;
+      for (double off : {1e-10, -1e-10}) pts.push_back((a + b + c) / 3.0 + off * diag * normalized(n));
+    }
+    std::vector<double> want(pts.size()), got;
+    SurfaceSdf(s).evaluate(pts, want);
+    const Fp32Stats st = fp32_sdf(lavapipe_fp32(), s, pts, got);
+    expect_bit_equal(got, want, pts);
+    EXPECT_EQ(st.points, pts.size());
+    // The device really decided most points: the host evaluated few whole.
+    EXPECT_LT(st.host_points, pts.size() / 4);
+    std::printf("[ fp32 path ] %s: %zu points, %.2f candidates per point, %llu evaluated whole on the host "
+                "(%llu out of budget)\n",
+                name.c_str(), pts.size(), double(st.candidates) / double(pts.size() - st.host_points),
+                (unsigned long long)st.host_points, (unsigned long long)st.budget_points);
+    const std::size_t before = chunked.dispatches();
+    fp32_sdf(chunked, s, pts, got);
+    EXPECT_EQ(chunked.dispatches() - before, (pts.size() + 999) / 1000);
+    expect_bit_equal(got, want, pts);
+  }
+}
+
+// Grid points over a fine torus: many exact ties (the grid and the tessellation share symmetry
+// planes), each invocation's 16 points seeding one another along the Morton order.
+TEST(VulkanFp32, SurfaceSdfOnAGridOverAFineTorusIsBitIdentical) {
+  const TriangleSurface torus = tessellate(ShapeKind::kTorus, 256);
+  const Box cube = padded_cube(torus.bounds(), 0.1);
+  std::vector<Vec3> pts;
+  const int n = 40;
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i)
+        pts.push_back(cube.lo + Vec3{cube.size().x * i / (n - 1), cube.size().y * j / (n - 1), cube.size().z * k / (n - 1)});
+  std::vector<double> want(pts.size()), got;
+  SurfaceSdf(torus).evaluate(pts, want);
+  const Fp32Stats st = fp32_sdf(lavapipe_fp32(), torus, pts, got);
+  expect_bit_equal(got, want, pts);
+  EXPECT_LT(st.host_points, pts.size() / 4);
+}
+
+// The loop budget (kernels/sdf_fp32.h): near the centre of a finely tessellated sphere nearly every
+// triangle is about as close as the nearest, so the walk opens most of the tree and would pass
+// llvmpipe's loop limit; those searches stop short and say so, the host evaluates the points (and
+// the later points of the same invocations: the limit counts the whole shader run of a batch).
+// At the exact centre the candidates overflow instead (a whole ring of triangles ties).
+TEST(VulkanFp32, SurfaceSdfAtTheCentreOfAFineSphereStopsWithinTheLoopBudget) {
+  const TriangleSurface sphere = tessellate(ShapeKind::kSphere, 160);
+  std::vector<Vec3> pts, easy;
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(-1e-3, 1e-3);
+  for (int i = 0; i < 256; ++i) pts.push_back(i % 2 ? Vec3{0, 0, 0} : Vec3{u(rng), u(rng), u(rng)});
+  // and easy ones, near the surface.
+  for (int i = 0; i < 256; ++i) easy.push_back(Vec3{std::cos(0.1 * i), std::sin(0.1 * i), 0.01 * (i % 20)} * 1.05);
+  pts.insert(pts.end(), easy.begin(), easy.end());
+  SCOPED_TRACE(std::to_string(sphere.triangles.size()) + " triangles");
+  std::vector<double> want(pts.size()), got;
+  SurfaceSdf(sphere).evaluate(pts, want);
+  const Fp32Stats st = fp32_sdf(lavapipe_fp32(), sphere, pts, got);
+  expect_bit_equal(got, want, pts);
+  std::printf("[ fp32 path ] sphere centre: %llu of %zu points evaluated whole on the host, %llu out of budget\n",
+              (unsigned long long)st.host_points, pts.size(), (unsigned long long)st.budget_points);
+  EXPECT_GT(st.budget_points, 0u);        // the budget was really reached ...
+  EXPECT_LT(st.host_points, pts.size());  // ... and the device answered points itself
+  // The easy points alone never reach it.
+  std::vector<double> easy_want(easy.size()), easy_got;
+  SurfaceSdf(sphere).evaluate(easy, easy_want);
+  const Fp32Stats easy_st = fp32_sdf(lavapipe_fp32(), sphere, easy, easy_got);
+  expect_bit_equal(easy_got, easy_want, easy);
+  EXPECT_EQ(easy_st.budget_points, 0u);
+  EXPECT_LT(easy_st.host_points, easy.size() / 4);
+}
+
+// On the fp32 path the other stages are core's, on the host: shapes, refinement errors and the
+// mesher's classification call (zero rule, uniform grid, values left by the SDF) equal the cpu
+// backend's.
+TEST(VulkanFp32, ShapesRefinementAndClassificationAreTheReferences) {
+  const test::ZeroRuleGrid z = test::zero_rule_grid();
+  const std::unique_ptr<Backend> cpu = make_cpu_backend();
+  SdfSource two;
+  two.shape = ShapeKind::kTwoHoled;
+  std::vector<double> want(z.complex.points.size()), got(z.complex.points.size());
+  cpu->signed_distance(two, z.complex.points, want);
+  lavapipe_fp32().signed_distance(two, z.complex.points, got);
+  expect_bit_equal(got, want, z.complex.points);
+
+  ClassifyOptions co;
+  co.zero_tolerance = z.tiny;
+  co.uniform_cells_per_axis = z.grid.cells_per_axis();
+  co.values_from_last_sdf = true;
+  const std::size_t n = z.complex.cells.size();
+  std::vector<CellCode> codes(n);
+  std::vector<std::uint64_t> offsets(n + 1);
+  classify_cells_codes(lavapipe_fp32(), z.complex, got, codes, offsets, co);
+  expect_same_as_reference(z.complex, apply_zero_rule(z.complex, got), codes, offsets);
+
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::vector<std::array<double, kChildLatticePoints>> lattice(500);
+  std::vector<double> sizes(lattice.size()), e32(lattice.size()), e64(lattice.size());
+  for (std::size_t i = 0; i < lattice.size(); ++i) {
+    for (double& v : lattice[i]) v = u(rng);
+    sizes[i] = std::ldexp(1.0, -int(i % 7));
+  }
+  lavapipe_fp32().refinement_error(lattice, sizes, e32);
+  cpu->refinement_error(lattice, sizes, e64);
+  for (std::size_t i = 0; i < lattice.size(); ++i) ASSERT_EQ(bits(e32[i]), bits(e64[i])) << i;
 }

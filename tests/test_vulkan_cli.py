@@ -6,6 +6,7 @@ device by name; no lavapipe means these tests fail, never skip): `devices` lists
 and `mesh` writes the same bytes as `--backend cpu` on an analytic shape and on triangle models."""
 import filecmp
 import glob
+import json
 import os
 import subprocess
 import unittest
@@ -29,13 +30,18 @@ class VulkanCli(ScratchTestCase):
         return subprocess.run([EXE, *map(str, args)], capture_output=True, text=True, timeout=900,
                               stdin=subprocess.DEVNULL, env=env or self.env)
 
-    def mesh_both(self, *source):
+    def mesh_both(self, *source, vulkan_env=None, precision="fp64"):
+        """vulkan_env: the vulkan run's environment; precision: what its report must say it ran."""
         outputs = {}
         for backend in ("cpu", "vulkan"):
             inside, outside = (os.path.join(self.dir, f"{backend}-{n}.mesh") for n in ("in", "out"))
+            report = os.path.join(self.dir, f"{backend}.json")
             r = self.run_cli("mesh", *source, "--method", "mchex", "--backend", backend, "-o", inside,
-                             "--outside", outside, "--quiet")
+                             "--outside", outside, "--report", report, "--quiet",
+                             env=vulkan_env if backend == "vulkan" else None)
             self.assertEqual(r.returncode, 0, f"{backend}: {r.stderr}")
+            with open(report) as f:
+                self.assertEqual(json.load(f)["backend"]["precision"], "fp64" if backend == "cpu" else precision)
             outputs[backend] = (inside, outside)
         for a, b in zip(outputs["cpu"], outputs["vulkan"]):
             self.assertGreater(os.path.getsize(a), 1000)
@@ -55,6 +61,26 @@ class VulkanCli(ScratchTestCase):
         write_binary_stl(stl, *bumpy_torus(96, 40))
         self.mesh_both(stl, "--depth", 3)
         self.mesh_both(os.path.join(STL_MODELS, "objects", "bunny.bin.stl"), "--depth", 3)
+
+    def test_fp32_path_meshes_equal_cpu_byte_for_byte(self):
+        # MCHEX_FORCE_FP32=1: the surface SDF from the device's float candidates with the values
+        # computed on the host in double (host/fp32_path.h), the other stages on the host.
+        env = dict(self.env, MCHEX_FORCE_FP32="1")
+        stl = os.path.join(self.dir, "bumpy.stl")
+        write_binary_stl(stl, *bumpy_torus(96, 40))
+        self.mesh_both(stl, "--depth", 3, vulkan_env=env, precision="fp32")
+        self.mesh_both(os.path.join(STL_MODELS, "objects", "gearwheel.bin.stl"), "--depth", 3, vulkan_env=env,
+                       precision="fp32")
+        self.mesh_both("--shape", "two-holed", "--depth", 3, vulkan_env=env, precision="fp32")
+
+    def test_devices_shows_the_precision_each_device_would_get(self):
+        for force, want in (("0", "fp64"), ("1", "fp32")):
+            r = self.run_cli("devices", "--json", env=dict(self.env, MCHEX_FORCE_FP32=force))
+            self.assertEqual(r.returncode, 0, r.stderr)
+            lavapipe = [d for d in json.loads(r.stdout) if d["backend"] == "vulkan" and "llvmpipe" in d["device"]]
+            self.assertEqual(len(lavapipe), 1, r.stdout)
+            self.assertEqual(lavapipe[0]["precision"], want)
+            self.assertTrue(lavapipe[0]["usable"])
 
     def test_absent_vulkan_device_is_one_line_exit_1(self):
         env = dict(self.env, VK_DRIVER_FILES=os.path.join(self.dir, "none.json"),
