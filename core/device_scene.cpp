@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
+#include <cstring>
 #include <span>
 #include <stdexcept>
 #include <string>
@@ -9,6 +11,7 @@
 #include "core/local_refinement.h"
 #include "core/mc33.h"
 #include "core/parallel.h"
+#include "core/search_tree.h"
 
 namespace mchex {
 
@@ -54,148 +57,47 @@ double pseudonormal_signed_value(Vec3 p, Vec3 closest, double squared_distance, 
 
 namespace {
 
-// A box in its own orthonormal frame (float axes, extents along exactly those axes).
-struct OrientedBox {
-  float axis[3][3];
-  float lo[3], hi[3];
-};
+// The wide tree (DeviceScene's wide_* and leaf_* arrays): core/search_tree.h's, the reference
+// search's own, copied into flat arrays. WideNode's and TriangleLeaf's boxes and bounds are
+// structures of float4 arrays in exactly the groups kernels/sdf.h reads (static_asserts below).
+static_assert(sizeof(WideNode::axis) + sizeof(WideNode::lo) + sizeof(WideNode::hi) == kWideNodeFloats * sizeof(float));
+static_assert(offsetof(WideNode, axis) == 0 && offsetof(WideNode, lo) == 36 * sizeof(float) &&
+              offsetof(WideNode, hi) == 48 * sizeof(float));
+static_assert(offsetof(TriangleLeaf, normal) == 0 && offsetof(TriangleLeaf, slot) == kLeafBoundFloats * sizeof(float));
+static_assert(offsetof(TriangleLeaf, plane_lo) == 12 * sizeof(float) && offsetof(TriangleLeaf, edge) == 20 * sizeof(float) &&
+              offsetof(TriangleLeaf, edge_hi) == 56 * sizeof(float));
 
-Vec3 to_float(Vec3 a) { return {float(a.x), float(a.y), float(a.z)}; }
-
-// The box of a group of triangles. Frame: the group's mean normal when the group is nearly flat
-// (the summed area vector at least half the summed area), else the coordinate axes. Extents are
-// computed in double along the float axes the kernel projects on and rounded outward, so every
-// triangle lies inside its box.
-OrientedBox bound_triangles(const TriangleSurface& s, std::span<const uint32_t> triangles) {
-  Vec3 normal{};
-  double area = 0;
-  for (uint32_t t : triangles) {
-    const auto& v = s.triangles[t];
-    const Vec3 c = cross(s.vertices[v[1]] - s.vertices[v[0]], s.vertices[v[2]] - s.vertices[v[0]]);
-    normal += c;
-    area += norm(c);
-  }
-  Vec3 a0{0, 0, 1}, a1{1, 0, 0};
-  if (norm(normal) > 0.5 * area && area > 0) {
-    a0 = normalized(normal);
-    a1 = normalized(cross(a0, std::abs(a0.x) < 0.6 ? Vec3{1, 0, 0} : Vec3{0, 1, 0}));
-  }
-  const Vec3 axes[3] = {to_float(a0), to_float(a1), to_float(cross(a0, a1))};
-  OrientedBox out;
-  for (int a = 0; a < 3; ++a) {
-    double lo = INFINITY, hi = -INFINITY;
-    for (uint32_t t : triangles)
-      for (uint32_t v : s.triangles[t]) lo = std::min(lo, dot(axes[a], s.vertices[v])), hi = std::max(hi, dot(axes[a], s.vertices[v]));
-    for (int i = 0; i < 3; ++i) out.axis[a][i] = float(axes[a][i]);
-    out.lo[a] = std::nextafter(float(lo), -INFINITY);
-    out.hi[a] = std::nextafter(float(hi), INFINITY);
-  }
-  return out;
-}
-
-// One leaf's triangles (up to four, lane c = slot first + c) bounded by plane and edge lines, in
-// the leaf_bounds layout. For x on the triangle, p - x splits into a part along the unit normal
-// n, at least p's distance from the interval of n.x over the triangle, and an in-plane part at
-// least p's distance beyond any edge line (m_e: unit, in-plane, pointing away from the triangle,
-// m_e.x <= edge_hi[e] on it); so |p - x|^2 >= plane^2 + edge^2. Absent lanes: an empty plane
-// interval (never in range); degenerate triangles: a coordinate axis and no edge lines.
-void bound_leaf(const TriangleSurface& s, std::span<const uint32_t> triangles, float* out) {
-  auto at = [&](int group, int lane) -> float& { return out[4 * group + lane]; };
-  for (int c = 0; c < 4; ++c) {
-    for (int g = 0; g < kLeafBoundFloats / 4; ++g) at(g, c) = 0;
-    at(3, c) = INFINITY, at(4, c) = -INFINITY;
-  }
-  for (int c = 0; c < int(triangles.size()); ++c) {
-    const auto& tri = s.triangles[triangles[c]];
-    const Vec3 v[3] = {s.vertices[tri[0]], s.vertices[tri[1]], s.vertices[tri[2]]};
-    const Vec3 cr = cross(v[1] - v[0], v[2] - v[0]);
-    const bool flat = norm(cr) > 0 && std::isfinite(norm(cr));
-    const Vec3 n = to_float(flat ? normalized(cr) : Vec3{1, 0, 0});
-    double lo = INFINITY, hi = -INFINITY;
-    for (const Vec3& x : v) lo = std::min(lo, dot(n, x)), hi = std::max(hi, dot(n, x));
-    for (int i = 0; i < 3; ++i) at(i, c) = float(n[i]);
-    at(3, c) = std::nextafter(float(lo), -INFINITY);
-    at(4, c) = std::nextafter(float(hi), INFINITY);
-    if (!flat) continue;
-    for (int e = 0; e < 3; ++e) {
-      Vec3 m = normalized(cross(v[(e + 1) % 3] - v[e], normalized(cr)));
-      if (dot(m, v[(e + 2) % 3] - v[e]) > 0) m = -1.0 * m;
-      const Vec3 mf = to_float(m);
-      double top = -INFINITY;
-      for (const Vec3& x : v) top = std::max(top, dot(mf, x));
-      for (int i = 0; i < 3; ++i) at(5 + 3 * e + i, c) = float(mf[i]);
-      at(14 + e, c) = std::nextafter(float(top), INFINITY);
-    }
-  }
-}
-
-// The wide tree (DeviceScene's wide_* and leaf_* arrays) from the binary BVH: each wide node
-// takes its binary node's two children and keeps opening the inner one holding the most
-// triangles until it has four (half the depth, four boxes per step), as core/sdf.cpp's search
-// tree does. Depth first: a node's index is below its children's.
 void build_wide_tree(const TriangleSurface& s, const TriangleBvh& bvh, DeviceScene& out) {
   if (bvh.nodes.empty()) return;
-  const auto slots = bvh.subtree_slots();
-  const std::span<const uint32_t> all(bvh.leaf_triangles);
-  auto subtree = [&](uint32_t n) { return all.subspan(slots[n].first, slots[n].second - slots[n].first); };
-  std::vector<OrientedBox> boxes(bvh.nodes.size());
-  parallel_for(bvh.nodes.size(), [&](std::size_t n) { boxes[n] = bound_triangles(s, subtree(uint32_t(n))); });
-
-  auto leaf = [&](uint32_t n) {
-    const BvhNode& node = bvh.nodes[n];
-    if (node.count > 4) throw std::logic_error("device SDF tree: a BVH leaf holds more than four triangles");
-    const std::size_t l = out.leaf_slot.size();
-    out.leaf_slot.push_back(node.index);
-    out.leaf_bounds.resize(out.leaf_bounds.size() + kLeafBoundFloats);
-    bound_leaf(s, all.subspan(node.index, node.count), &out.leaf_bounds[l * kLeafBoundFloats]);
-    return uint32_t(l);
-  };
-  // Returns the wide node's index and the stack entries a walk below it can need once it is
-  // popped: it pushes its k inner children, and while the first of them is searched the other
-  // k - 1 wait underneath.
-  auto build = [&](auto&& self, std::vector<uint32_t> kids) -> std::pair<uint32_t, uint32_t> {
-    while (kids.size() < 4) {
-      int open = -1;
-      for (int k = 0; k < int(kids.size()); ++k)
-        if (bvh.nodes[kids[k]].count == 0 && (open < 0 || subtree(kids[k]).size() > subtree(kids[open]).size())) open = k;
-      if (open < 0) break;
-      const uint32_t n = kids[open];
-      kids[open] = n + 1;
-      kids.push_back(bvh.nodes[n].index);
+  const SearchTree tree(s, bvh);
+  out.wide_boxes.resize(tree.nodes.size() * kWideNodeFloats);
+  out.wide_links.resize(tree.nodes.size() * kWideNodeLinks);
+  for (std::size_t n = 0; n < tree.nodes.size(); ++n) {
+    const WideNode& w = tree.nodes[n];
+    std::memcpy(&out.wide_boxes[n * kWideNodeFloats], &w.axis, kWideNodeFloats * sizeof(float));
+    for (int c = 0; c < 4; ++c) {
+      out.wide_links[n * kWideNodeLinks + c] = w.child[c];
+      out.wide_links[n * kWideNodeLinks + 4 + c] = w.count[c];
     }
-    const uint32_t index = uint32_t(out.wide_links.size() / kWideNodeLinks);
-    out.wide_links.resize(out.wide_links.size() + kWideNodeLinks, 0);
-    out.wide_boxes.resize(out.wide_boxes.size() + kWideNodeFloats, 0.0f);
-    for (int c = 0; c < 4; ++c)
-      for (int a = 0; a < 3; ++a)
-        out.wide_boxes[std::size_t(index) * kWideNodeFloats + 4 * (9 + a) + c] = INFINITY,
-        out.wide_boxes[std::size_t(index) * kWideNodeFloats + 4 * (12 + a) + c] = -INFINITY;
+  }
+  out.leaf_bounds.resize(tree.leaves.size() * kLeafBoundFloats);
+  out.leaf_slot.resize(tree.leaves.size());
+  for (std::size_t l = 0; l < tree.leaves.size(); ++l) {
+    std::memcpy(&out.leaf_bounds[l * kLeafBoundFloats], &tree.leaves[l].normal, kLeafBoundFloats * sizeof(float));
+    out.leaf_slot[l] = tree.leaves[l].slot[0];  // a leaf's triangles are consecutive slots
+  }
+  // The stack entries a walk below node n can need once n is popped: it pushes its k inner
+  // children, and while the first of them is searched the other k - 1 wait underneath. Children
+  // come after their parent (depth first), so one backward pass has every child's need ready.
+  std::vector<uint32_t> need(tree.nodes.size(), 0);
+  for (std::size_t n = tree.nodes.size(); n-- > 0;) {
     uint32_t inner = 0, deepest = 0;
-    for (int c = 0; c < int(kids.size()); ++c) {
-      const BvhNode& node = bvh.nodes[kids[c]];
-      uint32_t child = 0;
-      if (node.count) {
-        child = leaf(kids[c]);
-      } else {
-        const auto [w, need] = self(self, {kids[c] + 1, node.index});
-        child = w, ++inner, deepest = std::max(deepest, need);
-      }
-      // (re-indexed: out's arrays may have grown under the recursive call)
-      float* box = &out.wide_boxes[std::size_t(index) * kWideNodeFloats];
-      const OrientedBox& b = boxes[kids[c]];
-      for (int a = 0; a < 3; ++a) {
-        for (int i = 0; i < 3; ++i) box[4 * (3 * a + i) + c] = b.axis[a][i];
-        box[4 * (9 + a) + c] = b.lo[a];
-        box[4 * (12 + a) + c] = b.hi[a];
-      }
-      out.wide_links[std::size_t(index) * kWideNodeLinks + c] = child;
-      out.wide_links[std::size_t(index) * kWideNodeLinks + 4 + c] = node.count;
-    }
-    return {index, inner == 0 ? 0 : std::max(inner, inner - 1 + deepest)};
-  };
-  const auto [root, need] = bvh.nodes[0].count ? build(build, {0}) : build(build, {1, bvh.nodes[0].index});
-  (void)root;
-  out.wide_stack = std::max<uint32_t>(1, need);
+    for (int c = 0; c < 4; ++c)
+      if (tree.nodes[n].count[c] == 0 && tree.nodes[n].lo[0][c] <= tree.nodes[n].hi[0][c])
+        ++inner, deepest = std::max(deepest, need[tree.nodes[n].child[c]]);
+    need[n] = inner == 0 ? 0 : std::max(inner, inner - 1 + deepest);
+  }
+  out.wide_stack = std::max<uint32_t>(1, need[0]);
   if (out.wide_stack > uint32_t(kSdfWideStack))
     throw std::logic_error("device SDF tree: the walk needs " + std::to_string(out.wide_stack) + " stack entries, over " +
                            std::to_string(kSdfWideStack));
