@@ -263,9 +263,12 @@ struct VulkanBackend::Impl {
       throw InputError("backend 'vulkan': device '" + chosen->name +
                        "' has no subgroup arithmetic in compute shaders, which the subgroup SDF walk needs");
     // kAuto: one walk per invocation. On lavapipe the subgroup walk measured slower (perf/
-    // bench_backends: 10.7x to 15x the cpu reference against 5.8x to 9.2x), and it is not yet
-    // measured on a GPU.
+    // bench_backends, 52k torus: about 15x the cpu reference's time against 11x), and it is not
+    // yet measured on a GPU.
     sdf_subgroup = options.sdf_walk == VulkanOptions::SdfWalk::kSubgroup;
+    // A subgroup's shared walk opens every node in range of any of its points, so one packet per
+    // invocation already takes many steps (under llvmpipe's loop budget, 16 ran out for most).
+    if (sdf_subgroup) sdf_points_per_invocation = 1;
     // On llvmpipe the walk runs under kernels/sdf.h's loop budget. Its count is exact per SIMD
     // batch where the shader can take the subgroup's maximum (the subgroup walk; the single walk's
     // counted variant), else each lane counts alone and gets its share of the limit, one point
