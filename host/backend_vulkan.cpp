@@ -262,10 +262,13 @@ struct VulkanBackend::Impl {
     if (options.sdf_walk == VulkanOptions::SdfWalk::kSubgroup && !subgroups)
       throw InputError("backend 'vulkan': device '" + chosen->name +
                        "' has no subgroup arithmetic in compute shaders, which the subgroup SDF walk needs");
-    // kAuto: one walk per invocation. On lavapipe the subgroup walk measured slower (perf/
-    // bench_backends, 52k torus: about 15x the cpu reference's time against 11x), and it is not
-    // yet measured on a GPU.
-    sdf_subgroup = options.sdf_walk == VulkanOptions::SdfWalk::kSubgroup;
+    // kAuto: the subgroup walk on GPUs that have subgroup arithmetic (NVIDIA H200: 3.1 ms in the
+    // kernel against 7.7 ms for one walk per invocation, perf/GPU_RUNS.md), one walk per
+    // invocation on CPU devices (lavapipe: the subgroup walk about 15x the cpu reference's time
+    // against 11x, perf/bench_backends).
+    sdf_subgroup = options.sdf_walk == VulkanOptions::SdfWalk::kSubgroup ||
+                   (options.sdf_walk == VulkanOptions::SdfWalk::kAuto && subgroups &&
+                    chosen->type != VK_PHYSICAL_DEVICE_TYPE_CPU);
     // A subgroup's shared walk opens every node in range of any of its points, so one packet per
     // invocation already takes many steps (under llvmpipe's loop budget, 16 ran out for most).
     if (sdf_subgroup) sdf_points_per_invocation = 1;

@@ -34,9 +34,10 @@ struct VulkanOptions {
   // Tests force small chunks with it to exercise the chunking.
   std::size_t max_chunk = 0;
   // How the surface SDF walks the tree (kernels/sdf.h): kSubgroup, a subgroup's invocations
-  // share one walk (needs subgroup arithmetic in compute shaders, else InputError); kSingle and
-  // kAuto, one walk per invocation (measured faster on lavapipe). Tests run both. (The fp32 path
-  // has one walk per invocation only: kernels/sdf_fp32.h.)
+  // share one walk (needs subgroup arithmetic in compute shaders, else InputError); kSingle, one
+  // walk per invocation; kAuto, the subgroup walk on GPUs with subgroup arithmetic (faster on an
+  // H200) and one walk per invocation elsewhere (faster on lavapipe). Tests run both. (The fp32
+  // path has one walk per invocation only: kernels/sdf_fp32.h.)
   enum class SdfWalk { kAuto, kSubgroup, kSingle };
   SdfWalk sdf_walk = SdfWalk::kAuto;
   // Run the fp32 path even on a device with fp64 (tests: the fp32 path on lavapipe). The
