@@ -503,18 +503,23 @@ TEST(vulkan, SurfaceSdfIsBitIdenticalOnClosedOpenAndDegenerateSurfaces) {
   }
 }
 
+// The n^3 points of a grid over a surface's padded bounding cube (perf/bench_backends's workload).
+std::vector<Vec3> grid_points_over(const TriangleSurface& s, int n) {
+  const Box cube = padded_cube(s.bounds(), 0.1);
+  std::vector<Vec3> pts;
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i)
+        pts.push_back(cube.lo + Vec3{cube.size().x * i / (n - 1), cube.size().y * j / (n - 1), cube.size().z * k / (n - 1)});
+  return pts;
+}
+
 // Grid points over a fine torus (perf/bench_backends's workload, smaller): many are exactly as far
 // from two or more triangles (the grid and the tessellation share symmetry planes), so the tie
 // rule decides, and each invocation's turns seed one another across the Morton order.
 TEST(vulkan, SurfaceSdfOnAGridOverAFineTorusIsBitIdentical) {
   const TriangleSurface torus = tessellate(ShapeKind::kTorus, 256);
-  const Box cube = padded_cube(torus.bounds(), 0.1);
-  std::vector<Vec3> pts;
-  const int n = 40;
-  for (int k = 0; k < n; ++k)
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i)
-        pts.push_back(cube.lo + Vec3{cube.size().x * i / (n - 1), cube.size().y * j / (n - 1), cube.size().z * k / (n - 1)});
+  const std::vector<Vec3> pts = grid_points_over(torus, 40);
   std::vector<double> want(pts.size());
   SurfaceSdf(torus).evaluate(pts, want);
   SdfSource source;
@@ -712,13 +717,7 @@ TEST(VulkanFp32, SurfaceSdfIsBitIdenticalOnClosedOpenAndDegenerateSurfaces) {
 // planes), each invocation's 16 points seeding one another along the Morton order.
 TEST(VulkanFp32, SurfaceSdfOnAGridOverAFineTorusIsBitIdentical) {
   const TriangleSurface torus = tessellate(ShapeKind::kTorus, 256);
-  const Box cube = padded_cube(torus.bounds(), 0.1);
-  std::vector<Vec3> pts;
-  const int n = 40;
-  for (int k = 0; k < n; ++k)
-    for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i)
-        pts.push_back(cube.lo + Vec3{cube.size().x * i / (n - 1), cube.size().y * j / (n - 1), cube.size().z * k / (n - 1)});
+  const std::vector<Vec3> pts = grid_points_over(torus, 40);
   std::vector<double> want(pts.size()), got;
   SurfaceSdf(torus).evaluate(pts, want);
   const Fp32Stats st = fp32_sdf(lavapipe_fp32(), torus, pts, got);
