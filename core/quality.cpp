@@ -61,6 +61,13 @@ Vec3 bilinear(const Vec3 e[2][2], double s, double t) {
 // products of actual edge vectors, with no cancellation between large monomial terms. For an
 // affine element all 64 triple products equal det A, so every coefficient is det A.
 BernsteinCoefficients bernstein_from_edges(const Edges& e) {
+  // triple(x, y, z) = dot(x, cross(y, z)): the 16 cross products of an eta and a zeta edge, each
+  // used by four of the 64 triples, computed once (the same operations, so the same doubles).
+  Vec3 eta_zeta[2][2][2][2];  // [a][c'][a'][b']
+  for (int a = 0; a < 2; ++a)
+    for (int c = 0; c < 2; ++c)
+      for (int a2 = 0; a2 < 2; ++a2)
+        for (int b = 0; b < 2; ++b) eta_zeta[a][c][a2][b] = cross(e.eta[a][c], e.zeta[a2][b]);
   BernsteinCoefficients beta{};
   for (int k = 0; k < 3; ++k) {
     for (int j = 0; j < 3; ++j) {
@@ -70,7 +77,7 @@ BernsteinCoefficients bernstein_from_edges(const Edges& e) {
         for (int a = std::max(0, i - 1); a <= std::min(1, i); ++a) {
           for (int b = std::max(0, j - 1); b <= std::min(1, j); ++b) {
             for (int c = std::max(0, k - 1); c <= std::min(1, k); ++c) {
-              sum += triple(e.xi[b][c], e.eta[a][k - c], e.zeta[i - a][j - b]);
+              sum += dot(e.xi[b][c], eta_zeta[a][k - c][i - a][j - b]);
               ++terms;
             }
           }
@@ -129,11 +136,16 @@ double scaled_triple(Vec3 a, Vec3 b, Vec3 c) {
 }
 
 std::array<double, 9> scaled_from_edges(const Edges& e) {
+  // Each edge meets two corners: normalized once (the same operations, so the same doubles).
+  Vec3 xi[2][2], eta[2][2], zeta[2][2];
+  for (int u = 0; u < 2; ++u)
+    for (int v = 0; v < 2; ++v)
+      xi[u][v] = normalized(e.xi[u][v]), eta[u][v] = normalized(e.eta[u][v]), zeta[u][v] = normalized(e.zeta[u][v]);
   std::array<double, 9> s{};
   for (int c = 0; c < 2; ++c) {
     for (int b = 0; b < 2; ++b) {
       for (int a = 0; a < 2; ++a) {
-        s[corner_index(a, b, c)] = scaled_triple(e.xi[b][c], e.eta[a][c], e.zeta[a][b]);
+        s[corner_index(a, b, c)] = triple(xi[b][c], eta[a][c], zeta[a][b]);
       }
     }
   }
