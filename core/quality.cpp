@@ -1,6 +1,7 @@
 #include "core/quality.h"
 
 #include <algorithm>
+#include <array>
 #include <limits>
 
 namespace mchex {
@@ -27,6 +28,14 @@ struct Edges {
         zeta[u][v] = p[corner_index(u, v, 1)] - p[corner_index(u, v, 0)];
       }
     }
+  }
+
+  // The 12 edge lengths, in for_each order.
+  std::array<double, 12> lengths() const {
+    std::array<double, 12> l{};
+    int n = 0;
+    for_each([&](Vec3 v) { l[n++] = norm(v); });
+    return l;
   }
 
   template <class F>
@@ -82,7 +91,8 @@ BernsteinCoefficients bernstein_from_edges(const Edges& e) {
             }
           }
         }
-        beta[bernstein_index(i, j, k)] = sum / terms;  // terms is a power of 2: exact
+        // terms is 1, 2, 4 or 8: the product by its reciprocal is the same double as the quotient.
+        beta[bernstein_index(i, j, k)] = sum * (terms == 1 ? 1.0 : terms == 2 ? 0.5 : terms == 4 ? 0.25 : 0.125);
       }
     }
   }
@@ -101,26 +111,29 @@ double min_of(const BernsteinCoefficients& beta) {
   return *std::min_element(beta.begin(), beta.end());
 }
 
-double mean_edge(const Edges& e) {
+double mean_edge(const std::array<double, 12>& lengths) {
   double sum = 0;
-  e.for_each([&](Vec3 v) { sum += norm(v); });
+  for (double l : lengths) sum += l;
   return sum / 12;
 }
+
+double mean_edge(const Edges& e) { return mean_edge(e.lengths()); }
 
 // beta scales with the cube of the element size. An element collapsed to a point (h = 0) has
 // every beta = 0; call that 0 rather than 0/0.
 double scaled_by_size(double beta, double h) { return h > 0 ? beta / (h * h * h) : 0.0; }
 
-double ratio_of_edges(const Edges& e) {
+double ratio_of_edges(const std::array<double, 12>& lengths) {
   double lo = std::numeric_limits<double>::infinity();
   double hi = 0;
-  e.for_each([&](Vec3 v) {
-    const double l = norm(v);
+  for (double l : lengths) {
     lo = std::min(lo, l);
     hi = std::max(hi, l);
-  });
+  }
   return lo > 0 ? hi / lo : std::numeric_limits<double>::infinity();
 }
+
+double ratio_of_edges(const Edges& e) { return ratio_of_edges(e.lengths()); }
 
 // The integral of a tensor Bernstein polynomial over [0,1]^3 is the mean of its coefficients
 // (each quadratic Bernstein basis function integrates to 1/3), so the volume, the integral of
@@ -135,12 +148,19 @@ double scaled_triple(Vec3 a, Vec3 b, Vec3 c) {
   return triple(normalized(a), normalized(b), normalized(c));
 }
 
-std::array<double, 9> scaled_from_edges(const Edges& e) {
-  // Each edge meets two corners: normalized once (the same operations, so the same doubles).
+// normalized(v) from v's length already known (the same operations, so the same doubles).
+Vec3 normalized_by(Vec3 v, double length) { return length > 0 ? v / length : Vec3{}; }
+
+std::array<double, 9> scaled_from_edges(const Edges& e, const std::array<double, 12>& lengths) {
+  // Each edge meets two corners: normalized once.
   Vec3 xi[2][2], eta[2][2], zeta[2][2];
   for (int u = 0; u < 2; ++u)
-    for (int v = 0; v < 2; ++v)
-      xi[u][v] = normalized(e.xi[u][v]), eta[u][v] = normalized(e.eta[u][v]), zeta[u][v] = normalized(e.zeta[u][v]);
+    for (int v = 0; v < 2; ++v) {
+      const int n = 3 * (2 * u + v);  // Edges::for_each order
+      xi[u][v] = normalized_by(e.xi[u][v], lengths[n]);
+      eta[u][v] = normalized_by(e.eta[u][v], lengths[n + 1]);
+      zeta[u][v] = normalized_by(e.zeta[u][v], lengths[n + 2]);
+    }
   std::array<double, 9> s{};
   for (int c = 0; c < 2; ++c) {
     for (int b = 0; b < 2; ++b) {
@@ -198,7 +218,10 @@ std::array<double, 8> corner_jacobians(const HexCorners& c) {
   return d;
 }
 
-std::array<double, 9> scaled_jacobians(const HexCorners& c) { return scaled_from_edges(Edges(c)); }
+std::array<double, 9> scaled_jacobians(const HexCorners& c) {
+  const Edges e(c);
+  return scaled_from_edges(e, e.lengths());
+}
 
 double scaled_jacobian(const HexCorners& c) {
   const auto s = scaled_jacobians(c);
@@ -219,10 +242,11 @@ HexQuality hex_quality(const HexCorners& c) {
     }
   }
   q.min_bernstein = min_of(beta);
-  q.min_bernstein_scaled = scaled_by_size(q.min_bernstein, mean_edge(e));
-  const auto s = scaled_from_edges(e);
+  const std::array<double, 12> lengths = e.lengths();
+  q.min_bernstein_scaled = scaled_by_size(q.min_bernstein, mean_edge(lengths));
+  const auto s = scaled_from_edges(e, lengths);
   q.scaled_jacobian = *std::min_element(s.begin(), s.end());
-  q.edge_ratio = ratio_of_edges(e);
+  q.edge_ratio = ratio_of_edges(lengths);
   q.volume = volume_of(beta);
   return q;
 }
