@@ -290,7 +290,9 @@ Acc reduce_face_groups(std::size_t num_hexes, std::size_t num_ids, const std::ve
       std::sort(recs.begin(), recs.end());
       for (std::size_t i = 0; i < recs.size();) {
         std::size_t j = i + 1;
-        while (j < recs.size() && recs[j].key == recs[i].key) ++j;
+        while (j < recs.size() && recs[j].key[0] == recs[i].key[0] && recs[j].key[1] == recs[i].key[1] &&
+               recs[j].key[2] == recs[i].key[2])
+          ++j;
         visit(recs.data() + i, recs.data() + j, acc);
         i = j;
       }
