@@ -2,6 +2,7 @@
 #include "core/mchex_mesher.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <bit>
 #include <cmath>
@@ -24,6 +25,29 @@
 
 namespace mchex {
 namespace {
+
+// An uncut cell (subcase kEmpty, most cells of a grid) is the parametric unit cube whatever its
+// values: one polyhedron, inside or outside, and its midpoint subdivision. Both are made once per
+// sign here instead of once per cell (cut_cell and midpoint_subdivide give the same result for
+// every such cell; the mesh is byte for byte the same).
+struct UncutCube {
+  std::vector<Polyhedron> polys;
+  std::vector<SubdivisionHex> hexes;
+};
+
+const UncutCube& uncut_cube(bool inside) {
+  static const std::array<UncutCube, 2> cubes = [] {
+    std::array<UncutCube, 2> out;
+    for (int in = 0; in < 2; ++in) {
+      std::array<double, 8> f;
+      f.fill(in ? 1.0 : -1.0);
+      out[in].polys = cut_cell(kUnitCubeCorners, classify(f));
+      out[in].hexes = midpoint_subdivide(out[in].polys.at(0));
+    }
+    return out;
+  }();
+  return cubes[inside ? 1 : 0];
+}
 
 // Cell point keys (0..19) lying on each cell face: its 4 corners and the crossings of its 4
 // edges. A face piece lies on the one face whose mask holds all its keys.
@@ -305,7 +329,10 @@ struct Mesher {
     // what its proofs over the 3-refinement cell types assume. On a cube (uniform grid) this is
     // the same as building in space; on a transition cell with non-parallelogram faces the
     // means differ, and those taken in space certify less often (core/certify.h).
-    const std::vector<Polyhedron> polys = cut_cell(kUnitCubeCorners, cls);
+    const UncutCube* uncut = cls.subcase == Subcase::kEmpty ? &uncut_cube(cls.regions[0].sign > 0) : nullptr;
+    std::vector<Polyhedron> cut;
+    if (!uncut) cut = cut_cell(kUnitCubeCorners, cls);
+    const std::vector<Polyhedron>& polys = uncut ? uncut->polys : cut;
     const bool uncut_affine = cls.subcase == Subcase::kEmpty && uncut_affine_cell_certified(xc);
     for (std::size_t pi = 0; pi < polys.size(); ++pi) {
       const Polyhedron& p = polys[pi];
@@ -336,7 +363,7 @@ struct Mesher {
       // certified (core/repair.h; the centre is this polyhedron's own point).
       MappedSubdivision mapped;
       if (uncut_affine) {  // certified by construction (repair.h), no check needed
-        mapped.hexes = midpoint_subdivide(p);
+        mapped.hexes = uncut->hexes;  // uncut_affine: the cell is uncut
         for (SubdivisionHex& h : mapped.hexes)
           for (Vec3& x : h.corners) x = trilinear_map(xc, x);
       } else {
