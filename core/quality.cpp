@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cstdint>
 #include <limits>
 
 namespace mchex {
@@ -69,6 +70,30 @@ Vec3 bilinear(const Vec3 e[2][2], double s, double t) {
 // exact in real arithmetic, and in floating point each coefficient is a short average of
 // products of actual edge vectors, with no cancellation between large monomial terms. For an
 // affine element all 64 triple products equal det A, so every coefficient is det A.
+// Which of the 64 triples each coefficient averages, in the order the sum takes them (a, then b,
+// then c, ascending), as indices ((((a * 2 + a') * 2 + b) * 2 + b') * 2 + c) * 2 + c' into the
+// triples below: a fixed table, so the per-hex work is 64 dot products and 64 additions.
+struct TripleTerms {
+  std::array<std::array<std::uint8_t, 8>, 27> index{};
+  std::array<std::uint8_t, 27> count{};
+};
+
+constexpr TripleTerms make_triple_terms() {
+  TripleTerms t;
+  for (int k = 0; k < 3; ++k)
+    for (int j = 0; j < 3; ++j)
+      for (int i = 0; i < 3; ++i) {
+        const int n = bernstein_index(i, j, k);
+        for (int a = i == 2 ? 1 : 0; a <= (i == 0 ? 0 : 1); ++a)
+          for (int b = j == 2 ? 1 : 0; b <= (j == 0 ? 0 : 1); ++b)
+            for (int c = k == 2 ? 1 : 0; c <= (k == 0 ? 0 : 1); ++c)
+              t.index[n][t.count[n]++] =
+                  static_cast<std::uint8_t>(((((a * 2 + (i - a)) * 2 + b) * 2 + (j - b)) * 2 + c) * 2 + (k - c));
+      }
+  return t;
+}
+constexpr TripleTerms kTripleTerms = make_triple_terms();
+
 BernsteinCoefficients bernstein_from_edges(const Edges& e) {
   // triple(x, y, z) = dot(x, cross(y, z)): the 16 cross products of an eta and a zeta edge, each
   // used by four of the 64 triples, computed once (the same operations, so the same doubles).
@@ -77,24 +102,21 @@ BernsteinCoefficients bernstein_from_edges(const Edges& e) {
     for (int c = 0; c < 2; ++c)
       for (int a2 = 0; a2 < 2; ++a2)
         for (int b = 0; b < 2; ++b) eta_zeta[a][c][a2][b] = cross(e.eta[a][c], e.zeta[a2][b]);
+  std::array<double, 64> triples;
+  for (int a = 0; a < 2; ++a)
+    for (int a2 = 0; a2 < 2; ++a2)
+      for (int b = 0; b < 2; ++b)
+        for (int b2 = 0; b2 < 2; ++b2)
+          for (int c = 0; c < 2; ++c)
+            for (int c2 = 0; c2 < 2; ++c2)
+              triples[((((a * 2 + a2) * 2 + b) * 2 + b2) * 2 + c) * 2 + c2] = dot(e.xi[b][c], eta_zeta[a][c2][a2][b2]);
   BernsteinCoefficients beta{};
-  for (int k = 0; k < 3; ++k) {
-    for (int j = 0; j < 3; ++j) {
-      for (int i = 0; i < 3; ++i) {
-        double sum = 0;
-        int terms = 0;
-        for (int a = std::max(0, i - 1); a <= std::min(1, i); ++a) {
-          for (int b = std::max(0, j - 1); b <= std::min(1, j); ++b) {
-            for (int c = std::max(0, k - 1); c <= std::min(1, k); ++c) {
-              sum += dot(e.xi[b][c], eta_zeta[a][k - c][i - a][j - b]);
-              ++terms;
-            }
-          }
-        }
-        // terms is 1, 2, 4 or 8: the product by its reciprocal is the same double as the quotient.
-        beta[bernstein_index(i, j, k)] = sum * (terms == 1 ? 1.0 : terms == 2 ? 0.5 : terms == 4 ? 0.25 : 0.125);
-      }
-    }
+  for (int n = 0; n < 27; ++n) {
+    double sum = 0;
+    for (int t = 0; t < kTripleTerms.count[n]; ++t) sum += triples[kTripleTerms.index[n][t]];
+    // count is 1, 2, 4 or 8: the product by its reciprocal is the same double as the quotient.
+    const int terms = kTripleTerms.count[n];
+    beta[n] = sum * (terms == 1 ? 1.0 : terms == 2 ? 0.5 : terms == 4 ? 0.25 : 0.125);
   }
   return beta;
 }
