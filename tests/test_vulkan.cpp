@@ -463,12 +463,12 @@ TEST(vulkan, ShapeSdfIsBitIdenticalToTheReference) {
   }
 }
 
-TEST(vulkan, SurfaceSdfIsBitIdenticalOnClosedOpenAndDegenerateSurfaces) {
-  std::mt19937_64 rng(22);
+// Closed, open (a band of triangles removed) and a soup (flipped, duplicated and zero-area
+// triangles): the surfaces the surface-SDF tests compare on.
+std::vector<std::pair<std::string, TriangleSurface>> closed_open_and_degenerate_surfaces() {
   std::vector<std::pair<std::string, TriangleSurface>> surfaces;
   surfaces.emplace_back("torus", tessellate(ShapeKind::kTorus, 48));
   surfaces.emplace_back("sphere", tessellate(ShapeKind::kSphere, 40));
-  // Open (a band of triangles removed), and a soup: flipped, duplicated and zero-area triangles.
   TriangleSurface open = tessellate(ShapeKind::kSphere, 24);
   open.triangles.erase(open.triangles.begin() + 40, open.triangles.begin() + 90);
   surfaces.emplace_back("open sphere", open);
@@ -477,11 +477,17 @@ TEST(vulkan, SurfaceSdfIsBitIdenticalOnClosedOpenAndDegenerateSurfaces) {
   for (std::size_t t = 0; t < 20; ++t) soup.triangles.push_back(soup.triangles[t]);
   soup.vertices.push_back({0.3, 0.3, 0.3});
   soup.vertices.push_back({0.6, 0.6, 0.6});
-  const std::uint32_t v0 = std::uint32_t(soup.vertices.size() - 2);
-  soup.triangles.push_back({v0, v0 + 1, v0});          // repeated vertex
   soup.vertices.push_back({0.9, 0.9, 0.9});
-  soup.triangles.push_back({v0, v0 + 1, v0 + 2});      // collinear: zero area
+  const std::uint32_t v0 = std::uint32_t(soup.vertices.size() - 3);
+  soup.triangles.push_back({v0, v0 + 1, v0});      // repeated vertex
+  soup.triangles.push_back({v0, v0 + 1, v0 + 2});  // collinear: zero area
   surfaces.emplace_back("soup", soup);
+  return surfaces;
+}
+
+TEST(vulkan, SurfaceSdfIsBitIdenticalOnClosedOpenAndDegenerateSurfaces) {
+  std::mt19937_64 rng(22);
+  const auto surfaces = closed_open_and_degenerate_surfaces();
   // lavapipe has subgroup arithmetic (subgroups of 8), but the default is one walk per invocation.
   EXPECT_FALSE(lavapipe().sdf_subgroup_walk());
   EXPECT_TRUE(lavapipe_walk(VulkanOptions::SdfWalk::kSubgroup).sdf_subgroup_walk());
@@ -663,22 +669,7 @@ TEST(VulkanFp32, ForcedByTheOptionOrTheEnvironmentWithShadersFreeOfDoubleAndInt6
 // chunks too.
 TEST(VulkanFp32, SurfaceSdfIsBitIdenticalOnClosedOpenAndDegenerateSurfaces) {
   std::mt19937_64 rng(22);
-  std::vector<std::pair<std::string, TriangleSurface>> surfaces;
-  surfaces.emplace_back("torus", tessellate(ShapeKind::kTorus, 48));
-  surfaces.emplace_back("sphere", tessellate(ShapeKind::kSphere, 40));
-  TriangleSurface open = tessellate(ShapeKind::kSphere, 24);
-  open.triangles.erase(open.triangles.begin() + 40, open.triangles.begin() + 90);
-  surfaces.emplace_back("open sphere", open);
-  TriangleSurface soup = tessellate(ShapeKind::kTorus, 16);
-  for (std::size_t t = 0; t < soup.triangles.size(); t += 7) std::swap(soup.triangles[t][1], soup.triangles[t][2]);
-  for (std::size_t t = 0; t < 20; ++t) soup.triangles.push_back(soup.triangles[t]);
-  soup.vertices.push_back({0.3, 0.3, 0.3});
-  soup.vertices.push_back({0.6, 0.6, 0.6});
-  soup.vertices.push_back({0.9, 0.9, 0.9});
-  const std::uint32_t v0 = std::uint32_t(soup.vertices.size() - 3);
-  soup.triangles.push_back({v0, v0 + 1, v0});      // repeated vertex
-  soup.triangles.push_back({v0, v0 + 1, v0 + 2});  // collinear: zero area
-  surfaces.emplace_back("soup", soup);
+  const auto surfaces = closed_open_and_degenerate_surfaces();
   VulkanBackend chunked([] {
     VulkanOptions o = lavapipe_options(1000);
     o.force_fp32 = true;
