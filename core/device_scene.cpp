@@ -105,33 +105,36 @@ void build_wide_tree(const TriangleSurface& s, const TriangleBvh& bvh, DeviceSce
 
 }  // namespace
 
-DeviceScene DeviceScene::build(const TriangleSurface& s) {
+DeviceScene DeviceScene::build(const TriangleSurface& s, Search search) {
   DeviceScene out;
   const TriangleBvh bvh = TriangleBvh::build(s);
-  const Pseudonormals normals(s);
   out.nodes = bvh.nodes;
   out.slot_triangle = bvh.leaf_triangles;
   const std::size_t n = out.slot_triangle.size();
   out.slot_corners.resize(9 * n);
-  out.slot_features.resize(6 * n);
-  out.face_normals.resize(3 * n);
-  for (std::size_t k = 0; k < n; ++k) {
-    const uint32_t t = out.slot_triangle[k];
-    for (int c = 0; c < 3; ++c) {
-      const Vec3 v = s.vertices[s.triangles[t][c]];
-      for (int i = 0; i < 3; ++i) out.slot_corners[9 * k + 3 * c + i] = v[i];
-      out.slot_features[6 * k + c] = s.triangles[t][c];
-      out.slot_features[6 * k + 3 + c] = normals.triangle_edges[t][c];
-      out.face_normals[3 * k + c] = normals.face[t][c];
+  for (std::size_t k = 0; k < n; ++k)
+    for (int c = 0; c < 3; ++c)
+      for (int i = 0; i < 3; ++i) out.slot_corners[9 * k + 3 * c + i] = s.vertices[s.triangles[out.slot_triangle[k]][c]][i];
+  if (search == Search::kFp64) {
+    const Pseudonormals normals(s);
+    out.slot_features.resize(6 * n);
+    out.face_normals.resize(3 * n);
+    for (std::size_t k = 0; k < n; ++k) {
+      const uint32_t t = out.slot_triangle[k];
+      for (int c = 0; c < 3; ++c) {
+        out.slot_features[6 * k + c] = s.triangles[t][c];
+        out.slot_features[6 * k + 3 + c] = normals.triangle_edges[t][c];
+        out.face_normals[3 * k + c] = normals.face[t][c];
+      }
     }
+    out.edge_normals.resize(3 * normals.edge.size());
+    for (std::size_t e = 0; e < normals.edge.size(); ++e)
+      for (int i = 0; i < 3; ++i) out.edge_normals[3 * e + i] = normals.edge[e][i];
+    out.vertex_normals.resize(3 * normals.vertex.size());
+    for (std::size_t v = 0; v < normals.vertex.size(); ++v)
+      for (int i = 0; i < 3; ++i) out.vertex_normals[3 * v + i] = normals.vertex[v][i];
+    build_wide_tree(s, bvh, out);
   }
-  out.edge_normals.resize(3 * normals.edge.size());
-  for (std::size_t e = 0; e < normals.edge.size(); ++e)
-    for (int i = 0; i < 3; ++i) out.edge_normals[3 * e + i] = normals.edge[e][i];
-  out.vertex_normals.resize(3 * normals.vertex.size());
-  for (std::size_t v = 0; v < normals.vertex.size(); ++v)
-    for (int i = 0; i < 3; ++i) out.vertex_normals[3 * v + i] = normals.vertex[v][i];
-  build_wide_tree(s, bvh, out);
   const Box box = s.bounds();
   if (!s.triangles.empty())
     out.scale = std::max({std::abs(box.lo.x), std::abs(box.lo.y), std::abs(box.lo.z), std::abs(box.hi.x),

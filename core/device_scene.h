@@ -83,7 +83,11 @@ struct DeviceScene {
   std::vector<uint32_t> leaf_slot;
   uint32_t wide_stack = 0;  // stack entries a nearest-first walk of this tree can need
 
-  static DeviceScene build(const TriangleSurface& surface);
+  // kFp64: everything above. kFp32: what kernels/sdf_fp32.h and DeviceScene32 read (nodes,
+  // slot_triangle, slot_corners, scale); the fp32 path's host half has its own pseudonormals
+  // (host/fp32_path.h), so neither they nor the wide tree are built for it.
+  enum class Search { kFp64, kFp32 };
+  static DeviceScene build(const TriangleSurface& surface, Search search = Search::kFp64);
   std::size_t slots() const { return slot_triangle.size(); }
   std::size_t bytes() const;
 };

@@ -46,7 +46,7 @@ Fp32Surface::Fp32Surface(const TriangleSurface& s)
       num_vertices_(s.vertices.size()),
       num_triangles_(s.triangles.size()),
       normals_(s) {
-  DeviceScene d = DeviceScene::build(s);
+  DeviceScene d = DeviceScene::build(s, DeviceScene::Search::kFp32);
   DeviceScene32 d32 = DeviceScene32::build(d);
   arrays_.node_slack = std::move(d32.node_slack);
   arrays_.slot_corners = std::move(d32.slot_corners);
