@@ -59,18 +59,6 @@ std::vector<Table> tables() {
     for (const auto& e : kCubeEdges) v[e[0]] |= 1 << e[1], v[e[1]] |= 1 << e[0];
   }
   {
-    auto& c = add("kPatternCase", "core/mc33.h mc_case_of(sign mask): Chernyaev's case 0..14");
-    for (int m = 0; m < 256; ++m) c.push_back(mc_case_of(uint8_t(m)));
-    auto& a = add("kAmbiguousFaces", "core/mc33.h ambiguous_faces_of(sign mask)");
-    for (int m = 0; m < 256; ++m) a.push_back(ambiguous_faces_of(uint8_t(m)));
-  }
-  {
-    auto& s = add("kSubcaseTunnel", "core/mc33.h kSubcaseInfo[s].tunnel: the representative's tunnel sign");
-    for (const auto& i : kSubcaseInfo) s.push_back(i.tunnel);
-    auto& p = add("kSubcaseTunnelPartner", "core/mc33.h kSubcaseInfo[s].tunnel_partner (0 = none)");
-    for (const auto& i : kSubcaseInfo) p.push_back(int(i.tunnel_partner));
-    auto& c = add("kSubcaseCase", "core/mc33.h kSubcaseInfo[s].mc_case");
-    for (const auto& i : kSubcaseInfo) c.push_back(i.mc_case);
     // What the mesher makes of a cell, so the device's prefix sum is the real output count:
     // 8 + 2 * cut edges for a cell cut directly, the sum over the leaves for one refined locally
     // (paper Section 5, Figure 7), a function of the subcase alone.
