@@ -41,6 +41,11 @@ constexpr std::size_t kSdfPointsPerInvocation = 16;
 // MCHEX_SDF_LOOPS_PER_SEARCH is none; this is slack for the wrapper's own).
 constexpr std::uint32_t kLlvmpipeLoopLimit = 65535, kLoopBudgetMargin = 1024;
 
+// The texel formats of shaders/surface_sdf.glsl's MCHEX_TEXEL_SCENE bindings.
+const std::vector<VkFormat> kSceneTexelFormats = {
+    VK_FORMAT_R32G32B32A32_SFLOAT, VK_FORMAT_R32G32B32A32_UINT, VK_FORMAT_R32G32B32A32_SFLOAT, VK_FORMAT_R32_UINT,
+    VK_FORMAT_R32_UINT,            VK_FORMAT_R32G32_UINT, VK_FORMAT_R32_UINT};
+
 VkPhysicalDeviceSubgroupProperties subgroup_properties(const vk::PhysicalDevice& d) {
   VkPhysicalDeviceSubgroupProperties sub{};
   sub.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_PROPERTIES;
@@ -110,6 +115,7 @@ struct VulkanBackend::Impl {
 
   vk::Pipeline refinement, classify, scan_blocks, scan_totals, scan_add, surface_sdf, shape_sdf;
   bool sdf_subgroup = false;  // surface_sdf is shaders/surface_sdf.comp (else surface_sdf_single*.comp)
+  vk::Pipeline surface_sdf_texel;  // on llvmpipe: surface_sdf over texel buffers (kSceneTexelFormats)
   std::uint32_t sdf_loop_budget = 0;  // kernels/sdf.h (0: none)
   std::size_t sdf_points_per_invocation = kSdfPointsPerInvocation;
   std::unique_ptr<SurfaceSdf> host_sdf;  // core's, of the scene's surface, for points past the loop budget
@@ -128,6 +134,7 @@ struct VulkanBackend::Impl {
     vk::Buffer wide_boxes, wide_links, leaf_bounds, leaf_slot, slot_triangle, slot_corners, slot_features,
         face_normals, edge_normals, vertex_normals;
     double scale = 0;
+    bool texel_fits = false;  // every texel binding within maxTexelBufferElements
   };
   std::optional<Scene> scene;
 
@@ -202,6 +209,11 @@ struct VulkanBackend::Impl {
     out.edge_normals = upload(ds.edge_normals, "edge pseudonormals");
     out.vertex_normals = upload(ds.vertex_normals, "vertex pseudonormals");
     out.scale = ds.scale;
+    const std::size_t limit = device->physical().max_texel_buffer_elements;
+    out.texel_fits = ds.wide_boxes.size() <= limit && ds.wide_links.size() / 4 <= limit &&
+                     ds.leaf_bounds.size() <= limit && ds.leaf_slot.size() <= limit &&
+                     ds.slot_triangle.size() <= limit && ds.slot_corners.size() <= limit &&
+                     ds.slot_features.size() <= limit;
     scene.emplace(std::move(out));
     return *scene;
   }
@@ -281,6 +293,13 @@ struct VulkanBackend::Impl {
       sdf_loop_budget = kLlvmpipeLoopLimit - kLoopBudgetMargin;
       if (!sdf_subgroup && subgroups) {
         code = spirv::surface_sdf_single_counted;
+        if (!options.sdf_storage_reads)
+        // The same walk reading the search arrays as texel buffers: on llvmpipe a storage-buffer
+        // read is a run-time loop over the SIMD lanes with a branch per lane (gallivm's
+        // emit_load_mem), a texel fetch is straight-line code (lavapipe surface SDF 10.4x -> 5.3x
+        // the cpu reference's time, perf/bench_backends). Used for every scene whose arrays fit
+        // maxTexelBufferElements.
+          surface_sdf_texel = device->make_pipeline(spirv::surface_sdf_texel_counted, 12, 24, kSceneTexelFormats);
       } else if (!sdf_subgroup) {
         sdf_loop_budget /= std::max<std::uint32_t>(sub.subgroupSize, 16);
         sdf_points_per_invocation = 1;
@@ -301,7 +320,8 @@ struct VulkanBackend::Impl {
   ~Impl() {
     if (!device) return;
     for (vk::Pipeline* p :
-         {&refinement, &classify, &scan_blocks, &scan_totals, &scan_add, &surface_sdf, &shape_sdf, &surface_sdf32})
+         {&refinement, &classify, &scan_blocks, &scan_totals, &scan_add, &surface_sdf, &surface_sdf_texel, &shape_sdf,
+          &surface_sdf32})
       device->destroy(*p);
   }
 
@@ -374,6 +394,7 @@ std::array<std::uint8_t, 16> VulkanBackend::pipeline_cache_uuid() const {
 }
 std::size_t VulkanBackend::dispatches() const { return impl_->dispatches; }
 bool VulkanBackend::sdf_subgroup_walk() const { return impl_->sdf_subgroup; }
+bool VulkanBackend::sdf_texel_reads() const { return impl_->surface_sdf_texel.pipeline != VK_NULL_HANDLE; }
 VulkanBackend::Profile VulkanBackend::profile() const { return impl_->profile; }
 std::uint32_t VulkanBackend::sdf_loop_budget() const { return impl_->sdf_loop_budget; }
 Fp32Stats VulkanBackend::fp32_stats() const { return impl_->fp32_stats; }
@@ -425,7 +446,8 @@ void VulkanBackend::signed_distance(const SdfSource& source, std::span<const Vec
         double scale;
       } push{static_cast<std::uint32_t>(count), static_cast<std::uint32_t>(per_item), m.sdf_loop_budget, 0,
              scene->scale};
-      m.run(m.surface_sdf,
+      const bool texel = m.surface_sdf_texel.pipeline != VK_NULL_HANDLE && scene->texel_fits;
+      m.run(texel ? m.surface_sdf_texel : m.surface_sdf,
             {{&scene->wide_boxes}, {&scene->wide_links}, {&scene->leaf_bounds}, {&scene->leaf_slot}, {&scene->slot_triangle}, {&scene->slot_corners}, {&scene->slot_features},
              {&scene->face_normals}, {&scene->edge_normals}, {&scene->vertex_normals}, {&in}, {&out}},
             &push, (count + per_item - 1) / per_item, kGroup);

@@ -46,6 +46,10 @@ struct VulkanOptions {
   // (shaders/surface_sdf32*.comp), the values, analytic shapes, refinement errors and
   // classification on the host in double.
   bool force_fp32 = false;
+  // Where the surface SDF's one-walk-per-invocation shader reads the search tree and triangles
+  // from texel buffers by default (llvmpipe, whose storage-buffer reads are slow), read storage
+  // buffers instead, as on every other device (tests run both).
+  bool sdf_storage_reads = false;
 
   static std::filesystem::path default_pipeline_cache_dir();
 };
@@ -77,6 +81,9 @@ class VulkanBackend : public Backend {
   std::size_t dispatches() const;
   // Whether the surface SDF runs the subgroup walk (VulkanOptions::sdf_walk).
   bool sdf_subgroup_walk() const;
+  // Whether the surface SDF reads the search arrays from texel buffers (scenes within
+  // maxTexelBufferElements; else storage buffers).
+  bool sdf_texel_reads() const;
   // Where the time went since creation (seconds): host copies into mapped buffers (and gathers),
   // dispatches (submit to fence: the device's work, JIT compilation on first use included), and
   // copies back out (and decoding).

@@ -2,6 +2,7 @@
 
 #include "core/error.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -137,6 +138,7 @@ Instance::Instance() {
     d.vendor_id = p.vendorID;
     d.device_id = p.deviceID;
     d.max_storage_buffer_range = p.limits.maxStorageBufferRange;
+    d.max_texel_buffer_elements = p.limits.maxTexelBufferElements;
     for (int i = 0; i < 3; ++i) {
       d.max_work_group_count[i] = p.limits.maxComputeWorkGroupCount[i];
       d.max_work_group_size[i] = p.limits.maxComputeWorkGroupSize[i];
@@ -178,7 +180,7 @@ Buffer::Buffer(VkDevice device, const VkPhysicalDeviceMemoryProperties& memory, 
   VkBufferCreateInfo info{};
   info.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
   info.size = bytes ? bytes : 4;  // a zero-sized buffer is invalid; an empty batch binds 4 bytes
-  info.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
+  info.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT;
   info.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
   check(vkCreateBuffer(device, &info, nullptr, &buffer_), "vkCreateBuffer");
   VkMemoryRequirements req{};
@@ -250,6 +252,22 @@ std::filesystem::path default_cache_dir() {
 
 namespace {
 
+VkDescriptorType descriptor_type(const Pipeline& p, std::uint32_t binding) {
+  return p.texel_formats[binding] == VK_FORMAT_UNDEFINED ? VK_DESCRIPTOR_TYPE_STORAGE_BUFFER
+                                                         : VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER;
+}
+
+// Bytes per texel of the formats the shaders read texel buffers in.
+VkDeviceSize texel_bytes(VkFormat f) {
+  switch (f) {
+    case VK_FORMAT_R32_UINT: return 4;
+    case VK_FORMAT_R32G32_UINT: return 8;
+    case VK_FORMAT_R32G32B32A32_SFLOAT:
+    case VK_FORMAT_R32G32B32A32_UINT: return 16;
+    default: throw std::logic_error("vulkan: a texel format the backend does not use");
+  }
+}
+
 // The cache file is keyed by what invalidates a driver's pipeline cache: the device (UUID) and
 // the driver version. The driver also checks the header it wrote (Vulkan spec, "Pipeline Cache
 // Header") and ignores data from another device or driver, so a stale file costs only a recompile.
@@ -302,12 +320,13 @@ Device::Device(const Instance& instance, const PhysicalDevice& physical,
     cb.commandBufferCount = 1;
     check(vkAllocateCommandBuffers(device_, &cb, &command_buffer_), "vkAllocateCommandBuffers");
     // One descriptor set at a time (dispatch() waits), so a small pool reset per dispatch does.
-    VkDescriptorPoolSize size{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 16};
+    const VkDescriptorPoolSize sizes[] = {{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 16},
+                                          {VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER, 16}};
     VkDescriptorPoolCreateInfo dp{};
     dp.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO;
     dp.maxSets = 1;
-    dp.poolSizeCount = 1;
-    dp.pPoolSizes = &size;
+    dp.poolSizeCount = 2;
+    dp.pPoolSizes = sizes;
     check(vkCreateDescriptorPool(device_, &dp, nullptr, &descriptor_pool_), "vkCreateDescriptorPool");
     VkFenceCreateInfo fence{};
     fence.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO;
@@ -385,10 +404,12 @@ void Device::release() {
 Buffer Device::make_buffer(VkDeviceSize bytes) const { return Buffer(device_, memory_, bytes); }
 
 Pipeline Device::make_pipeline(std::span<const std::uint32_t> spirv, std::uint32_t num_buffers,
-                               std::uint32_t push_bytes) {
+                               std::uint32_t push_bytes, std::vector<VkFormat> texel_formats) {
   Pipeline p;
   p.num_buffers = num_buffers;
   p.push_bytes = push_bytes;
+  texel_formats.resize(num_buffers, VK_FORMAT_UNDEFINED);
+  p.texel_formats = std::move(texel_formats);
   try {
     VkShaderModuleCreateInfo sm{};
     sm.sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO;
@@ -397,7 +418,7 @@ Pipeline Device::make_pipeline(std::span<const std::uint32_t> spirv, std::uint32
     check(vkCreateShaderModule(device_, &sm, nullptr, &p.module), "vkCreateShaderModule");
     std::vector<VkDescriptorSetLayoutBinding> bindings(num_buffers);
     for (std::uint32_t i = 0; i < num_buffers; ++i)
-      bindings[i] = {i, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
+      bindings[i] = {i, descriptor_type(p, i), 1, VK_SHADER_STAGE_COMPUTE_BIT, nullptr};
     VkDescriptorSetLayoutCreateInfo dsl{};
     dsl.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
     dsl.bindingCount = num_buffers;
@@ -452,21 +473,46 @@ void Device::dispatch(const Pipeline& p, std::span<const BufferRange> buffers, c
   VkDescriptorSet set = VK_NULL_HANDLE;
   check(vkAllocateDescriptorSets(device_, &ai, &set), "vkAllocateDescriptorSets");
   std::vector<VkDescriptorBufferInfo> infos(buffers.size());
+  std::vector<VkBufferView> views(buffers.size(), VK_NULL_HANDLE);
   std::vector<VkWriteDescriptorSet> writes(buffers.size());
+  // The views live until the dispatch has finished (below) or failed.
+  struct Views {
+    VkDevice device;
+    std::vector<VkBufferView>& views;
+    ~Views() {
+      for (VkBufferView v : views)
+        if (v) vkDestroyBufferView(device, v, nullptr);
+    }
+  } keep{device_, views};
   for (std::size_t i = 0; i < buffers.size(); ++i) {
     const BufferRange& b = buffers[i];
     VkDeviceSize bytes = b.bytes == VK_WHOLE_SIZE ? b.buffer->size() - b.offset : b.bytes;
     if (bytes == 0) bytes = 4;  // empty ranges are invalid; the shader reads nothing of them
-    if (bytes > physical_.max_storage_buffer_range)
-      throw std::logic_error("vulkan: a binding over maxStorageBufferRange (chunking bug)");
-    infos[i] = {b.buffer->handle(), b.offset, bytes};
     writes[i] = VkWriteDescriptorSet{};
     writes[i].sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET;
     writes[i].dstSet = set;
     writes[i].dstBinding = static_cast<std::uint32_t>(i);
     writes[i].descriptorCount = 1;
-    writes[i].descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-    writes[i].pBufferInfo = &infos[i];
+    writes[i].descriptorType = descriptor_type(p, static_cast<std::uint32_t>(i));
+    if (p.texel_formats[i] != VK_FORMAT_UNDEFINED) {
+      const VkDeviceSize texel = texel_bytes(p.texel_formats[i]);
+      bytes = std::max(bytes, texel);
+      if (bytes / texel > physical_.max_texel_buffer_elements)
+        throw std::logic_error("vulkan: a texel binding over maxTexelBufferElements (caller's bug)");
+      VkBufferViewCreateInfo view{};
+      view.sType = VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO;
+      view.buffer = b.buffer->handle();
+      view.format = p.texel_formats[i];
+      view.offset = b.offset;
+      view.range = bytes / texel * texel;
+      check(vkCreateBufferView(device_, &view, nullptr, &views[i]), "vkCreateBufferView");
+      writes[i].pTexelBufferView = &views[i];
+    } else {
+      if (bytes > physical_.max_storage_buffer_range)
+        throw std::logic_error("vulkan: a binding over maxStorageBufferRange (chunking bug)");
+      infos[i] = {b.buffer->handle(), b.offset, bytes};
+      writes[i].pBufferInfo = &infos[i];
+    }
   }
   vkUpdateDescriptorSets(device_, static_cast<std::uint32_t>(writes.size()), writes.data(), 0, nullptr);
 

@@ -33,6 +33,7 @@ struct PhysicalDevice {
   std::uint32_t vendor_id = 0, device_id = 0;
   bool shader_float64 = false, shader_int64 = false;
   std::uint32_t max_storage_buffer_range = 0;
+  std::uint32_t max_texel_buffer_elements = 0;
   std::uint32_t max_work_group_count[3] = {}, max_work_group_size[3] = {};
   std::uint32_t max_work_group_invocations = 0;
   std::uint32_t max_push_constants_size = 0;
@@ -60,7 +61,8 @@ class Instance {
   std::vector<PhysicalDevice> devices_;
 };
 
-// A storage buffer in host-visible, host-coherent memory, mapped for its whole life.
+// A buffer in host-visible, host-coherent memory, mapped for its whole life, usable as a storage
+// buffer and as a uniform texel buffer.
 class Buffer {
  public:
   Buffer() = default;
@@ -81,14 +83,16 @@ class Buffer {
   void* mapped_ = nullptr;
 };
 
-// A compute pipeline whose bindings 0..num_buffers-1 are storage buffers and whose push constant
-// block is push_bytes long.
+// A compute pipeline whose bindings 0..num_buffers-1 are buffers and whose push constant block is
+// push_bytes long. A binding is a storage buffer, or a uniform texel buffer where its entry of
+// texel_formats is a format (VK_FORMAT_UNDEFINED: storage buffer; empty: all storage buffers).
 struct Pipeline {
   VkShaderModule module = VK_NULL_HANDLE;
   VkDescriptorSetLayout set_layout = VK_NULL_HANDLE;
   VkPipelineLayout layout = VK_NULL_HANDLE;
   VkPipeline pipeline = VK_NULL_HANDLE;
   std::uint32_t num_buffers = 0, push_bytes = 0;
+  std::vector<VkFormat> texel_formats;
 };
 
 // A range of a buffer bound to one binding.
@@ -109,9 +113,10 @@ class Device {
   const PhysicalDevice& physical() const { return physical_; }
   Buffer make_buffer(VkDeviceSize bytes) const;
   Pipeline make_pipeline(std::span<const std::uint32_t> spirv, std::uint32_t num_buffers,
-                         std::uint32_t push_bytes);
+                         std::uint32_t push_bytes, std::vector<VkFormat> texel_formats = {});
   void destroy(Pipeline& p);
-  // Records, submits and waits for one dispatch of groups_x workgroups.
+  // Records, submits and waits for one dispatch of groups_x workgroups. A texel binding's range
+  // must hold at most maxTexelBufferElements texels (std::logic_error otherwise).
   void dispatch(const Pipeline& p, std::span<const BufferRange> buffers, const void* push,
                 std::uint32_t groups_x);
 

@@ -15,6 +15,7 @@ extern const std::span<const std::uint32_t> scan_add;          // shaders/scan_a
 extern const std::span<const std::uint32_t> surface_sdf;       // shaders/surface_sdf.comp
 extern const std::span<const std::uint32_t> surface_sdf_single;  // shaders/surface_sdf_single.comp
 extern const std::span<const std::uint32_t> surface_sdf_single_counted;  // shaders/surface_sdf_single_counted.comp
+extern const std::span<const std::uint32_t> surface_sdf_texel_counted;  // shaders/surface_sdf_texel_counted.comp
 extern const std::span<const std::uint32_t> shape_sdf;         // shaders/shape_sdf.comp
 // The fp32 path (no double, no 64-bit integer): shaders/surface_sdf32.comp, *_counted.comp.
 extern const std::span<const std::uint32_t> surface_sdf32;

@@ -70,6 +70,23 @@
 //   entry; one more for the caller's loop over searches.
 #define MCHEX_SDF_LOOPS_PER_SEARCH (MCHEX_SDF_PACKET * (1 + 3) + MCHEX_SDF_PACKET + 1)
 
+// Reads of the scene's search arrays: array elements (OpenCL buffers, GLSL storage buffers),
+// unless the GLSL wrapper has defined them to fetch from texel buffers instead
+// (shaders/surface_sdf.glsl MCHEX_TEXEL_SCENE). WIDE_LINKS4(i): wide_links[4 i .. 4 i + 3].
+#ifndef WIDE_BOX
+#define WIDE_BOX(i) wide_boxes[i]
+#define LEAF_BOUND(i) leaf_bounds[i]
+#define LEAF_SLOT(i) leaf_slot[i]
+#define SLOT_TRIANGLE(i) slot_triangle[i]
+#define SLOT_CORNER(i) slot_corners[i]
+#define SLOT_FEATURE(i) slot_features[i]
+#ifdef __OPENCL_C_VERSION__
+#define WIDE_LINKS4(i) vload4(i, wide_links)
+#else
+#define WIDE_LINKS4(i) uvec4(wide_links[4u * (i)], wide_links[4u * (i) + 1u], wide_links[4u * (i) + 2u], wide_links[4u * (i) + 3u])
+#endif
+#endif
+
 #ifdef __OPENCL_C_VERSION__
 #define DVEC3 double3
 #define D3(x, y, z) ((double3)(x, y, z))
@@ -86,6 +103,7 @@
 #define F3(x, y, z) ((float3)(x, y, z))
 #define FVEC4 float4
 #define F4(x) ((float4)(x))
+#define UVEC4 uint4
 #define MCHEX_F_INF INFINITY
 // d where d <= b, else +inf (NaN too: a NaN bound never puts a child in range).
 #define IN_RANGE4(d, b) select(F4(MCHEX_F_INF), d, (d) <= F4(b))
@@ -99,6 +117,7 @@
 #define F3(x, y, z) vec3(x, y, z)
 #define FVEC4 vec4
 #define F4(x) vec4(x)
+#define UVEC4 uvec4
 #define MCHEX_F_INF uintBitsToFloat(0x7F800000u)
 #define IN_RANGE4(d, b) mix(F4(MCHEX_F_INF), d, lessThanEqual(d, F4(b)))
 #endif
@@ -198,11 +217,12 @@ INLINE ClosestPoint closest_point_on_triangle(DVEC3 p, DVEC3 a, DVEC3 b, DVEC3 c
 
 INLINE DVEC3 slot_corner(SCENE_PARAMS_ uint slot, int c) {
   uint i = 9u * slot + 3u * CAST(uint, c);
-  return D3(slot_corners[i], slot_corners[i + 1u], slot_corners[i + 2u]);
+  return D3(SLOT_CORNER(i), SLOT_CORNER(i + 1u), SLOT_CORNER(i + 2u));
 }
 
 // Component c of v (OpenCL C 1.2 has no run-time index into a vector).
 INLINE float lane4(FVEC4 v, int c) { return c == 0 ? v.x : (c == 1 ? v.y : (c == 2 ? v.z : v.w)); }
+INLINE uint ulane4(UVEC4 v, int c) { return c == 0 ? v.x : (c == 1 ? v.y : (c == 2 ? v.z : v.w)); }
 
 // Lower bounds of the squared distance from p to the triangles under each of wide node n's four
 // children (core/device_scene.h wide_boxes), less the slack; +inf for an absent child.
@@ -210,8 +230,8 @@ INLINE FVEC4 children_distance2(SCENE_PARAMS_ uint n, FVEC3 p, float slack) {
   uint b = CAST(uint, MCHEX_WIDE_NODE_FLOAT4S) * n;
   FVEC4 d2 = F4(0.0f);
   for (uint a = 0u; a < 3u; ++a) {
-    FVEC4 t = wide_boxes[b + 3u * a] * p.x + wide_boxes[b + 3u * a + 1u] * p.y + wide_boxes[b + 3u * a + 2u] * p.z;
-    FVEC4 d = max(max(wide_boxes[b + 9u + a] - t, t - wide_boxes[b + 12u + a]) - F4(slack), F4(0.0f));
+    FVEC4 t = WIDE_BOX(b + 3u * a) * p.x + WIDE_BOX(b + 3u * a + 1u) * p.y + WIDE_BOX(b + 3u * a + 2u) * p.z;
+    FVEC4 d = max(max(WIDE_BOX(b + 9u + a) - t, t - WIDE_BOX(b + 12u + a)) - F4(slack), F4(0.0f));
     d2 += d * d;
   }
   return d2;
@@ -221,11 +241,11 @@ INLINE FVEC4 children_distance2(SCENE_PARAMS_ uint n, FVEC3 p, float slack) {
 // leaf_bounds: plane interval and edge lines), less the slack; +inf for an absent lane.
 INLINE FVEC4 triangles_distance2(SCENE_PARAMS_ uint l, FVEC3 p, float slack) {
   uint b = CAST(uint, MCHEX_LEAF_BOUND_FLOAT4S) * l;
-  FVEC4 t = leaf_bounds[b] * p.x + leaf_bounds[b + 1u] * p.y + leaf_bounds[b + 2u] * p.z;
-  FVEC4 dp = max(max(leaf_bounds[b + 3u] - t, t - leaf_bounds[b + 4u]) - F4(slack), F4(0.0f));
-  FVEC4 de = leaf_bounds[b + 5u] * p.x + leaf_bounds[b + 6u] * p.y + leaf_bounds[b + 7u] * p.z - leaf_bounds[b + 14u];
-  de = max(de, leaf_bounds[b + 8u] * p.x + leaf_bounds[b + 9u] * p.y + leaf_bounds[b + 10u] * p.z - leaf_bounds[b + 15u]);
-  de = max(de, leaf_bounds[b + 11u] * p.x + leaf_bounds[b + 12u] * p.y + leaf_bounds[b + 13u] * p.z - leaf_bounds[b + 16u]);
+  FVEC4 t = LEAF_BOUND(b) * p.x + LEAF_BOUND(b + 1u) * p.y + LEAF_BOUND(b + 2u) * p.z;
+  FVEC4 dp = max(max(LEAF_BOUND(b + 3u) - t, t - LEAF_BOUND(b + 4u)) - F4(slack), F4(0.0f));
+  FVEC4 de = LEAF_BOUND(b + 5u) * p.x + LEAF_BOUND(b + 6u) * p.y + LEAF_BOUND(b + 7u) * p.z - LEAF_BOUND(b + 14u);
+  de = max(de, LEAF_BOUND(b + 8u) * p.x + LEAF_BOUND(b + 9u) * p.y + LEAF_BOUND(b + 10u) * p.z - LEAF_BOUND(b + 15u));
+  de = max(de, LEAF_BOUND(b + 11u) * p.x + LEAF_BOUND(b + 12u) * p.y + LEAF_BOUND(b + 13u) * p.z - LEAF_BOUND(b + 16u));
   de = max(de - F4(slack), F4(0.0f));
   return dp * dp + de * de;
 }
@@ -319,7 +339,7 @@ INLINE SurfacePacket closest_on_surface(SCENE_PARAMS_ SurfacePacket q, double sc
     q.hit[l].slot = s;
     q.hit[l].best = closest_point_on_triangle(x, slot_corner(SCENE_ARGS_ s, 0), slot_corner(SCENE_ARGS_ s, 1),
                                               slot_corner(SCENE_ARGS_ s, 2));
-    best_triangle[l] = slot_triangle[s];
+    best_triangle[l] = SLOT_TRIANGLE(s);
     best2[l] = bound_up(q.hit[l].best.squared_distance);
   }
   // Pending nodes, each with every point's lower bound of it when it was pushed (a point whose
@@ -364,7 +384,8 @@ INLINE SurfacePacket closest_on_surface(SCENE_PARAMS_ SurfacePacket q, double sc
     order[1] = s.o1;
     order[2] = s.o2;
     order[3] = s.o3;
-    uint links = CAST(uint, MCHEX_WIDE_NODE_LINKS) * node;
+    // The node's links (core/device_scene.h wide_links): child[4], then count[4].
+    UVEC4 child = WIDE_LINKS4(2u * node), count4 = WIDE_LINKS4(2u * node + 1u);
     // The leaf children's triangles that each point's float bound keeps, as bits 4 c + t, then
     // measured exactly in one loop per point. Collecting first and measuring once costs a few
     // more exact tests than measuring child by child (the bound does not shrink between leaf
@@ -376,12 +397,12 @@ INLINE SurfacePacket closest_on_surface(SCENE_PARAMS_ SurfacePacket q, double sc
     // a masked SIMD compiler would run four times per step whatever the bits).
     uint leaves = 0u;
     for (int c = 0; c < 4; ++c)
-      if (lane4(key, c) != MCHEX_F_INF && wide_links[links + 4u + CAST(uint, c)] != 0u) leaves |= 1u << CAST(uint, c);
+      if (lane4(key, c) != MCHEX_F_INF && ulane4(count4, c) != 0u) leaves |= 1u << CAST(uint, c);
     while (leaves != 0u) {
       int c = LOWEST_BIT(leaves);
       leaves &= leaves - 1u;
-      uint count = wide_links[links + 4u + CAST(uint, c)];
-      uint leaf = wide_links[links + CAST(uint, c)];
+      uint count = ulane4(count4, c);
+      uint leaf = ulane4(child, c);
       for (int l = 0; l < MCHEX_SDF_PACKET; ++l) {
         if (lane4(d2[l], c) <= best2[l]) {
           FVEC4 t2 = triangles_distance2(SCENE_ARGS_ leaf, pf[l], slack[l]);
@@ -397,10 +418,10 @@ INLINE SurfacePacket closest_on_surface(SCENE_PARAMS_ SurfacePacket q, double sc
       while (bits != 0u) {
         int b = LOWEST_BIT(bits);
         bits &= bits - 1u;
-        uint slot = leaf_slot[wide_links[links + CAST(uint, b >> 2)]] + CAST(uint, b & 3);
+        uint slot = LEAF_SLOT(ulane4(child, b >> 2)) + CAST(uint, b & 3);
         ClosestPoint cp = closest_point_on_triangle(q.p[l], slot_corner(SCENE_ARGS_ slot, 0),
                                                     slot_corner(SCENE_ARGS_ slot, 1), slot_corner(SCENE_ARGS_ slot, 2));
-        uint id = slot_triangle[slot];
+        uint id = SLOT_TRIANGLE(slot);
         if (cp.squared_distance < q.hit[l].best.squared_distance ||
             (cp.squared_distance == q.hit[l].best.squared_distance && id < best_triangle[l])) {
           q.hit[l].best = cp;
@@ -412,8 +433,8 @@ INLINE SurfacePacket closest_on_surface(SCENE_PARAMS_ SurfacePacket q, double sc
     }
     for (int i = 3; i >= 0; --i) {
       int c = order[i];
-      if (lane4(key, c) != MCHEX_F_INF && wide_links[links + 4u + CAST(uint, c)] == 0u) {
-        stack_node[top] = wide_links[links + CAST(uint, c)];
+      if (lane4(key, c) != MCHEX_F_INF && ulane4(count4, c) == 0u) {
+        stack_node[top] = ulane4(child, c);
         for (int l = 0; l < MCHEX_SDF_PACKET; ++l) stack_d2[top * MCHEX_SDF_PACKET + l] = lane4(d2[l], c);
         ++top;
       }
@@ -429,7 +450,7 @@ INLINE double signed_value_of(SCENE_PARAMS_ DVEC3 p, SurfaceHit hit) {
   int region = hit.best.region;
   DVEC3 normal;
   if (region < 6) {
-    uint id = slot_features[6u * hit.slot + CAST(uint, region)];
+    uint id = SLOT_FEATURE(6u * hit.slot + CAST(uint, region));
     if (region < 3)
       normal = D3(vertex_normals[3u * id], vertex_normals[3u * id + 1u], vertex_normals[3u * id + 2u]);
     else

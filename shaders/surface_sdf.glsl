@@ -16,6 +16,24 @@
 #include "kernels/dialect.h"
 layout(local_size_x = 64) in;
 
+#ifdef MCHEX_TEXEL_SCENE
+// The search arrays as uniform texel buffers (host/backend_vulkan.cpp makes the views: RGBA32F,
+// RGBA32UI for the links, R32UI, and RG32UI for a double's two halves).
+layout(binding = 0) uniform samplerBuffer wide_boxes;
+layout(binding = 1) uniform usamplerBuffer wide_links;
+layout(binding = 2) uniform samplerBuffer leaf_bounds;
+layout(binding = 3) uniform usamplerBuffer leaf_slot;
+layout(binding = 4) uniform usamplerBuffer slot_triangle;
+layout(binding = 5) uniform usamplerBuffer slot_corners;
+layout(binding = 6) uniform usamplerBuffer slot_features;
+#define WIDE_BOX(i) texelFetch(wide_boxes, int(i))
+#define WIDE_LINKS4(i) texelFetch(wide_links, int(i))
+#define LEAF_BOUND(i) texelFetch(leaf_bounds, int(i))
+#define LEAF_SLOT(i) texelFetch(leaf_slot, int(i)).x
+#define SLOT_TRIANGLE(i) texelFetch(slot_triangle, int(i)).x
+#define SLOT_CORNER(i) packDouble2x32(texelFetch(slot_corners, int(i)).xy)
+#define SLOT_FEATURE(i) texelFetch(slot_features, int(i)).x
+#else
 layout(std430, binding = 0) readonly buffer WideBoxes { vec4 wide_boxes[]; };
 layout(std430, binding = 1) readonly buffer WideLinks { uint wide_links[]; };
 layout(std430, binding = 2) readonly buffer LeafBounds { vec4 leaf_bounds[]; };
@@ -23,6 +41,7 @@ layout(std430, binding = 3) readonly buffer LeafSlot { uint leaf_slot[]; };
 layout(std430, binding = 4) readonly buffer SlotTriangle { uint slot_triangle[]; };
 layout(std430, binding = 5) readonly buffer SlotCorners { double slot_corners[]; };
 layout(std430, binding = 6) readonly buffer SlotFeatures { uint slot_features[]; };
+#endif
 layout(std430, binding = 7) readonly buffer FaceNormals { double face_normals[]; };
 layout(std430, binding = 8) readonly buffer EdgeNormals { double edge_normals[]; };
 layout(std430, binding = 9) readonly buffer VertexNormals { double vertex_normals[]; };

@@ -89,22 +89,25 @@ VulkanBackend& lavapipe() {
   return backend;
 }
 
-// The surface SDF's two walks (kernels/sdf.h): the subgroup walk (lavapipe's default) and one
-// walk per invocation (the fallback for devices without subgroup arithmetic, and GPUs).
-VulkanBackend& lavapipe_walk(VulkanOptions::SdfWalk walk) {
-  static VulkanBackend subgroup([] {
+// The surface SDF's shaders on lavapipe: the subgroup walk (kernels/sdf.h), one walk per
+// invocation reading texel buffers (lavapipe's default) and the same reading storage buffers (the
+// fallback for devices without subgroup arithmetic, scenes over maxTexelBufferElements, and GPUs).
+struct SdfVariant {
+  const char* name;
+  VulkanBackend& backend;
+};
+std::vector<SdfVariant> sdf_variants() {
+  auto make = [](VulkanOptions::SdfWalk walk, bool storage) {
     VulkanOptions o = lavapipe_options();
-    o.sdf_walk = VulkanOptions::SdfWalk::kSubgroup;
+    o.sdf_walk = walk;
+    o.sdf_storage_reads = storage;
     return o;
-  }());
-  static VulkanBackend single([] {
-    VulkanOptions o = lavapipe_options();
-    o.sdf_walk = VulkanOptions::SdfWalk::kSingle;
-    return o;
-  }());
-  return walk == VulkanOptions::SdfWalk::kSubgroup ? subgroup : single;
+  };
+  static VulkanBackend subgroup(make(VulkanOptions::SdfWalk::kSubgroup, false));
+  static VulkanBackend single(make(VulkanOptions::SdfWalk::kSingle, false));
+  static VulkanBackend storage(make(VulkanOptions::SdfWalk::kSingle, true));
+  return {{"subgroup walk", subgroup}, {"single walk, texel reads", single}, {"single walk, storage reads", storage}};
 }
-constexpr VulkanOptions::SdfWalk kWalks[] = {VulkanOptions::SdfWalk::kSubgroup, VulkanOptions::SdfWalk::kSingle};
 
 std::uint64_t bits(double x) { return std::bit_cast<std::uint64_t>(x); }
 
@@ -488,10 +491,16 @@ std::vector<std::pair<std::string, TriangleSurface>> closed_open_and_degenerate_
 TEST(vulkan, SurfaceSdfIsBitIdenticalOnClosedOpenAndDegenerateSurfaces) {
   std::mt19937_64 rng(22);
   const auto surfaces = closed_open_and_degenerate_surfaces();
-  // lavapipe has subgroup arithmetic (subgroups of 8), but the default is one walk per invocation.
+  // lavapipe has subgroup arithmetic (subgroups of 8), but the default is one walk per invocation
+  // over texel buffers.
   EXPECT_FALSE(lavapipe().sdf_subgroup_walk());
-  EXPECT_TRUE(lavapipe_walk(VulkanOptions::SdfWalk::kSubgroup).sdf_subgroup_walk());
-  EXPECT_FALSE(lavapipe_walk(VulkanOptions::SdfWalk::kSingle).sdf_subgroup_walk());
+  EXPECT_TRUE(lavapipe().sdf_texel_reads());
+  const std::vector<SdfVariant> variants = sdf_variants();
+  EXPECT_TRUE(variants[0].backend.sdf_subgroup_walk());
+  EXPECT_FALSE(variants[1].backend.sdf_subgroup_walk());
+  EXPECT_TRUE(variants[1].backend.sdf_texel_reads());
+  EXPECT_FALSE(variants[2].backend.sdf_subgroup_walk());
+  EXPECT_FALSE(variants[2].backend.sdf_texel_reads());
   for (const auto& [name, s] : surfaces) {
     SCOPED_TRACE(name);
     const std::vector<Vec3> pts = adversarial_points(s, rng);
@@ -500,10 +509,10 @@ TEST(vulkan, SurfaceSdfIsBitIdenticalOnClosedOpenAndDegenerateSurfaces) {
     reference.evaluate(pts, want);
     SdfSource source;
     source.surface = &s;
-    for (const VulkanOptions::SdfWalk walk : kWalks) {
-      SCOPED_TRACE(walk == VulkanOptions::SdfWalk::kSubgroup ? "subgroup walk" : "single walk");
+    for (const SdfVariant& v : sdf_variants()) {
+      SCOPED_TRACE(v.name);
       std::vector<double> got(pts.size());
-      lavapipe_walk(walk).signed_distance(source, pts, got);
+      v.backend.signed_distance(source, pts, got);
       expect_bit_equal(got, want, pts);
     }
   }
@@ -530,10 +539,10 @@ TEST(vulkan, SurfaceSdfOnAGridOverAFineTorusIsBitIdentical) {
   SurfaceSdf(torus).evaluate(pts, want);
   SdfSource source;
   source.surface = &torus;
-  for (const VulkanOptions::SdfWalk walk : kWalks) {
-    SCOPED_TRACE(walk == VulkanOptions::SdfWalk::kSubgroup ? "subgroup walk" : "single walk");
+  for (const SdfVariant& v : sdf_variants()) {
+    SCOPED_TRACE(v.name);
     std::vector<double> got(pts.size());
-    lavapipe_walk(walk).signed_distance(source, pts, got);
+    v.backend.signed_distance(source, pts, got);
     expect_bit_equal(got, want, pts);
   }
 }
@@ -577,9 +586,9 @@ TEST(vulkan, SurfaceSdfAtTheCentreOfAFineSphereWhereTheWalkOpensTheWholeTree) {
   SdfSource source;
   source.surface = &sphere;
   SCOPED_TRACE(std::to_string(sphere.triangles.size()) + " triangles");
-  for (const VulkanOptions::SdfWalk walk : kWalks) {
-    SCOPED_TRACE(walk == VulkanOptions::SdfWalk::kSubgroup ? "subgroup walk" : "single walk");
-    VulkanBackend& b = lavapipe_walk(walk);
+  for (const SdfVariant& v : sdf_variants()) {
+    SCOPED_TRACE(v.name);
+    VulkanBackend& b = v.backend;
     EXPECT_EQ(b.sdf_loop_budget(), 65535u - 1024u);  // llvmpipe: the budget is on, the whole limit usable
     std::fill(got.begin(), got.end(), 0.0);
     const std::size_t before = b.profile().host_points;

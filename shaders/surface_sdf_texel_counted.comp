@@ -1,0 +1,9 @@
+#version 450
+// shaders/surface_sdf_single_counted.comp reading the scene's search arrays from uniform texel
+// buffers (shaders/surface_sdf.glsl MCHEX_TEXEL_SCENE): llvmpipe's default.
+#extension GL_KHR_shader_subgroup_basic : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
+#define GROUP_MAX(x) subgroupMax(x)
+#define MCHEX_TEXEL_SCENE
+#extension GL_GOOGLE_include_directive : require
+#include "shaders/surface_sdf.glsl"
