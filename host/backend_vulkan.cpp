@@ -44,7 +44,7 @@ constexpr std::uint32_t kLlvmpipeLoopLimit = 65535, kLoopBudgetMargin = 1024;
 // The texel formats of shaders/surface_sdf.glsl's MCHEX_TEXEL_SCENE bindings.
 const std::vector<VkFormat> kSceneTexelFormats = {
     VK_FORMAT_R32G32B32A32_SFLOAT, VK_FORMAT_R32G32B32A32_UINT, VK_FORMAT_R32G32B32A32_SFLOAT, VK_FORMAT_R32_UINT,
-    VK_FORMAT_R32_UINT,            VK_FORMAT_R32G32_UINT, VK_FORMAT_R32_UINT};
+    VK_FORMAT_R32_UINT,            VK_FORMAT_R32G32B32A32_UINT, VK_FORMAT_R32_UINT};
 
 VkPhysicalDeviceSubgroupProperties subgroup_properties(const vk::PhysicalDevice& d) {
   VkPhysicalDeviceSubgroupProperties sub{};
@@ -203,7 +203,10 @@ struct VulkanBackend::Impl {
     out.leaf_bounds = upload(ds.leaf_bounds, "triangle bounds");
     out.leaf_slot = upload(ds.leaf_slot, "leaf slots");
     out.slot_triangle = upload(ds.slot_triangle, "leaf triangle ids");
-    out.slot_corners = upload(ds.slot_corners, "triangle corners");
+    // Padded to an even count: the texel reads take two doubles at a time.
+    std::vector<double> corners = ds.slot_corners;
+    if (corners.size() % 2) corners.push_back(0.0);
+    out.slot_corners = upload(corners, "triangle corners");
     out.slot_features = upload(ds.slot_features, "triangle features");
     out.face_normals = upload(ds.face_normals, "face pseudonormals");
     out.edge_normals = upload(ds.edge_normals, "edge pseudonormals");
@@ -212,7 +215,7 @@ struct VulkanBackend::Impl {
     const std::size_t limit = device->physical().max_texel_buffer_elements;
     out.texel_fits = ds.wide_boxes.size() <= limit && ds.wide_links.size() / 4 <= limit &&
                      ds.leaf_bounds.size() <= limit && ds.leaf_slot.size() <= limit &&
-                     ds.slot_triangle.size() <= limit && ds.slot_corners.size() <= limit &&
+                     ds.slot_triangle.size() <= limit && (ds.slot_corners.size() + 1) / 2 <= limit &&
                      ds.slot_features.size() <= limit;
     scene.emplace(std::move(out));
     return *scene;

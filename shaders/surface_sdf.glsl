@@ -18,7 +18,7 @@ layout(local_size_x = 64) in;
 
 #ifdef MCHEX_TEXEL_SCENE
 // The search arrays as uniform texel buffers (host/backend_vulkan.cpp makes the views: RGBA32F,
-// RGBA32UI for the links, R32UI, and RG32UI for a double's two halves).
+// RGBA32UI for the links and for two doubles of the corners, R32UI).
 layout(binding = 0) uniform samplerBuffer wide_boxes;
 layout(binding = 1) uniform usamplerBuffer wide_links;
 layout(binding = 2) uniform samplerBuffer leaf_bounds;
@@ -31,7 +31,12 @@ layout(binding = 6) uniform usamplerBuffer slot_features;
 #define LEAF_BOUND(i) texelFetch(leaf_bounds, int(i))
 #define LEAF_SLOT(i) texelFetch(leaf_slot, int(i)).x
 #define SLOT_TRIANGLE(i) texelFetch(slot_triangle, int(i)).x
-#define SLOT_CORNER(i) packDouble2x32(texelFetch(slot_corners, int(i)).xy)
+#define SLOT_CORNER_PAIRS(k, lo, hi)                  \
+  {                                                   \
+    uvec4 pair_ = texelFetch(slot_corners, int(k));   \
+    lo = packDouble2x32(pair_.xy);                    \
+    hi = packDouble2x32(pair_.zw);                    \
+  }
 #define SLOT_FEATURE(i) texelFetch(slot_features, int(i)).x
 #else
 layout(std430, binding = 0) readonly buffer WideBoxes { vec4 wide_boxes[]; };
