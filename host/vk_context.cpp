@@ -176,7 +176,7 @@ Instance::~Instance() {
 // ---- Buffer ----------------------------------------------------------------------------------
 
 Buffer::Buffer(VkDevice device, const VkPhysicalDeviceMemoryProperties& memory, VkDeviceSize bytes)
-    : device_(device), bytes_(bytes) {
+    : device_(device), bytes_(bytes), capacity_(bytes ? bytes : 4) {
   VkBufferCreateInfo info{};
   info.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
   info.size = bytes ? bytes : 4;  // a zero-sized buffer is invalid; an empty batch binds 4 bytes
@@ -213,6 +213,12 @@ Buffer::Buffer(VkDevice device, const VkPhysicalDeviceMemoryProperties& memory, 
 
 void Buffer::release() {
   if (!device_) return;
+  if (pool_ && buffer_ && memory_ && mapped_ && pool_->give({buffer_, memory_, capacity_, mapped_})) {
+    mapped_ = nullptr;
+    buffer_ = VK_NULL_HANDLE;
+    memory_ = VK_NULL_HANDLE;
+    return;
+  }
   if (mapped_) vkUnmapMemory(device_, memory_);
   if (buffer_) vkDestroyBuffer(device_, buffer_, nullptr);
   if (memory_) vkFreeMemory(device_, memory_, nullptr);
@@ -228,7 +234,9 @@ Buffer::Buffer(Buffer&& o) noexcept
       buffer_(std::exchange(o.buffer_, VK_NULL_HANDLE)),
       memory_(std::exchange(o.memory_, VK_NULL_HANDLE)),
       bytes_(std::exchange(o.bytes_, 0)),
-      mapped_(std::exchange(o.mapped_, nullptr)) {}
+      capacity_(std::exchange(o.capacity_, 0)),
+      mapped_(std::exchange(o.mapped_, nullptr)),
+      pool_(std::exchange(o.pool_, nullptr)) {}
 
 Buffer& Buffer::operator=(Buffer&& o) noexcept {
   if (this != &o) {
@@ -237,9 +245,43 @@ Buffer& Buffer::operator=(Buffer&& o) noexcept {
     buffer_ = std::exchange(o.buffer_, VK_NULL_HANDLE);
     memory_ = std::exchange(o.memory_, VK_NULL_HANDLE);
     bytes_ = std::exchange(o.bytes_, 0);
+    capacity_ = std::exchange(o.capacity_, 0);
     mapped_ = std::exchange(o.mapped_, nullptr);
+    pool_ = std::exchange(o.pool_, nullptr);
   }
   return *this;
+}
+
+bool BufferPool::give(const Entry& e) {
+  if (bytes_ + e.capacity > kMaxBytes) return false;
+  entries_.push_back(e);
+  bytes_ += e.capacity;
+  return true;
+}
+
+bool BufferPool::take(VkDeviceSize bytes, Entry& out) {
+  // "Not much more": a small request must not tie up a large buffer that a later large one needs.
+  const VkDeviceSize most = 2 * bytes + (VkDeviceSize(1) << 20);
+  std::size_t best = entries_.size();
+  for (std::size_t i = 0; i < entries_.size(); ++i)
+    if (entries_[i].capacity >= bytes && entries_[i].capacity <= most &&
+        (best == entries_.size() || entries_[i].capacity < entries_[best].capacity))
+      best = i;
+  if (best == entries_.size()) return false;
+  out = entries_[best];
+  bytes_ -= out.capacity;
+  entries_.erase(entries_.begin() + static_cast<std::ptrdiff_t>(best));
+  return true;
+}
+
+void BufferPool::destroy_all(VkDevice device) {
+  for (const Entry& e : entries_) {
+    vkUnmapMemory(device, e.memory);
+    vkDestroyBuffer(device, e.buffer, nullptr);
+    vkFreeMemory(device, e.memory, nullptr);
+  }
+  entries_.clear();
+  bytes_ = 0;
 }
 
 // ---- Device ----------------------------------------------------------------------------------
@@ -393,6 +435,7 @@ Device::~Device() {
 
 void Device::release() {
   if (!device_) return;
+  pool_.destroy_all(device_);
   if (cache_) vkDestroyPipelineCache(device_, cache_, nullptr);
   if (fence_) vkDestroyFence(device_, fence_, nullptr);
   if (descriptor_pool_) vkDestroyDescriptorPool(device_, descriptor_pool_, nullptr);
@@ -401,7 +444,22 @@ void Device::release() {
   device_ = VK_NULL_HANDLE;
 }
 
-Buffer Device::make_buffer(VkDeviceSize bytes) const { return Buffer(device_, memory_, bytes); }
+Buffer Device::make_buffer(VkDeviceSize bytes) const {
+  Buffer b;
+  BufferPool::Entry e;
+  if (pool_.take(std::max<VkDeviceSize>(bytes, 4), e)) {
+    b.device_ = device_;
+    b.buffer_ = e.buffer;
+    b.memory_ = e.memory;
+    b.capacity_ = e.capacity;
+    b.mapped_ = e.mapped;
+    b.bytes_ = bytes;
+  } else {
+    b = Buffer(device_, memory_, bytes);
+  }
+  b.pool_ = &pool_;
+  return b;
+}
 
 Pipeline Device::make_pipeline(std::span<const std::uint32_t> spirv, std::uint32_t num_buffers,
                                std::uint32_t push_bytes, std::vector<VkFormat> texel_formats) {
