@@ -106,6 +106,7 @@ class BufferPool {
   // The smallest kept buffer of at least `bytes` and not much more, removed from the pool.
   bool take(VkDeviceSize bytes, Entry& out);
   void destroy_all(VkDevice device);
+  VkDeviceSize bytes() const { return bytes_; }
 
  private:
   std::vector<Entry> entries_;
@@ -142,6 +143,7 @@ class Device {
   const PhysicalDevice& physical() const { return physical_; }
   // A buffer of `bytes`, from the pool when it holds one that fits.
   Buffer make_buffer(VkDeviceSize bytes) const;
+  VkDeviceSize pooled_bytes() const { return pool_.bytes(); }  // memory the pool holds now
   Pipeline make_pipeline(std::span<const std::uint32_t> spirv, std::uint32_t num_buffers,
                          std::uint32_t push_bytes, std::vector<VkFormat> texel_formats = {});
   void destroy(Pipeline& p);

@@ -36,6 +36,7 @@
 #include "tests/backend_samples.h"
 #include "host/backend_cpu.h"
 #include "host/backend_vulkan.h"
+#include "host/vk_context.h"
 #include "host/vk_spirv.h"
 
 namespace fs = std::filesystem;
@@ -370,6 +371,43 @@ TEST(vulkan, ClassifyRefusesNonFiniteValuesLikeTheReference) {
   values[16] = std::numeric_limits<double>::infinity();
   EXPECT_NO_THROW(classify_cells_codes(lavapipe(), complex, values, codes, offsets));
   EXPECT_EQ(offsets[2], 16u);
+}
+
+TEST(vulkan, ReleasedBuffersAreReusedWithTheSizeAskedFor) {
+  vk::Instance instance;
+  const vk::PhysicalDevice* llvmpipe = nullptr;
+  for (const vk::PhysicalDevice& d : instance.devices())
+    if (d.driver_id == VK_DRIVER_ID_MESA_LLVMPIPE) llvmpipe = &d;
+  ASSERT_NE(llvmpipe, nullptr);
+  vk::Device device(instance, *llvmpipe, {});
+  VkBuffer first = VK_NULL_HANDLE;
+  {
+    vk::Buffer a = device.make_buffer(1000);
+    first = a.handle();
+  }
+  vk::Buffer b = device.make_buffer(900);  // the released one, sized as asked
+  EXPECT_EQ(b.handle(), first);
+  EXPECT_EQ(b.size(), 900u);
+  vk::Buffer c = device.make_buffer(900);  // the pool is empty again
+  EXPECT_NE(c.handle(), first);
+  // A small request does not take a large buffer; a large one that fits does.
+  const VkDeviceSize mib = VkDeviceSize(1) << 20;
+  VkBuffer large = VK_NULL_HANDLE;
+  {
+    vk::Buffer l = device.make_buffer(64 * mib);
+    large = l.handle();
+  }
+  vk::Buffer small = device.make_buffer(1000);
+  EXPECT_NE(small.handle(), large);
+  vk::Buffer fits = device.make_buffer(40 * mib);
+  EXPECT_EQ(fits.handle(), large);
+  EXPECT_EQ(fits.size(), 40 * mib);
+  // Beyond the pool's limit a released buffer is freed, not kept.
+  const VkDeviceSize kept = device.pooled_bytes();
+  { vk::Buffer h = device.make_buffer(vk::BufferPool::kMaxBytes + 1); }
+  EXPECT_EQ(device.pooled_bytes(), kept);
+  { vk::Buffer h = device.make_buffer(mib); }
+  EXPECT_EQ(device.pooled_bytes(), kept + mib);
 }
 
 TEST(vulkan, PipelineCacheIsWrittenAndReusedByASecondBackend) {
