@@ -94,6 +94,9 @@
 #define WIDE_LINKS4(i) uvec4(wide_links[4u * (i)], wide_links[4u * (i) + 1u], wide_links[4u * (i) + 2u], wide_links[4u * (i) + 3u])
 #endif
 #endif
+#if MCHEX_WIDE_NODE_LINKS != 8
+#error "the walk reads a node's links as two 4-vectors: child[4], count[4]"
+#endif
 
 #ifdef __OPENCL_C_VERSION__
 #define DVEC3 double3
