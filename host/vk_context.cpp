@@ -554,9 +554,10 @@ void Device::dispatch(const Pipeline& p, std::span<const BufferRange> buffers, c
     writes[i].descriptorType = descriptor_type(p, static_cast<std::uint32_t>(i));
     if (p.texel_formats[i] != VK_FORMAT_UNDEFINED) {
       const VkDeviceSize texel = texel_bytes(p.texel_formats[i]);
-      bytes = std::max(bytes, texel);
-      if (bytes / texel > physical_.max_texel_buffer_elements)
-        throw std::logic_error("vulkan: a texel binding over maxTexelBufferElements (caller's bug)");
+      // Texel bindings are whole arrays (offset 0 meets minTexelBufferOffsetAlignment) of at
+      // least one texel, at most maxTexelBufferElements.
+      if (b.offset != 0 || bytes < texel || bytes / texel > physical_.max_texel_buffer_elements)
+        throw std::logic_error("vulkan: a texel binding that is not a whole array within the texel limits");
       VkBufferViewCreateInfo view{};
       view.sType = VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO;
       view.buffer = b.buffer->handle();
