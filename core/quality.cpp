@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 
 namespace mchex {
@@ -21,7 +22,14 @@ struct Edges {
   Vec3 eta[2][2];   // [a][c]
   Vec3 zeta[2][2];  // [a][b]
 
-  explicit Edges(const HexCorners& p) {
+  // Whether the four edges of each direction are the same vector, bit for bit: a
+  // parallelepiped, such as every cell the mesher leaves uncut and the 8 hexes of its midpoint
+  // subdivision (most hexes of a mesh). Then every product of edge vectors below has one value
+  // per combination of directions, computed once from the same doubles: the same results as
+  // computing each, for less work (tests: quality.ParallelepipedShortcutIsBitIdentical).
+  bool parallel = false;
+
+  explicit Edges(const HexCorners& p, bool shortcuts = true) {
     for (int u = 0; u < 2; ++u) {
       for (int v = 0; v < 2; ++v) {
         xi[u][v] = p[corner_index(1, u, v)] - p[corner_index(0, u, v)];
@@ -29,11 +37,26 @@ struct Edges {
         zeta[u][v] = p[corner_index(u, v, 1)] - p[corner_index(u, v, 0)];
       }
     }
+    auto same = [](const Vec3 (&e)[2][2]) {
+      return std::memcmp(&e[0][0], &e[0][1], sizeof(Vec3)) == 0 &&
+             std::memcmp(&e[0][0], &e[1][0], sizeof(Vec3)) == 0 &&
+             std::memcmp(&e[0][0], &e[1][1], sizeof(Vec3)) == 0;
+    };
+    parallel = shortcuts && same(xi) && same(eta) && same(zeta);
   }
 
   // The 12 edge lengths, in for_each order.
   std::array<double, 12> lengths() const {
     std::array<double, 12> l{};
+    if (parallel) {
+      const double x = norm(xi[0][0]), y = norm(eta[0][0]), z = norm(zeta[0][0]);
+      for (int n = 0; n < 12; n += 3) {
+        l[n] = x;
+        l[n + 1] = y;
+        l[n + 2] = z;
+      }
+      return l;
+    }
     int n = 0;
     for_each([&](Vec3 v) { l[n++] = norm(v); });
     return l;
@@ -94,7 +117,40 @@ constexpr TripleTerms make_triple_terms() {
 }
 constexpr TripleTerms kTripleTerms = make_triple_terms();
 
+// Each coefficient, the average of its triples in the table's order.
+// The mean of `terms` values from their sum: terms is 1, 2, 4 or 8, so the product by its
+// reciprocal is the same double as the quotient.
+double mean_of_sum(double sum, int terms) {
+  return sum * (terms == 1 ? 1.0 : terms == 2 ? 0.5 : terms == 4 ? 0.25 : 0.125);
+}
+
+BernsteinCoefficients bernstein_from_triples(const std::array<double, 64>& triples) {
+  BernsteinCoefficients beta{};
+  for (int n = 0; n < 27; ++n) {
+    double sum = 0;
+    for (int t = 0; t < kTripleTerms.count[n]; ++t) sum += triples[kTripleTerms.index[n][t]];
+    beta[n] = mean_of_sum(sum, kTripleTerms.count[n]);
+  }
+  return beta;
+}
+
 BernsteinCoefficients bernstein_from_edges(const Edges& e) {
+  std::array<double, 64> triples;
+  if (e.parallel) {
+    // Every cross product below is cross(eta, zeta) and every triple the same dot t, so a
+    // coefficient depends only on how many triples it averages: the sum of that many t's, in
+    // bernstein_from_triples's operations.
+    const double t = dot(e.xi[0][0], cross(e.eta[0][0], e.zeta[0][0]));
+    double by_count[9] = {};
+    for (int terms : {1, 2, 4, 8}) {
+      double sum = 0;
+      for (int i = 0; i < terms; ++i) sum += t;
+      by_count[terms] = mean_of_sum(sum, terms);
+    }
+    BernsteinCoefficients beta{};
+    for (int n = 0; n < 27; ++n) beta[n] = by_count[kTripleTerms.count[n]];
+    return beta;
+  }
   // triple(x, y, z) = dot(x, cross(y, z)): the 16 cross products of an eta and a zeta edge, each
   // used by four of the 64 triples, computed once (the same operations, so the same doubles).
   Vec3 eta_zeta[2][2][2][2];  // [a][c'][a'][b']
@@ -102,7 +158,6 @@ BernsteinCoefficients bernstein_from_edges(const Edges& e) {
     for (int c = 0; c < 2; ++c)
       for (int a2 = 0; a2 < 2; ++a2)
         for (int b = 0; b < 2; ++b) eta_zeta[a][c][a2][b] = cross(e.eta[a][c], e.zeta[a2][b]);
-  std::array<double, 64> triples;
   for (int a = 0; a < 2; ++a)
     for (int a2 = 0; a2 < 2; ++a2)
       for (int b = 0; b < 2; ++b)
@@ -110,15 +165,7 @@ BernsteinCoefficients bernstein_from_edges(const Edges& e) {
           for (int c = 0; c < 2; ++c)
             for (int c2 = 0; c2 < 2; ++c2)
               triples[((((a * 2 + a2) * 2 + b) * 2 + b2) * 2 + c) * 2 + c2] = dot(e.xi[b][c], eta_zeta[a][c2][a2][b2]);
-  BernsteinCoefficients beta{};
-  for (int n = 0; n < 27; ++n) {
-    double sum = 0;
-    for (int t = 0; t < kTripleTerms.count[n]; ++t) sum += triples[kTripleTerms.index[n][t]];
-    // count is 1, 2, 4 or 8: the product by its reciprocal is the same double as the quotient.
-    const int terms = kTripleTerms.count[n];
-    beta[n] = sum * (terms == 1 ? 1.0 : terms == 2 ? 0.5 : terms == 4 ? 0.25 : 0.125);
-  }
-  return beta;
+  return bernstein_from_triples(triples);
 }
 
 // Certificate. Each B_i^2(xi) B_j^2(eta) B_k^2(zeta) is >= 0 on [0,1]^3 and together they sum
@@ -175,6 +222,14 @@ Vec3 normalized_by(Vec3 v, double length) { return length > 0 ? v / length : Vec
 
 std::array<double, 9> scaled_from_edges(const Edges& e, const std::array<double, 12>& lengths) {
   // Each edge meets two corners: normalized once.
+  std::array<double, 9> s{};
+  if (e.parallel) {
+    // Every corner's triple is the same one.
+    s.fill(triple(normalized_by(e.xi[0][0], lengths[0]), normalized_by(e.eta[0][0], lengths[1]),
+                  normalized_by(e.zeta[0][0], lengths[2])));
+    s[8] = scaled_triple(bilinear(e.xi, 0.5, 0.5), bilinear(e.eta, 0.5, 0.5), bilinear(e.zeta, 0.5, 0.5));
+    return s;
+  }
   Vec3 xi[2][2], eta[2][2], zeta[2][2];
   for (int u = 0; u < 2; ++u)
     for (int v = 0; v < 2; ++v) {
@@ -183,7 +238,6 @@ std::array<double, 9> scaled_from_edges(const Edges& e, const std::array<double,
       eta[u][v] = normalized_by(e.eta[u][v], lengths[n + 1]);
       zeta[u][v] = normalized_by(e.zeta[u][v], lengths[n + 2]);
     }
-  std::array<double, 9> s{};
   for (int c = 0; c < 2; ++c) {
     for (int b = 0; b < 2; ++b) {
       for (int a = 0; a < 2; ++a) {
@@ -250,8 +304,9 @@ double scaled_jacobian(const HexCorners& c) {
   return *std::min_element(s.begin(), s.end());
 }
 
-HexQuality hex_quality(const HexCorners& c) {
-  const Edges e(c);
+namespace {
+
+HexQuality quality_of(const Edges& e) {
   const BernsteinCoefficients beta = bernstein_from_edges(e);
   HexQuality q;
   // The corner values of det J are the Bernstein coefficients with all indices in {0, 2}.
@@ -272,5 +327,15 @@ HexQuality hex_quality(const HexCorners& c) {
   q.volume = volume_of(beta);
   return q;
 }
+
+}  // namespace
+
+HexQuality hex_quality(const HexCorners& c) { return quality_of(Edges(c)); }
+
+bool is_parallelepiped(const HexCorners& c) { return Edges(c).parallel; }
+
+namespace detail {
+HexQuality hex_quality_without_shortcuts(const HexCorners& c) { return quality_of(Edges(c, false)); }
+}  // namespace detail
 
 }  // namespace mchex

@@ -83,5 +83,14 @@ struct HexQuality {
   bool certified() const { return min_bernstein > 0; }
 };
 HexQuality hex_quality(const HexCorners& c);
+// Whether the four edges of each direction are the same vector, bit for bit (then hex_quality
+// computes each product of edge vectors once: the same results, for less work).
+bool is_parallelepiped(const HexCorners& c);
+
+namespace detail {
+// hex_quality computing every product of edge vectors, also where a parallelepiped's are equal
+// (for the test that the shortcut changes no bit).
+HexQuality hex_quality_without_shortcuts(const HexCorners& c);
+}  // namespace detail
 
 }  // namespace mchex

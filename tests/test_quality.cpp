@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <random>
 
@@ -170,6 +171,42 @@ TEST(quality, AffineIntegerHexesHaveEveryCoefficientEqualToDetA) {
     for (double s : scaled_jacobians(c)) EXPECT_NEAR(s, expected, 1e-15);
     const double h = (4 * norm(a.col[0]) + 4 * norm(a.col[1]) + 4 * norm(a.col[2])) / 12;
     EXPECT_NEAR(min_bernstein_scaled(c), d / (h * h * h), 1e-14 * d / (h * h * h));
+  }
+}
+
+// hex_quality computes each product of edge vectors once for a parallelepiped (the four edges
+// of each direction equal bit for bit); every field must be the same double as computing them all.
+TEST(quality, ParallelepipedShortcutIsBitIdentical) {
+  auto same_bits = [](double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; };
+  auto expect_identical = [&](const HexCorners& c, const char* what, int t) {
+    const HexQuality q = hex_quality(c), full = detail::hex_quality_without_shortcuts(c);
+    EXPECT_TRUE(same_bits(q.min_corner_jacobian, full.min_corner_jacobian)) << what << " " << t;
+    EXPECT_TRUE(same_bits(q.min_bernstein, full.min_bernstein)) << what << " " << t;
+    EXPECT_TRUE(same_bits(q.min_bernstein_scaled, full.min_bernstein_scaled)) << what << " " << t;
+    EXPECT_TRUE(same_bits(q.scaled_jacobian, full.scaled_jacobian)) << what << " " << t;
+    EXPECT_TRUE(same_bits(q.edge_ratio, full.edge_ratio)) << what << " " << t;
+    EXPECT_TRUE(same_bits(q.volume, full.volume)) << what << " " << t;
+  };
+  std::mt19937_64 rng(13);
+  std::uniform_real_distribution<double> coord(-3, 3);
+  for (int t = 0; t < 500; ++t) {
+    // Exact arithmetic (small integer maps): a parallelepiped, sheared, possibly inverted.
+    const HexCorners sheared = map_corners(kUnitCube, random_affine(rng, true));
+    ASSERT_TRUE(is_parallelepiped(sheared)) << t;
+    expect_identical(sheared, "integer affine", t);
+    // Axis-aligned boxes with any coordinates (the uncut cells of a grid and their subdivision),
+    // either way round in each axis, some flat.
+    double x[2] = {coord(rng), coord(rng)}, y[2] = {coord(rng), coord(rng)}, z[2] = {coord(rng), coord(rng)};
+    if (t % 50 == 0) z[1] = z[0];
+    HexCorners box;
+    for (int i = 0; i < 8; ++i) box[i] = {x[kUnitCube[i].x > 0], y[kUnitCube[i].y > 0], z[kUnitCube[i].z > 0]};
+    ASSERT_TRUE(is_parallelepiped(box)) << t;
+    expect_identical(box, "box", t);
+    // One corner moved by an ulp: not a parallelepiped, the full computation.
+    HexCorners nudged = box;
+    nudged[6].x = std::nextafter(nudged[6].x, 10.0);
+    EXPECT_FALSE(is_parallelepiped(nudged)) << t;
+    expect_identical(nudged, "nudged", t);
   }
 }
 
