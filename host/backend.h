@@ -95,6 +95,9 @@ struct DeviceInfo {
   std::uint32_t compute_units = 0;      // 0: the API does not say (Vulkan has no such property)
   std::string version;   // API version and driver version, as the driver states them
   std::string note;      // why the backend cannot use this device, if it cannot (e.g. no fp64)
+  // How a backend made for this device runs its stages here (the shader or kernel variants it
+  // chose), for reports and profiling; empty in device lists.
+  std::string kernels;
 };
 
 class Backend {

@@ -37,6 +37,7 @@ class CpuBackend final : public Backend {
     info_.type = "cpu";
     info_.fp64 = true;
     info_.precision = "fp64";
+    info_.kernels = "core/ in double, Embree BVH search, TBB threads";
     info_.compute_units = uint32_t(tbb::info::default_concurrency());
   }
   const DeviceInfo& device() const override { return info_; }

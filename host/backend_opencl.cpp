@@ -199,7 +199,18 @@ struct OpenclBackend::Impl {
     fp32 = !info.fp64 || options.force_fp32 || fp32_forced_by_environment();
     info.precision = fp32 ? "fp32" : "fp64";
     host_unified = options.zero_copy && device.getInfo<CL_DEVICE_HOST_UNIFIED_MEMORY>() == CL_TRUE;
+    info.kernels =
+        fp32 ? "surface SDF: float candidate search (kernels/sdf_fp32.h), values on the host in double; shapes, "
+               "refinement error and classification on the host"
+             : fmt::format("surface SDF: walks of {} point(s), {} points per work item; classification: {} cells per "
+                           "work item{}",
+                           sdf_packet(), sdf_points_per_item(), classify_cells_per_item(),
+                           host_unified ? "; the host's arrays used in place" : "");
   }
+
+  // MC33 classification: runs of cells per work item on CPU devices (core's loop, in effect),
+  // one each on GPUs.
+  cl_uint classify_cells_per_item() const { return info.type == "gpu" ? 1 : 16; }
 
   int sdf_packet() const { return info.type == "gpu" ? 1 : 8; }
   // Surface points per work item: several packets on a CPU device (each seeded by the one
@@ -637,8 +648,7 @@ void OpenclBackend::classify_cells(const HexComplex& complex, std::span<const do
       classify.setArg(arg++, cl_uint(want_words));
       classify.setArg(arg++, bad);
       classify.setArg(arg++, cl_uint(count));
-      // CPU devices take runs of cells per work item (core's loop, in effect); GPUs one each.
-      const cl_uint cells_per_item = m.info.type == "gpu" ? 1 : 16;
+      const cl_uint cells_per_item = m.classify_cells_per_item();
       classify.setArg(arg++, cells_per_item);
       m.run("classify", classify, (count + cells_per_item - 1) / cells_per_item);
 

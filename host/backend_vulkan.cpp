@@ -265,6 +265,10 @@ struct VulkanBackend::Impl {
         }
       }
       surface_sdf32 = device->make_pipeline(code, 6, 16);
+      info.kernels = fmt::format(
+          "surface SDF: float candidate search (shaders/{}.comp), {} point(s) per invocation{}, values on the host "
+          "in double; shapes, refinement error and classification on the host",
+          subgroups ? "surface_sdf32_counted" : "surface_sdf32", sdf_points_per_invocation, budget_text());
       pipeline_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       device->save_cache();
       return;
@@ -310,6 +314,13 @@ struct VulkanBackend::Impl {
     }
     surface_sdf = device->make_pipeline(code, 12, 24);
     shape_sdf = device->make_pipeline(spirv::shape_sdf, 2, 8);
+    info.kernels = fmt::format(
+        "surface SDF: {}, {} point(s) per invocation, {}{}", sdf_subgroup ? "one walk per subgroup" : "one walk per invocation",
+        sdf_points_per_invocation,
+        surface_sdf_texel.pipeline ? "search arrays in texel buffers (storage buffers past maxTexelBufferElements), "
+                                     "every triangle of a leaf in range measured"
+                                   : "search arrays in storage buffers",
+        budget_text());
     pipeline_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     // Written now, not only at exit: a run that ends by an error still leaves the cache behind.
     device->save_cache();
@@ -318,6 +329,13 @@ struct VulkanBackend::Impl {
     const std::vector<std::uint32_t> words = packed_mc33_configs();
     configs = device->make_buffer(words.size() * sizeof(std::uint32_t));
     std::memcpy(configs.data(), words.data(), words.size() * sizeof(std::uint32_t));
+  }
+
+  // The loop budget, as the report states it.
+  std::string budget_text() const {
+    return sdf_loop_budget ? fmt::format(", loop budget {} per SIMD batch{}", sdf_loop_budget,
+                                         device->physical().driver_id == VK_DRIVER_ID_MESA_LLVMPIPE ? " (llvmpipe)" : "")
+                           : "";
   }
 
   ~Impl() {

@@ -330,6 +330,7 @@ int run_mesh(const MeshCommand& o, bool quiet) {
         {"platform", backend->device().platform},
         {"device", backend->device().name},
         {"precision", backend->device().precision},
+        {"kernels", backend->device().kernels},
         {"threads", tbb::info::default_concurrency()}}},
       {"grid", grid_json},
       {"elements",
