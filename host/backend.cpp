@@ -48,7 +48,8 @@ void check_classify_sizes(const HexComplex& complex, std::span<const double> val
                           const ClassifyOptions& options) {
   const std::size_t cells = complex.cells.size();
   if (values.size() != complex.points.size() || out.subcases.size() != cells || out.offsets.size() != cells + 1 ||
-      !(out.words.empty() || out.words.size() == 2 * cells))
+      !(out.words.empty() || out.words.size() == 2 * cells) ||
+      !(out.crossings.empty() || out.crossings.size() == 12 * cells))
     throw std::invalid_argument("classify_cells: batch size mismatch");
   if (!(options.zero_tolerance >= 0)) throw std::invalid_argument("classify_cells: negative zero tolerance");
   if (const std::uint64_t n = options.uniform_cells_per_axis) {

@@ -60,6 +60,10 @@ struct CellClassification {
   std::span<std::uint8_t> subcases;       // cells entries: core/mc33.h Subcase
   std::span<std::uint64_t> offsets;       // cells + 1 entries; offsets.back() the total
   std::span<std::uint32_t> words = {};    // empty, or 2 * cells (core/device_scene.h layout)
+  // Empty, or 12 * cells: the crossing parameter on each of the cell's Table-1 edges, as core's
+  // classify() gives it (core/mc33.h CellClass::crossing: f_a / (f_a - f_b) from the edge's first
+  // corner on a cut edge, after the zero rule; NaN on an uncut edge; not yet clamped).
+  std::span<double> crossings = {};
 };
 
 struct ClassifyOptions {

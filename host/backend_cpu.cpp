@@ -1,5 +1,6 @@
 #include "host/backend_cpu.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -79,6 +80,7 @@ class CpuBackend final : public Backend {
         out.words[2 * i] = w[0];
         out.words[2 * i + 1] = w[1];
       }
+      if (!out.crossings.empty()) std::copy(cls.crossing.begin(), cls.crossing.end(), out.crossings.begin() + 12 * i);
     });
     std::uint64_t run = 0;
     for (std::size_t i = 0; i < n; ++i) {

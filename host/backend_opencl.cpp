@@ -564,10 +564,13 @@ void OpenclBackend::classify_cells(const HexComplex& complex, std::span<const do
   constexpr cl_uint kBlock = 256;  // cells per work item of the prefix sum
   const bool uniform = options.uniform_cells_per_axis > 0;
   const bool want_words = !out.words.empty();
+  const bool want_crossings = !out.crossings.empty();
   try {
     // Per cell: 1 subcase byte, 8 offset bytes, 8 word bytes when asked for, 32 corner bytes
     // unless uniform; the chunk is limited by the largest of these buffers.
-    const std::size_t n = std::min(m.chunk(uniform ? sizeof(cl_ulong) : 8 * sizeof(std::uint32_t)), cells);
+    const std::size_t n =
+        std::min(m.chunk(want_crossings ? 12 * sizeof(double) : uniform ? sizeof(cl_ulong) : 8 * sizeof(std::uint32_t)),
+                 cells);
     const std::size_t max_blocks = (n + kBlock - 1) / kBlock;
     // The value window is limited by the allocation size only (max_chunk counts cells).
     const std::size_t window_limit = std::min<std::size_t>(m.max_alloc() / sizeof(double), std::size_t(1) << 31);
@@ -576,7 +579,7 @@ void OpenclBackend::classify_cells(const HexComplex& complex, std::span<const do
     // get device buffers, and the values stay there when signed_distance left them (resident).
     const bool zero_copy = m.host_unified;
     const bool whole = values.size() <= window_limit;  // every chunk reads the one value buffer
-    cl::Buffer cell_buf, subcase_buf, word_buf, offset_buf;
+    cl::Buffer cell_buf, subcase_buf, word_buf, crossing_buf, offset_buf;
     const cl::Buffer dummy(m.context, CL_MEM_READ_WRITE, 16);
     const cl::Buffer bad(m.context, CL_MEM_READ_WRITE, sizeof(cl_uint));
     const cl_uint zero = 0;
@@ -585,6 +588,7 @@ void OpenclBackend::classify_cells(const HexComplex& complex, std::span<const do
       if (!uniform) cell_buf = cl::Buffer(m.context, CL_MEM_READ_ONLY, 8 * sizeof(std::uint32_t) * n);
       subcase_buf = cl::Buffer(m.context, CL_MEM_READ_WRITE, n);
       if (want_words) word_buf = cl::Buffer(m.context, CL_MEM_WRITE_ONLY, 2 * sizeof(std::uint32_t) * n);
+      if (want_crossings) crossing_buf = cl::Buffer(m.context, CL_MEM_WRITE_ONLY, 12 * sizeof(double) * n);
       offset_buf = cl::Buffer(m.context, CL_MEM_WRITE_ONLY, sizeof(cl_ulong) * n);
     }
     cl::Buffer sums(m.context, CL_MEM_READ_WRITE, sizeof(cl_ulong) * (max_blocks + 1));
@@ -598,7 +602,7 @@ void OpenclBackend::classify_cells(const HexComplex& complex, std::span<const do
         m.write(value_buf, values.data(), values.size());
       }
     }
-    cl::Kernel &classify = m.kernel("classify"), &block_sums = m.kernel("hex_block_sums"),
+    cl::Kernel &classify = m.kernel(want_crossings ? "classify_crossings" : "classify"), &block_sums = m.kernel("hex_block_sums"),
                &scan = m.kernel("hex_scan_sums"), &block_offsets = m.kernel("hex_block_offsets");
     static_assert(sizeof(cl_ulong) == sizeof(std::uint64_t) && sizeof(CellCorners) == 8 * sizeof(std::uint32_t));
     std::uint64_t total = 0;
@@ -631,6 +635,7 @@ void OpenclBackend::classify_cells(const HexComplex& complex, std::span<const do
         if (!uniform) cell_buf = m.host_buffer(CL_MEM_READ_ONLY, complex.cells[first].data(), 8 * count);
         subcase_buf = m.host_buffer(CL_MEM_READ_WRITE, &out.subcases[first], count);
         if (want_words) word_buf = m.host_buffer(CL_MEM_WRITE_ONLY, &out.words[2 * first], 2 * count);
+        if (want_crossings) crossing_buf = m.host_buffer(CL_MEM_WRITE_ONLY, &out.crossings[12 * first], 12 * count);
         offset_buf = m.host_buffer(CL_MEM_WRITE_ONLY, reinterpret_cast<cl_ulong*>(&out.offsets[first]), count);
       } else if (!uniform) {
         m.write(cell_buf, complex.cells[first].data(), 8 * count);
@@ -646,11 +651,12 @@ void OpenclBackend::classify_cells(const HexComplex& complex, std::span<const do
       classify.setArg(arg++, subcase_buf);
       classify.setArg(arg++, want_words ? word_buf : dummy);
       classify.setArg(arg++, cl_uint(want_words));
+      if (want_crossings) classify.setArg(arg++, crossing_buf);
       classify.setArg(arg++, bad);
       classify.setArg(arg++, cl_uint(count));
       const cl_uint cells_per_item = m.classify_cells_per_item();
       classify.setArg(arg++, cells_per_item);
-      m.run("classify", classify, (count + cells_per_item - 1) / cells_per_item);
+      m.run(want_crossings ? "classify_crossings" : "classify", classify, (count + cells_per_item - 1) / cells_per_item);
 
       const cl_uint blocks = cl_uint((count + kBlock - 1) / kBlock);
       block_sums.setArg(0, subcase_buf);
@@ -673,10 +679,12 @@ void OpenclBackend::classify_cells(const HexComplex& complex, std::span<const do
         // The results are already in the caller's arrays; mapping makes them visible to the host.
         m.sync_to_host(subcase_buf, count);
         if (want_words) m.sync_to_host(word_buf, 2 * count * sizeof(std::uint32_t));
+        if (want_crossings) m.sync_to_host(crossing_buf, 12 * count * sizeof(double));
         m.sync_to_host(offset_buf, count * sizeof(cl_ulong));
       } else {
         m.read(subcase_buf, &out.subcases[first], count);
         if (want_words) m.read(word_buf, &out.words[2 * first], 2 * count);
+        if (want_crossings) m.read(crossing_buf, &out.crossings[12 * first], 12 * count);
         m.read(offset_buf, reinterpret_cast<cl_ulong*>(&out.offsets[first]), count);
       }
       cl_ulong chunk_total = 0;

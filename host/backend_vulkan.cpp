@@ -113,7 +113,7 @@ struct VulkanBackend::Impl {
   std::size_t dispatches = 0;
   VulkanBackend::Profile profile;
 
-  vk::Pipeline refinement, classify, scan_blocks, scan_totals, scan_add, surface_sdf, shape_sdf;
+  vk::Pipeline refinement, classify, classify_crossings, scan_blocks, scan_totals, scan_add, surface_sdf, shape_sdf;
   bool sdf_subgroup = false;  // surface_sdf is shaders/surface_sdf.comp (else surface_sdf_single*.comp)
   vk::Pipeline surface_sdf_texel;  // on llvmpipe: surface_sdf over texel buffers (kSceneTexelFormats)
   std::uint32_t sdf_loop_budget = 0;  // kernels/sdf.h (0: none)
@@ -275,6 +275,7 @@ struct VulkanBackend::Impl {
     }
     refinement = device->make_pipeline(spirv::refinement_error, 3, 4);
     classify = device->make_pipeline(spirv::classify, 7, 24);
+    classify_crossings = device->make_pipeline(spirv::classify_crossings, 8, 24);
     scan_blocks = device->make_pipeline(spirv::scan_blocks, 3, 4);
     scan_totals = device->make_pipeline(spirv::scan_totals, 1, 16);
     scan_add = device->make_pipeline(spirv::scan_add, 2, 4);
@@ -341,8 +342,8 @@ struct VulkanBackend::Impl {
   ~Impl() {
     if (!device) return;
     for (vk::Pipeline* p :
-         {&refinement, &classify, &scan_blocks, &scan_totals, &scan_add, &surface_sdf, &surface_sdf_texel, &shape_sdf,
-          &surface_sdf32})
+         {&refinement, &classify, &classify_crossings, &scan_blocks, &scan_totals, &scan_add, &surface_sdf,
+          &surface_sdf_texel, &shape_sdf, &surface_sdf32})
       device->destroy(*p);
   }
 
@@ -553,6 +554,7 @@ void VulkanBackend::classify_cells(const HexComplex& complex, std::span<const do
   }
   const bool uniform = options.uniform_cells_per_axis > 0;
   const bool want_words = !out.words.empty();
+  const bool want_crossings = !out.crossings.empty();
 
   const vk::PhysicalDevice& d = m.device->physical();
   // Point values bound whole when they fit one storage buffer (and the test cap does not ask
@@ -560,7 +562,9 @@ void VulkanBackend::classify_cells(const HexComplex& complex, std::span<const do
   const bool gathered = values.size() * sizeof(double) > d.max_storage_buffer_range ||
                         (m.max_chunk && values.size() > m.max_chunk);
   // Chunks a multiple of 4 cells, so that a word of four subcase bytes never straddles two.
-  std::size_t chunk = std::min(cells, m.chunk_for(gathered ? 8 * sizeof(double) : sizeof(CellCorners), kGroup));
+  std::size_t chunk =
+      std::min(cells, m.chunk_for(want_crossings ? 12 * sizeof(double) : gathered ? 8 * sizeof(double) : sizeof(CellCorners),
+                                  kGroup));
   if (chunk < cells) chunk = std::max<std::size_t>(4, chunk / 4 * 4);
   vk::Buffer value_buf;
   const vk::Buffer* values_bound = &value_buf;
@@ -574,6 +578,7 @@ void VulkanBackend::classify_cells(const HexComplex& complex, std::span<const do
   }
   vk::Buffer cell_buf = m.device->make_buffer(uniform || gathered ? 4 : chunk * sizeof(CellCorners));
   vk::Buffer code_buf = m.device->make_buffer(want_words ? chunk * 2 * sizeof(std::uint32_t) : 4);
+  vk::Buffer crossing_buf = m.device->make_buffer(want_crossings ? chunk * 12 * sizeof(double) : 8);
   vk::Buffer count_buf = m.device->make_buffer(chunk * sizeof(std::uint32_t));
   vk::Buffer subcase_buf = m.device->make_buffer((chunk + 3) / 4 * sizeof(std::uint32_t));
   vk::Buffer bad_buf = m.device->make_buffer(sizeof(std::uint32_t));
@@ -601,8 +606,13 @@ void VulkanBackend::classify_cells(const HexComplex& complex, std::span<const do
     } push{static_cast<std::uint32_t>(count), static_cast<std::uint32_t>(begin),
            gathered ? 0u : options.uniform_cells_per_axis, (gathered ? 1u : 0u) | (want_words ? 2u : 0u),
            options.zero_tolerance};
-    m.run(m.classify, {{values_bound}, {&cell_buf}, {&m.configs}, {&code_buf}, {&count_buf}, {&subcase_buf}, {&bad_buf}},
-          &push, count, kGroup);
+    if (want_crossings)
+      m.run(m.classify_crossings,
+            {{values_bound}, {&cell_buf}, {&m.configs}, {&code_buf}, {&count_buf}, {&subcase_buf}, {&bad_buf}, {&crossing_buf}},
+            &push, count, kGroup);
+    else
+      m.run(m.classify, {{values_bound}, {&cell_buf}, {&m.configs}, {&code_buf}, {&count_buf}, {&subcase_buf}, {&bad_buf}},
+            &push, count, kGroup);
 
     // Exclusive prefix sum of the counts (shaders/scan_*.comp), continuing from the chunks before.
     const std::uint32_t n32 = static_cast<std::uint32_t>(count);
@@ -618,6 +628,8 @@ void VulkanBackend::classify_cells(const HexComplex& complex, std::span<const do
     timed(m.profile.download, [&] {
       std::memcpy(out.subcases.data() + begin, subcase_buf.data(), count);
       if (want_words) std::memcpy(out.words.data() + 2 * begin, code_buf.data(), 2 * count * sizeof(std::uint32_t));
+      if (want_crossings)
+        std::memcpy(out.crossings.data() + 12 * begin, crossing_buf.data(), 12 * count * sizeof(double));
       std::memcpy(out.offsets.data() + begin, offset_buf.data(), count * sizeof(std::uint64_t));
     });
     carry = out.offsets[begin + count - 1] + mapped<std::uint32_t>(count_buf)[count - 1];

@@ -9,6 +9,7 @@ namespace mchex::spirv {
 
 extern const std::span<const std::uint32_t> refinement_error;  // shaders/refinement_error.comp
 extern const std::span<const std::uint32_t> classify;          // shaders/classify.comp
+extern const std::span<const std::uint32_t> classify_crossings;  // shaders/classify_crossings.comp
 extern const std::span<const std::uint32_t> scan_blocks;       // shaders/scan_blocks.comp
 extern const std::span<const std::uint32_t> scan_totals;       // shaders/scan_totals.comp
 extern const std::span<const std::uint32_t> scan_add;          // shaders/scan_add.comp

@@ -33,6 +33,22 @@ STRUCT(CellValues) {
   double f[8];  // corner values, core/mc33.h corner order; f > 0 inside
 };
 
+#ifdef __OPENCL_C_VERSION__
+#define MCHEX_CROSSING_NAN ((double)NAN)
+#else
+#define MCHEX_CROSSING_NAN double(uintBitsToFloat(0x7FC00000u))
+#endif
+
+// core/mc33.cpp classify()'s crossing parameter on Table 1's edge e (a constant after unrolling:
+// see classify_pattern on indices): f_a / (f_a - f_b) from the edge's first corner where the edge
+// is cut, a quiet NaN where it is not.
+INLINE double edge_crossing(CellValues v, int mask, int e) {
+  int a = kCubeEdges[2 * e], b = kCubeEdges[2 * e + 1];
+  if (((mask >> a) & 1) == ((mask >> b) & 1)) return MCHEX_CROSSING_NAN;
+  EXACT double s = v.f[a] / (v.f[a] - v.f[b]);
+  return s;
+}
+
 STRUCT(CellWords) {
   uint w0;  // subcase | sign_mask << 8 | face_joins << 16 | (tunnel + 1) << 24 | inverted << 26
   uint w1;  // symmetry | cut_edges << 16

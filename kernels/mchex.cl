@@ -56,11 +56,14 @@ __kernel void refinement_error(__global const double *lattice, __global const do
 // is read, so the host need not make a ruled copy. Writes one byte per cell (its Subcase: all the
 // mesher needs), the packed CellCode words when want_words != 0, and sets bad[0] when a corner
 // value is not finite (the host turns that into core's InputError).
+// classify_crossings also writes the 12 crossing parameters per cell (kernels/classify.h
+// edge_crossing); a kernel of its own, so that the mesher's classify carries no code for them.
 // Each work item takes a run of per_item consecutive cells: on a uniform grid it finds its first
 // cell's (x, y, z) by division and its corners' offsets once, and steps along the row after that.
-__kernel void classify(CLASSIFY_PARAMS_ __global const uint *cells, __global const double *values, uint value_base,
-                       uint first, uint uniform_n, double zero_tolerance, __global uchar *subcases,
-                       __global uint *codes, uint want_words, __global uint *bad, uint n, uint per_item) {
+INLINE void classify_run(CLASSIFY_PARAMS_ __global const uint *cells, __global const double *values, uint value_base,
+                         uint first, uint uniform_n, double zero_tolerance, __global uchar *subcases,
+                         __global uint *codes, uint want_words, __global double *crossings, bool with_crossings,
+                         __global uint *bad, uint n, uint per_item) {
   uint begin = (uint)get_global_id(0) * per_item;
   if (begin >= n) return;
   uint end = min(begin + per_item, n);
@@ -93,6 +96,8 @@ __kernel void classify(CLASSIFY_PARAMS_ __global const uint *cells, __global con
       codes[2 * i] = w.w0;
       codes[2 * i + 1] = w.w1;
     }
+    if (with_crossings)
+      for (int e = 0; e < 12; ++e) crossings[12 * i + (uint)e] = edge_crossing(v, mask, e);
     if (++x == uniform_n) {
       x = 0u;
       if (++y == uniform_n) {
@@ -102,6 +107,21 @@ __kernel void classify(CLASSIFY_PARAMS_ __global const uint *cells, __global con
     }
   }
   if (!finite) bad[0] = 1u;
+}
+
+__kernel void classify(CLASSIFY_PARAMS_ __global const uint *cells, __global const double *values, uint value_base,
+                       uint first, uint uniform_n, double zero_tolerance, __global uchar *subcases,
+                       __global uint *codes, uint want_words, __global uint *bad, uint n, uint per_item) {
+  classify_run(CLASSIFY_ARGS_ cells, values, value_base, first, uniform_n, zero_tolerance, subcases, codes, want_words,
+               (__global double *)0, false, bad, n, per_item);
+}
+
+__kernel void classify_crossings(CLASSIFY_PARAMS_ __global const uint *cells, __global const double *values,
+                                 uint value_base, uint first, uint uniform_n, double zero_tolerance,
+                                 __global uchar *subcases, __global uint *codes, uint want_words,
+                                 __global double *crossings, __global uint *bad, uint n, uint per_item) {
+  classify_run(CLASSIFY_ARGS_ cells, values, value_base, first, uniform_n, zero_tolerance, subcases, codes, want_words,
+               crossings, true, bad, n, per_item);
 }
 
 #else

@@ -3,12 +3,19 @@
 
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <string>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 #include "core/grid.h"
 #include "core/hex_complex.h"
 #include "core/mchex_mesher.h"
+#include "core/mc33.h"
 #include "core/shapes.h"
+#include "host/backend.h"
 
 namespace mchex::test {
 
@@ -35,6 +42,38 @@ inline ZeroRuleGrid zero_rule_grid() {
     if (std::abs(z.values[p]) < 2 * z.grid.cell_size() && p % 7 == 0) z.values[p] = specials[(p / 7) % 6];
   z.ruled = apply_zero_rule(z.complex, z.values, &z.moved);
   return z;
+}
+
+// Asks `b` for the crossing parameters of every cell of the complex and compares them with core's
+// classify() of the cell's values after the zero rule of `options`: bit for bit on cut edges, NaN
+// on the others; the subcases must be core's too. Returns how many cut edges were compared.
+inline std::size_t expect_crossings_are_cores(Backend& b, const HexComplex& complex, const std::vector<double>& values,
+                                              const ClassifyOptions& options = {}) {
+  const std::size_t n = complex.cells.size();
+  std::vector<std::uint8_t> subcases(n);
+  std::vector<std::uint64_t> offsets(n + 1);
+  std::vector<double> crossings(12 * n, 7.0);  // no entry may keep this
+  b.classify_cells(complex, values, {subcases, offsets, {}, crossings}, options);
+  std::size_t compared = 0, wrong = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    std::array<double, 8> f;
+    for (int c = 0; c < 8; ++c) {
+      const double v = values[complex.cells[i][c]];
+      f[c] = std::abs(v) < options.zero_tolerance ? -options.zero_tolerance : v;
+    }
+    const CellClass want = classify(f);
+    if (subcases[i] != static_cast<std::uint8_t>(want.subcase)) ++wrong;
+    for (int e = 0; e < 12; ++e) {
+      const double got = crossings[12 * i + std::size_t(e)];
+      const bool cut = (want.cut_edges >> e & 1) != 0;
+      const bool same = cut ? std::memcmp(&got, &want.crossing[std::size_t(e)], sizeof got) == 0 : std::isnan(got);
+      if (!same && ++wrong <= 5)
+        ADD_FAILURE() << "cell " << i << " edge " << e << ": got " << got << ", core " << want.crossing[std::size_t(e)];
+      compared += cut ? 1 : 0;
+    }
+  }
+  EXPECT_EQ(wrong, 0u);
+  return compared;
 }
 
 }  // namespace mchex::test

@@ -21,6 +21,7 @@
 #include "core/shapes.h"
 #include "host/backend.h"
 #include "host/backend_cpu.h"
+#include "tests/backend_samples.h"
 
 using namespace mchex;
 
@@ -154,6 +155,8 @@ TEST(BackendCpu, ClassifyCellsIsCoreClassify) {
   }
   EXPECT_EQ(offsets.back(), run);
   EXPECT_GT(cut, 100u);
+  // With the crossing parameters asked for: core's, and the same subcases.
+  EXPECT_GT(test::expect_crossings_are_cores(*cpu, complex, values), 100u);
   // The total is what the mesher really makes of these values.
   const MeshPair meshes = mesh_mchex(complex, values, 1e-3);
   EXPECT_EQ(offsets.back(), meshes.inside.hexes.size() + meshes.outside.hexes.size());

@@ -426,6 +426,27 @@ TEST(Opencl, ClassificationWithoutFmaGivesTheSameDecisions) {
   expect_same_classification(no_fma, random, "random, no fma");
 }
 
+// The crossing parameters (ClassifyOptions' `crossings`): core's f_a / (f_a - f_b) bit for bit on
+// every cut edge of every sign pattern (random, tied, tiny and wide magnitudes, signed zeros), and
+// on the uniform grid with the zero rule applied on the device, whole and in chunks.
+TEST(Opencl, CrossingParametersAreCoresBitForBit) {
+  std::mt19937_64 rng(31);
+  std::uniform_int_distribution<int> e(-10, 3);
+  const CellBatch patterns = all_patterns(20, [&](int c) {
+    return c == 7 ? 1e-10 : rng() % 4 ? std::ldexp(1.0 + (rng() % 7) / 8.0, e(rng)) : (c % 2 ? 0.0 : -0.0);
+  });
+  EXPECT_GT(test::expect_crossings_are_cores(device(), patterns.complex, patterns.values), 20000u);
+  const test::ZeroRuleGrid z = test::zero_rule_grid();
+  ClassifyOptions co;
+  co.zero_tolerance = z.tiny;
+  co.uniform_cells_per_axis = z.grid.cells_per_axis();
+  EXPECT_GT(test::expect_crossings_are_cores(device(), z.complex, z.values, co), 1000u);
+  OpenclOptions o = pocl();
+  o.max_chunk = 777;
+  OpenclBackend chunked(o);
+  EXPECT_GT(test::expect_crossings_are_cores(chunked, z.complex, z.values, co), 1000u);
+}
+
 TEST(Opencl, ClassificationOfAGridAcrossChunks) {
   const UniformGrid grid(padded_cube(ShapeSdf(ShapeKind::kTwoHoled).bounds(), 0.1), 3);
   const HexComplex complex = uniform_complex(grid);

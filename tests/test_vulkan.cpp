@@ -281,6 +281,23 @@ TEST(vulkan, ClassifyEverySignPatternWithRandomTiedAndGuardBandMagnitudes) {
   EXPECT_EQ(masks.size(), 256u);
 }
 
+// The crossing parameters (ClassifyOptions' `crossings`): core's f_a / (f_a - f_b) bit for bit on
+// every cut edge of the adversarial sign patterns, and on the uniform grid with the zero rule
+// applied on the device, whole and in chunks.
+TEST(vulkan, ClassifyCrossingParametersAreCoresBitForBit) {
+  std::mt19937_64 rng(12);
+  std::size_t cells = 0;
+  const std::vector<double> values = adversarial_values(cells, rng);
+  EXPECT_GT(test::expect_crossings_are_cores(lavapipe(), separate_cells(cells), values), 20000u);
+  const test::ZeroRuleGrid z = test::zero_rule_grid();
+  ClassifyOptions co;
+  co.zero_tolerance = z.tiny;
+  co.uniform_cells_per_axis = z.grid.cells_per_axis();
+  EXPECT_GT(test::expect_crossings_are_cores(lavapipe(), z.complex, z.values, co), 1000u);
+  VulkanBackend chunked(lavapipe_options(1000));
+  EXPECT_GT(test::expect_crossings_are_cores(chunked, z.complex, z.values, co), 1000u);
+}
+
 TEST(vulkan, ClassifyRandomFieldsReachEverySubcaseIncludingTunnels) {
   // Random corner values hit all 32 subcase slots (the tunnel subcases are rare: many cells).
   std::mt19937_64 rng(5);
