@@ -301,12 +301,12 @@ struct VulkanBackend::Impl {
       sdf_loop_budget = kLlvmpipeLoopLimit - kLoopBudgetMargin;
       if (!sdf_subgroup && subgroups) {
         code = spirv::surface_sdf_single_counted;
+        // The same walk reading the search arrays as texel buffers and without the leaf bounds:
+        // on llvmpipe a storage-buffer read is a run-time loop over the SIMD lanes with a branch
+        // per lane (gallivm's emit_load_mem), a texel fetch is straight-line code (lavapipe
+        // surface SDF 10.4x -> 3.6x the cpu reference's time, perf/bench_backends). Used for
+        // every scene whose arrays fit maxTexelBufferElements.
         if (!options.sdf_storage_reads)
-        // The same walk reading the search arrays as texel buffers: on llvmpipe a storage-buffer
-        // read is a run-time loop over the SIMD lanes with a branch per lane (gallivm's
-        // emit_load_mem), a texel fetch is straight-line code (lavapipe surface SDF 10.4x -> 5.3x
-        // the cpu reference's time, perf/bench_backends). Used for every scene whose arrays fit
-        // maxTexelBufferElements.
           surface_sdf_texel = device->make_pipeline(spirv::surface_sdf_texel_counted, 12, 24, kSceneTexelFormats);
       } else if (!sdf_subgroup) {
         sdf_loop_budget /= std::max<std::uint32_t>(sub.subgroupSize, 16);
