@@ -1,8 +1,10 @@
-// The body of shaders/surface_sdf.comp (subgroup walk) and shaders/surface_sdf_single.comp (one
-// walk per invocation): signed distance (f > 0 inside) to a triangle surface at a batch of
-// points, a thin wrapper around the shared device logic of kernels/sdf.h (the same source as the
-// OpenCL kernel) over the device scene of core/device_scene.h. The including shader has set
-// #version and, for the subgroup walk, MCHEX_SDF_SUBGROUP and its extensions.
+// The body of shaders/surface_sdf.comp (subgroup walk) and shaders/surface_sdf_single*.comp and
+// surface_sdf_texel_counted.comp (one walk per invocation): signed distance (f > 0 inside) to a
+// triangle surface at a batch of points, a thin wrapper around the shared device logic of
+// kernels/sdf.h (the same source as the OpenCL kernel) over the device scene of
+// core/device_scene.h. The including shader has set #version and, for the subgroup walk,
+// MCHEX_SDF_SUBGROUP and its extensions; MCHEX_TEXEL_SCENE reads the search arrays from texel
+// buffers instead of storage buffers.
 //
 // Each invocation takes `per_item` points in turn, each search seeded by its previous answer (the
 // result does not depend on the seed). With the subgroup walk the SUBGROUP is the packet of
