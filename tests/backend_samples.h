@@ -28,6 +28,14 @@ struct ZeroRuleGrid {
   std::vector<double> values, ruled;
   double tiny = 0;
   std::size_t moved = 0;
+  // The mesher's classification call on this grid: the zero rule and the uniform numbering on
+  // the device.
+  ClassifyOptions options() const {
+    ClassifyOptions co;
+    co.zero_tolerance = tiny;
+    co.uniform_cells_per_axis = grid.cells_per_axis();
+    return co;
+  }
 };
 
 inline ZeroRuleGrid zero_rule_grid() {

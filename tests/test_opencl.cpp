@@ -437,9 +437,7 @@ TEST(Opencl, CrossingParametersAreCoresBitForBit) {
   });
   EXPECT_GT(test::expect_crossings_are_cores(device(), patterns.complex, patterns.values), 20000u);
   const test::ZeroRuleGrid z = test::zero_rule_grid();
-  ClassifyOptions co;
-  co.zero_tolerance = z.tiny;
-  co.uniform_cells_per_axis = z.grid.cells_per_axis();
+  const ClassifyOptions co = z.options();
   EXPECT_GT(test::expect_crossings_are_cores(device(), z.complex, z.values, co), 1000u);
   OpenclOptions o = pocl();
   o.max_chunk = 777;
@@ -466,21 +464,16 @@ TEST(Opencl, ClassificationOfAGridAcrossChunks) {
 // core's classification of apply_zero_rule's values.
 TEST(Opencl, UniformGridWithTheZeroRuleOnTheDevice) {
   const test::ZeroRuleGrid z = test::zero_rule_grid();
-  const UniformGrid& grid = z.grid;
   const HexComplex& complex = z.complex;
   const std::vector<double>& values = z.values;
-  const std::vector<double>& ruled = z.ruled;
-  const double tiny = z.tiny;
   ASSERT_GT(z.moved, 20u);
   const std::size_t n = complex.cells.size();
   std::vector<CellCode> ref(n);
   std::vector<std::uint64_t> ref_off(n + 1);
-  classify_cells_codes(*make_cpu_backend(), complex, ruled, ref, ref_off);
+  classify_cells_codes(*make_cpu_backend(), complex, z.ruled, ref, ref_off);
   std::vector<std::uint8_t> ref_subcases(n);
   for (std::size_t i = 0; i < n; ++i) ref_subcases[i] = static_cast<std::uint8_t>(ref[i].subcase);
-  ClassifyOptions co;
-  co.zero_tolerance = tiny;
-  co.uniform_cells_per_axis = grid.cells_per_axis();
+  const ClassifyOptions co = z.options();
   for (const bool zero_copy : {true, false})
     for (const std::size_t chunk : {std::size_t(0), std::size_t(1000)}) {
       SCOPED_TRACE(std::string(zero_copy ? "zero copy" : "copies") + ", chunk " + std::to_string(chunk));
@@ -514,7 +507,7 @@ TEST(Opencl, UniformGridWithTheZeroRuleOnTheDevice) {
     }
   // A complex that is not the promised grid is refused.
   ClassifyOptions wrong = co;
-  wrong.uniform_cells_per_axis = grid.cells_per_axis() + 1;
+  wrong.uniform_cells_per_axis = z.grid.cells_per_axis() + 1;
   std::vector<std::uint8_t> subcases(n);
   std::vector<std::uint64_t> offsets(n + 1);
   EXPECT_THROW(device().classify_cells(complex, values, {subcases, offsets}, wrong), std::invalid_argument);

@@ -290,9 +290,7 @@ TEST(vulkan, ClassifyCrossingParametersAreCoresBitForBit) {
   const std::vector<double> values = adversarial_values(cells, rng);
   EXPECT_GT(test::expect_crossings_are_cores(lavapipe(), separate_cells(cells), values), 20000u);
   const test::ZeroRuleGrid z = test::zero_rule_grid();
-  ClassifyOptions co;
-  co.zero_tolerance = z.tiny;
-  co.uniform_cells_per_axis = z.grid.cells_per_axis();
+  const ClassifyOptions co = z.options();
   EXPECT_GT(test::expect_crossings_are_cores(lavapipe(), z.complex, z.values, co), 1000u);
   VulkanBackend chunked(lavapipe_options(1000));
   EXPECT_GT(test::expect_crossings_are_cores(chunked, z.complex, z.values, co), 1000u);
@@ -341,23 +339,18 @@ TEST(vulkan, ClassifyOnASharedGridChunkedAndGatheredEqualsWhole) {
 // field equals core's classification of apply_zero_rule's values.
 TEST(vulkan, ClassifyAUniformGridWithTheZeroRuleOnTheDevice) {
   const test::ZeroRuleGrid z = test::zero_rule_grid();
-  const UniformGrid& grid = z.grid;
   const HexComplex& complex = z.complex;
   const std::vector<double>& values = z.values;
-  const std::vector<double>& ruled = z.ruled;
-  const double tiny = z.tiny;
   ASSERT_GT(z.moved, 20u);
   const std::size_t n = complex.cells.size();
-  ClassifyOptions co;
-  co.zero_tolerance = tiny;
-  co.uniform_cells_per_axis = grid.cells_per_axis();
+  const ClassifyOptions co = z.options();
   for (const std::size_t chunk : {std::size_t(0), std::size_t(1000)}) {
     SCOPED_TRACE("chunk " + std::to_string(chunk));
     VulkanBackend b(lavapipe_options(chunk));
     std::vector<CellCode> codes(n);
     std::vector<std::uint64_t> offsets(n + 1);
     classify_cells_codes(b, complex, values, codes, offsets, co);
-    expect_same_as_reference(complex, ruled, codes, offsets);
+    expect_same_as_reference(complex, z.ruled, codes, offsets);
     std::vector<std::uint8_t> subcases(n);
     std::vector<std::uint64_t> offsets2(n + 1);
     b.classify_cells(complex, values, {subcases, offsets2}, co);
@@ -825,9 +818,7 @@ TEST(VulkanFp32, ShapesRefinementAndClassificationAreTheReferences) {
   lavapipe_fp32().signed_distance(two, z.complex.points, got);
   expect_bit_equal(got, want, z.complex.points);
 
-  ClassifyOptions co;
-  co.zero_tolerance = z.tiny;
-  co.uniform_cells_per_axis = z.grid.cells_per_axis();
+  ClassifyOptions co = z.options();
   co.values_from_last_sdf = true;
   const std::size_t n = z.complex.cells.size();
   std::vector<CellCode> codes(n);
