@@ -1,6 +1,7 @@
 #include "host/backend_vulkan.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -42,7 +43,7 @@ constexpr std::size_t kSdfPointsPerInvocation = 16;
 constexpr std::uint32_t kLlvmpipeLoopLimit = 65535, kLoopBudgetMargin = 1024;
 
 // The texel formats of shaders/surface_sdf.glsl's MCHEX_TEXEL_SCENE bindings.
-const std::vector<VkFormat> kSceneTexelFormats = {
+constexpr std::array<VkFormat, 7> kSceneTexelFormats = {
     VK_FORMAT_R32G32B32A32_SFLOAT, VK_FORMAT_R32G32B32A32_UINT, VK_FORMAT_R32G32B32A32_SFLOAT, VK_FORMAT_R32_UINT,
     VK_FORMAT_R32_UINT,            VK_FORMAT_R32G32B32A32_UINT, VK_FORMAT_R32_UINT};
 
@@ -155,17 +156,21 @@ struct VulkanBackend::Impl {
 
   // A scene array in a storage buffer of its own. The scene is bound whole (every point may need
   // any triangle): an array over one storage buffer is a resource limit of this device, not a
-  // chunking matter.
+  // chunking matter. The buffer holds a multiple of `multiple` elements, zeros after the array's.
   template <class T>
-  vk::Buffer upload(const std::vector<T>& v, const char* what) {
-    const std::size_t bytes = v.size() * sizeof(T);
+  vk::Buffer upload(const std::vector<T>& v, const char* what, std::size_t multiple = 1) {
+    const std::size_t padded = (v.size() + multiple - 1) / multiple * multiple;
+    const std::size_t bytes = padded * sizeof(T);
     const std::uint32_t limit = device->physical().max_storage_buffer_range;
     if (bytes > limit)
       throw ResourceError(fmt::format("backend 'vulkan': the surface's {} need {} MiB in one storage buffer; "
                                       "device '{}' allows {} MiB (use --backend cpu)",
                                       what, bytes >> 20, info.name, limit >> 20));
     vk::Buffer b = device->make_buffer(std::max<std::size_t>(bytes, sizeof(T)));
-    timed(profile.upload, [&] { std::memcpy(b.data(), v.data(), bytes); });
+    timed(profile.upload, [&] {
+      std::memcpy(b.data(), v.data(), v.size() * sizeof(T));
+      std::fill(static_cast<T*>(b.data()) + v.size(), static_cast<T*>(b.data()) + padded, T{});
+    });
     return b;
   }
 
@@ -204,19 +209,19 @@ struct VulkanBackend::Impl {
     out.leaf_slot = upload(ds.leaf_slot, "leaf slots");
     out.slot_triangle = upload(ds.slot_triangle, "leaf triangle ids");
     // Padded to an even count: the texel reads take two doubles at a time.
-    std::vector<double> corners = ds.slot_corners;
-    if (corners.size() % 2) corners.push_back(0.0);
-    out.slot_corners = upload(corners, "triangle corners");
+    out.slot_corners = upload(ds.slot_corners, "triangle corners", 2);
     out.slot_features = upload(ds.slot_features, "triangle features");
     out.face_normals = upload(ds.face_normals, "face pseudonormals");
     out.edge_normals = upload(ds.edge_normals, "edge pseudonormals");
     out.vertex_normals = upload(ds.vertex_normals, "vertex pseudonormals");
     out.scale = ds.scale;
-    const std::size_t limit = device->physical().max_texel_buffer_elements;
-    out.texel_fits = ds.wide_boxes.size() <= limit && ds.wide_links.size() / 4 <= limit &&
-                     ds.leaf_bounds.size() <= limit && ds.leaf_slot.size() <= limit &&
-                     ds.slot_triangle.size() <= limit && (ds.slot_corners.size() + 1) / 2 <= limit &&
-                     ds.slot_features.size() <= limit;
+    const vk::Buffer* texel_bound[] = {&out.wide_boxes, &out.wide_links, &out.leaf_bounds, &out.leaf_slot,
+                                       &out.slot_triangle, &out.slot_corners, &out.slot_features};
+    static_assert(std::size(texel_bound) == kSceneTexelFormats.size());
+    out.texel_fits = true;
+    for (std::size_t i = 0; i < kSceneTexelFormats.size(); ++i)
+      out.texel_fits = out.texel_fits && texel_bound[i]->size() / vk::texel_bytes(kSceneTexelFormats[i]) <=
+                                             device->physical().max_texel_buffer_elements;
     scene.emplace(std::move(out));
     return *scene;
   }
@@ -274,7 +279,8 @@ struct VulkanBackend::Impl {
       return;
     }
     refinement = device->make_pipeline(spirv::refinement_error, 3, 4);
-    classify = device->make_pipeline(spirv::classify, 7, 24);
+    // Both with 8 bindings; classify.comp leaves the crossings' (7) unread.
+    classify = device->make_pipeline(spirv::classify, 8, 24);
     classify_crossings = device->make_pipeline(spirv::classify_crossings, 8, 24);
     scan_blocks = device->make_pipeline(spirv::scan_blocks, 3, 4);
     scan_totals = device->make_pipeline(spirv::scan_totals, 1, 16);
@@ -307,7 +313,8 @@ struct VulkanBackend::Impl {
         // surface SDF 10.4x -> 3.6x the cpu reference's time, perf/bench_backends). Used for
         // every scene whose arrays fit maxTexelBufferElements.
         if (!options.sdf_storage_reads)
-          surface_sdf_texel = device->make_pipeline(spirv::surface_sdf_texel_counted, 12, 24, kSceneTexelFormats);
+          surface_sdf_texel = device->make_pipeline(spirv::surface_sdf_texel_counted, 12, 24,
+                                                    {kSceneTexelFormats.begin(), kSceneTexelFormats.end()});
       } else if (!sdf_subgroup) {
         sdf_loop_budget /= std::max<std::uint32_t>(sub.subgroupSize, 16);
         sdf_points_per_invocation = 1;
@@ -606,13 +613,9 @@ void VulkanBackend::classify_cells(const HexComplex& complex, std::span<const do
     } push{static_cast<std::uint32_t>(count), static_cast<std::uint32_t>(begin),
            gathered ? 0u : options.uniform_cells_per_axis, (gathered ? 1u : 0u) | (want_words ? 2u : 0u),
            options.zero_tolerance};
-    if (want_crossings)
-      m.run(m.classify_crossings,
-            {{values_bound}, {&cell_buf}, {&m.configs}, {&code_buf}, {&count_buf}, {&subcase_buf}, {&bad_buf}, {&crossing_buf}},
-            &push, count, kGroup);
-    else
-      m.run(m.classify, {{values_bound}, {&cell_buf}, {&m.configs}, {&code_buf}, {&count_buf}, {&subcase_buf}, {&bad_buf}},
-            &push, count, kGroup);
+    m.run(want_crossings ? m.classify_crossings : m.classify,
+          {{values_bound}, {&cell_buf}, {&m.configs}, {&code_buf}, {&count_buf}, {&subcase_buf}, {&bad_buf}, {&crossing_buf}},
+          &push, count, kGroup);
 
     // Exclusive prefix sum of the counts (shaders/scan_*.comp), continuing from the chunks before.
     const std::uint32_t n32 = static_cast<std::uint32_t>(count);

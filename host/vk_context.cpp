@@ -286,6 +286,16 @@ void BufferPool::destroy_all(VkDevice device) {
 
 // ---- Device ----------------------------------------------------------------------------------
 
+VkDeviceSize texel_bytes(VkFormat f) {
+  switch (f) {
+    case VK_FORMAT_R32_UINT: return 4;
+    case VK_FORMAT_R32G32_UINT: return 8;
+    case VK_FORMAT_R32G32B32A32_SFLOAT:
+    case VK_FORMAT_R32G32B32A32_UINT: return 16;
+    default: throw std::logic_error("vulkan: a texel format the backend does not use");
+  }
+}
+
 std::filesystem::path default_cache_dir() {
   if (const char* x = std::getenv("XDG_CACHE_HOME"); x && *x) return std::filesystem::path(x) / "mchex-gpu";
   if (const char* h = std::getenv("HOME"); h && *h) return std::filesystem::path(h) / ".cache" / "mchex-gpu";
@@ -297,17 +307,6 @@ namespace {
 VkDescriptorType descriptor_type(const Pipeline& p, std::uint32_t binding) {
   return p.texel_formats[binding] == VK_FORMAT_UNDEFINED ? VK_DESCRIPTOR_TYPE_STORAGE_BUFFER
                                                          : VK_DESCRIPTOR_TYPE_UNIFORM_TEXEL_BUFFER;
-}
-
-// Bytes per texel of the formats the shaders read texel buffers in.
-VkDeviceSize texel_bytes(VkFormat f) {
-  switch (f) {
-    case VK_FORMAT_R32_UINT: return 4;
-    case VK_FORMAT_R32G32_UINT: return 8;
-    case VK_FORMAT_R32G32B32A32_SFLOAT:
-    case VK_FORMAT_R32G32B32A32_UINT: return 16;
-    default: throw std::logic_error("vulkan: a texel format the backend does not use");
-  }
 }
 
 // The cache file is keyed by what invalidates a driver's pipeline cache: the device (UUID) and

@@ -125,6 +125,9 @@ struct Pipeline {
   std::vector<VkFormat> texel_formats;
 };
 
+// Bytes per texel of the formats the shaders read texel buffers in (std::logic_error for others).
+VkDeviceSize texel_bytes(VkFormat f);
+
 // A range of a buffer bound to one binding.
 struct BufferRange {
   const Buffer* buffer = nullptr;
