@@ -487,6 +487,16 @@ void expect_bit_equal(const std::vector<double>& got, const std::vector<double>&
     }
 }
 
+// Every variant's values at pts equal `want` (core's) bit for bit.
+void expect_every_variant_gives(const SdfSource& source, const std::vector<Vec3>& pts, const std::vector<double>& want) {
+  for (const SdfVariant& v : sdf_variants()) {
+    SCOPED_TRACE(v.name);
+    std::vector<double> got(pts.size());
+    v.backend.signed_distance(source, pts, got);
+    expect_bit_equal(got, want, pts);
+  }
+}
+
 }  // namespace
 
 TEST(vulkan, ShapeSdfIsBitIdenticalToTheReference) {
@@ -557,12 +567,7 @@ TEST(vulkan, SurfaceSdfIsBitIdenticalOnClosedOpenAndDegenerateSurfaces) {
     reference.evaluate(pts, want);
     SdfSource source;
     source.surface = &s;
-    for (const SdfVariant& v : sdf_variants()) {
-      SCOPED_TRACE(v.name);
-      std::vector<double> got(pts.size());
-      v.backend.signed_distance(source, pts, got);
-      expect_bit_equal(got, want, pts);
-    }
+    expect_every_variant_gives(source, pts, want);
   }
 }
 
@@ -587,12 +592,7 @@ TEST(vulkan, SurfaceSdfOnAGridOverAFineTorusIsBitIdentical) {
   SurfaceSdf(torus).evaluate(pts, want);
   SdfSource source;
   source.surface = &torus;
-  for (const SdfVariant& v : sdf_variants()) {
-    SCOPED_TRACE(v.name);
-    std::vector<double> got(pts.size());
-    v.backend.signed_distance(source, pts, got);
-    expect_bit_equal(got, want, pts);
-  }
+  expect_every_variant_gives(source, pts, want);
 }
 
 TEST(vulkan, SurfaceSdfChunkedEqualsWholeAndEmptySurfaceIsOutside) {
