@@ -272,8 +272,9 @@ struct VulkanBackend::Impl {
       surface_sdf32 = device->make_pipeline(code, 6, 16);
       info.kernels = fmt::format(
           "surface SDF: float candidate search (shaders/{}.comp), {} point(s) per invocation{}, values on the host "
-          "in double; shapes, refinement error and classification on the host",
-          subgroups ? "surface_sdf32_counted" : "surface_sdf32", sdf_points_per_invocation, budget_text());
+          "in double; shapes, refinement error and classification on the host{}",
+          subgroups ? "surface_sdf32_counted" : "surface_sdf32", sdf_points_per_invocation, budget_text(),
+          memory_text());
       pipeline_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       device->save_cache();
       return;
@@ -323,12 +324,12 @@ struct VulkanBackend::Impl {
     surface_sdf = device->make_pipeline(code, 12, 24);
     shape_sdf = device->make_pipeline(spirv::shape_sdf, 2, 8);
     info.kernels = fmt::format(
-        "surface SDF: {}, {} point(s) per invocation, {}{}", sdf_subgroup ? "one walk per subgroup" : "one walk per invocation",
+        "surface SDF: {}, {} point(s) per invocation, {}{}{}", sdf_subgroup ? "one walk per subgroup" : "one walk per invocation",
         sdf_points_per_invocation,
         surface_sdf_texel.pipeline ? "search arrays in texel buffers (storage buffers past maxTexelBufferElements), "
                                      "every triangle of a leaf in range measured"
                                    : "search arrays in storage buffers",
-        budget_text());
+        budget_text(), memory_text());
     pipeline_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     // Written now, not only at exit: a run that ends by an error still leaves the cache behind.
     device->save_cache();
@@ -344,6 +345,13 @@ struct VulkanBackend::Impl {
     return sdf_loop_budget ? fmt::format(", loop budget {} per SIMD batch{}", sdf_loop_budget,
                                          device->physical().driver_id == VK_DRIVER_ID_MESA_LLVMPIPE ? " (llvmpipe)" : "")
                            : "";
+  }
+  // The memory the buffers live in (vk::buffer_memory_type), as the report states it.
+  std::string memory_text() const {
+    const VkMemoryPropertyFlags f = device->buffer_memory_flags();
+    return fmt::format("; buffers in host-visible{}{} memory",
+                       f & VK_MEMORY_PROPERTY_HOST_CACHED_BIT ? ", host-cached" : ", uncached",
+                       f & VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT ? ", device-local" : "");
   }
 
   ~Impl() {

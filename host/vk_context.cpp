@@ -175,32 +175,41 @@ Instance::~Instance() {
 
 // ---- Buffer ----------------------------------------------------------------------------------
 
-Buffer::Buffer(VkDevice device, const VkPhysicalDeviceMemoryProperties& memory, VkDeviceSize bytes)
-    : device_(device), bytes_(bytes), capacity_(bytes ? bytes : 4) {
+int buffer_memory_type(const VkPhysicalDeviceMemoryProperties& memory, std::uint32_t allowed) {
+  constexpr VkMemoryPropertyFlags kMapped = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
+  int first = -1;
+  for (std::uint32_t i = 0; i < memory.memoryTypeCount && i < 32; ++i) {
+    const VkMemoryPropertyFlags f = memory.memoryTypes[i].propertyFlags;
+    if (!(allowed >> i & 1) || (f & kMapped) != kMapped) continue;
+    if (f & VK_MEMORY_PROPERTY_HOST_CACHED_BIT) return static_cast<int>(i);
+    if (first < 0) first = static_cast<int>(i);
+  }
+  return first;
+}
+
+namespace {
+
+VkBufferCreateInfo buffer_info(VkDeviceSize bytes) {
   VkBufferCreateInfo info{};
   info.sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO;
   info.size = bytes ? bytes : 4;  // a zero-sized buffer is invalid; an empty batch binds 4 bytes
   info.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_UNIFORM_TEXEL_BUFFER_BIT;
   info.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+  return info;
+}
+
+}  // namespace
+
+Buffer::Buffer(VkDevice device, std::uint32_t memory_type, VkDeviceSize bytes)
+    : device_(device), bytes_(bytes), capacity_(bytes ? bytes : 4) {
+  const VkBufferCreateInfo info = buffer_info(bytes);
   check(vkCreateBuffer(device, &info, nullptr, &buffer_), "vkCreateBuffer");
   VkMemoryRequirements req{};
   vkGetBufferMemoryRequirements(device, buffer_, &req);
-  const VkMemoryPropertyFlags want =
-      VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT;
-  std::uint32_t type = memory.memoryTypeCount;
-  for (std::uint32_t i = 0; i < memory.memoryTypeCount; ++i)
-    if ((req.memoryTypeBits >> i & 1) && (memory.memoryTypes[i].propertyFlags & want) == want) {
-      type = i;
-      break;
-    }
-  if (type == memory.memoryTypeCount) {
-    release();
-    throw std::runtime_error("vulkan: the device has no host-visible, host-coherent memory type");
-  }
   VkMemoryAllocateInfo alloc{};
   alloc.sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO;
   alloc.allocationSize = req.size;
-  alloc.memoryTypeIndex = type;
+  alloc.memoryTypeIndex = memory_type;
   try {
     check(vkAllocateMemory(device, &alloc, nullptr, &memory_), "vkAllocateMemory");
     check(vkBindBufferMemory(device, buffer_, memory_, 0), "vkBindBufferMemory");
@@ -348,6 +357,20 @@ Device::Device(const Instance& instance, const PhysicalDevice& physical,
   info.pEnabledFeatures = &features;
   check(vkCreateDevice(physical.handle, &info, nullptr, &device_), "vkCreateDevice");
   try {
+    // A buffer's allowed memory types depend on its usage and flags, not its size (Vulkan spec,
+    // VkMemoryRequirements), so one probe buffer gives every buffer's.
+    {
+      const VkBufferCreateInfo probe_info = buffer_info(4);
+      VkBuffer probe = VK_NULL_HANDLE;
+      check(vkCreateBuffer(device_, &probe_info, nullptr, &probe), "vkCreateBuffer");
+      VkMemoryRequirements req{};
+      vkGetBufferMemoryRequirements(device_, probe, &req);
+      vkDestroyBuffer(device_, probe, nullptr);
+      const int type = buffer_memory_type(memory_, req.memoryTypeBits);
+      if (type < 0)
+        throw std::runtime_error("vulkan: device '" + physical.name + "' has no host-visible, host-coherent memory type");
+      buffer_memory_type_ = static_cast<std::uint32_t>(type);
+    }
     vkGetDeviceQueue(device_, queue.queueFamilyIndex, 0, &queue_);
     VkCommandPoolCreateInfo pool{};
     pool.sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO;
@@ -454,7 +477,7 @@ Buffer Device::make_buffer(VkDeviceSize bytes) const {
     b.mapped_ = e.mapped;
     b.bytes_ = bytes;
   } else {
-    b = Buffer(device_, memory_, bytes);
+    b = Buffer(device_, buffer_memory_type_, bytes);
   }
   b.pool_ = &pool_;
   return b;

@@ -63,13 +63,23 @@ class Instance {
 
 class BufferPool;
 
-// A buffer in host-visible, host-coherent memory, mapped for its whole life, usable as a storage
-// buffer and as a uniform texel buffer. size() is the size asked for; a buffer from the device's
-// pool may have more memory behind it.
+// The memory type of the backends' buffers among `allowed` (a VkMemoryRequirements'
+// memoryTypeBits): host-visible and host-coherent, since inputs are written and results read
+// through the mapping; among those, host-cached first. A discrete GPU's plain host-visible type
+// is write-combined system memory, which the CPU reads uncached, and a driver may list it before
+// the cached one (AMD's tables do); the cached type is the same system memory read through the
+// CPU's caches, at the same PCIe speed for the GPU. On the H200 (NVIDIA driver) the first pick and
+// this one ran at the same speed (perf/GPU_RUNS.md); on a CPU device (lavapipe) every type is
+// cached. -1 where no type qualifies.
+int buffer_memory_type(const VkPhysicalDeviceMemoryProperties& memory, std::uint32_t allowed);
+
+// A buffer in host-visible, host-coherent memory of type `memory_type` (buffer_memory_type),
+// mapped for its whole life, usable as a storage buffer and as a uniform texel buffer. size() is
+// the size asked for; a buffer from the device's pool may have more memory behind it.
 class Buffer {
  public:
   Buffer() = default;
-  Buffer(VkDevice device, const VkPhysicalDeviceMemoryProperties& memory, VkDeviceSize bytes);
+  Buffer(VkDevice device, std::uint32_t memory_type, VkDeviceSize bytes);
   ~Buffer();
   Buffer(Buffer&& o) noexcept;
   Buffer& operator=(Buffer&& o) noexcept;
@@ -146,6 +156,8 @@ class Device {
   const PhysicalDevice& physical() const { return physical_; }
   // A buffer of `bytes`, from the pool when it holds one that fits.
   Buffer make_buffer(VkDeviceSize bytes) const;
+  // The property flags of the memory type that make_buffer allocates from.
+  VkMemoryPropertyFlags buffer_memory_flags() const { return memory_.memoryTypes[buffer_memory_type_].propertyFlags; }
   VkDeviceSize pooled_bytes() const { return pool_.bytes(); }  // memory the pool holds now
   Pipeline make_pipeline(std::span<const std::uint32_t> spirv, std::uint32_t num_buffers,
                          std::uint32_t push_bytes, std::vector<VkFormat> texel_formats = {});
@@ -165,6 +177,7 @@ class Device {
   void release();
   PhysicalDevice physical_;
   VkPhysicalDeviceMemoryProperties memory_{};
+  std::uint32_t buffer_memory_type_ = 0;  // buffer_memory_type for the buffers' usage
   VkDevice device_ = VK_NULL_HANDLE;
   VkQueue queue_ = VK_NULL_HANDLE;
   VkCommandPool command_pool_ = VK_NULL_HANDLE;

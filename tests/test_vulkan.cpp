@@ -420,6 +420,47 @@ TEST(vulkan, ReleasedBuffersAreReusedWithTheSizeAskedFor) {
   EXPECT_EQ(device.pooled_bytes(), kept + mib);
 }
 
+// Memory type tables as drivers report them (vulkaninfo on each kind of device): the buffers take
+// a host-cached type where one is allowed, else the first host-visible, host-coherent one.
+TEST(vulkan, BuffersTakeHostCachedMemoryWhereTheDeviceHasIt) {
+  constexpr VkMemoryPropertyFlags kLocal = VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT,
+                                  kVisible = VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT,
+                                  kCoherent = VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
+                                  kCached = VK_MEMORY_PROPERTY_HOST_CACHED_BIT;
+  auto table = [](std::initializer_list<VkMemoryPropertyFlags> types) {
+    VkPhysicalDeviceMemoryProperties m{};
+    for (VkMemoryPropertyFlags f : types) m.memoryTypes[m.memoryTypeCount++].propertyFlags = f;
+    return m;
+  };
+  // A discrete NVIDIA GPU: device memory, write-combined system memory, cached system memory,
+  // and the device memory the CPU sees through the BAR.
+  const auto nvidia = table({0, kLocal, kLocal, kVisible | kCoherent, kVisible | kCoherent | kCached,
+                             kLocal | kVisible | kCoherent});
+  EXPECT_EQ(vk::buffer_memory_type(nvidia, ~0u), 4);
+  EXPECT_EQ(vk::buffer_memory_type(nvidia, ~0u & ~(1u << 4)), 3);  // cached not allowed: the first mapped type
+  EXPECT_EQ(vk::buffer_memory_type(nvidia, 1u << 5), 5);
+  EXPECT_EQ(vk::buffer_memory_type(nvidia, 0b111), -1);  // only device memory allowed
+  // A discrete AMD GPU lists its cached type last.
+  const auto amd = table({kLocal, kVisible | kCoherent, kLocal | kVisible | kCoherent, kVisible | kCoherent | kCached});
+  EXPECT_EQ(vk::buffer_memory_type(amd, ~0u), 3);
+  // lavapipe: one type with every property.
+  EXPECT_EQ(vk::buffer_memory_type(table({kLocal | kVisible | kCoherent | kCached}), ~0u), 0);
+  // Host-visible but not coherent memory needs flushes the backend does not make: never taken.
+  EXPECT_EQ(vk::buffer_memory_type(table({kLocal, kVisible | kCached}), ~0u), -1);
+  EXPECT_EQ(vk::buffer_memory_type(table({}), ~0u), -1);
+
+  // The real lavapipe device allocates from a host-cached type and says so in the report.
+  vk::Instance instance;
+  for (const vk::PhysicalDevice& d : instance.devices())
+    if (d.driver_id == VK_DRIVER_ID_MESA_LLVMPIPE) {
+      vk::Device device(instance, d, {});
+      const VkMemoryPropertyFlags f = device.buffer_memory_flags();
+      EXPECT_EQ(f & (kVisible | kCoherent | kCached), kVisible | kCoherent | kCached);
+    }
+  EXPECT_NE(lavapipe().device().kernels.find("buffers in host-visible, host-cached"), std::string::npos)
+      << lavapipe().device().kernels;
+}
+
 TEST(vulkan, PipelineCacheIsWrittenAndReusedByASecondBackend) {
   const fs::path dir = scratch() / "cache-test";
   fs::remove_all(dir);
