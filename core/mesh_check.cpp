@@ -245,7 +245,8 @@ FaceRec face_rec(const VertexOf& vertex_of, uint32_t ref) {
 }
 
 // Visits every group of faces with the same vertex set (each group sorted by face reference)
-// and reduces the visits into an Acc.
+// and reduces the visits into an Acc. Only the faces that faces_of(h) selects take part (bit k:
+// the hex's face k).
 //
 // Counting sort of the 6 * hexes face references by smallest vertex id (two parallel passes
 // with relaxed atomic counters), then each bucket, a handful of faces, is sorted by the other
@@ -253,8 +254,8 @@ FaceRec face_rec(const VertexOf& vertex_of, uint32_t ref) {
 // in one bucket. Memory: 4 bytes per face plus 4 per vertex id; no hash table, no 16-byte keys.
 //
 // Face references (hex * 6 + face) and vertex ids are 32-bit; check_mesh checks the sizes.
-template <class Acc, class VertexOf, class Visit>
-Acc reduce_face_groups(std::size_t num_hexes, std::size_t num_ids, const std::vector<uint8_t>& use,
+template <class Acc, class FacesOf, class VertexOf, class Visit>
+Acc reduce_face_groups(std::size_t num_hexes, std::size_t num_ids, const FacesOf& faces_of,
                        const VertexOf& vertex_of, const Acc& proto, const Visit& visit) {
   auto min_id = [&](uint32_t ref) {
     const auto ids = face_ids(vertex_of, ref);
@@ -264,8 +265,9 @@ Acc reduce_face_groups(std::size_t num_hexes, std::size_t num_ids, const std::ve
   auto for_each_face = [&](auto&& f) {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, num_hexes, 4096), [&](const auto& r) {
       for (std::size_t h = r.begin(); h < r.end(); ++h) {
-        if (!use[h]) continue;
-        for (uint32_t k = 0; k < 6; ++k) f(static_cast<uint32_t>(h * 6 + k));
+        const unsigned mask = faces_of(static_cast<uint32_t>(h));
+        for (uint32_t k = 0; k < 6; ++k)
+          if (mask >> k & 1) f(static_cast<uint32_t>(h * 6 + k));
       }
     });
   };
@@ -314,8 +316,10 @@ struct FacePass {
   explicit FacePass(std::size_t max_messages) : messages(max_messages) {}
   Messages messages;
   std::size_t faces = 0, interior = 0, nonmanifold = 0, same_orientation = 0, mismatch = 0;
-  // The boundary quads, outward as their hexes list them; their order does not matter.
+  // The boundary quads, outward as their hexes list them, and their face references (hex * 6 +
+  // face), in the same order; the order does not matter.
   std::vector<std::array<uint32_t, 4>> boundary;
+  std::vector<uint32_t> boundary_refs;
   void join(FacePass&& o) {
     messages.join(std::move(o.messages));
     faces += o.faces;
@@ -324,6 +328,7 @@ struct FacePass {
     same_orientation += o.same_orientation;
     mismatch += o.mismatch;
     boundary.insert(boundary.end(), o.boundary.begin(), o.boundary.end());
+    boundary_refs.insert(boundary_refs.end(), o.boundary_refs.begin(), o.boundary_refs.end());
   }
 };
 
@@ -332,12 +337,13 @@ FacePass check_faces(const HexMesh& mesh, const std::string& name,
   const auto vertex_of = [&](uint32_t h, int c) { return mesh.hexes[h][c]; };
   const FacePass proto(max_messages);
   FacePass pass = reduce_face_groups(
-      mesh.hexes.size(), mesh.points.size(), valid, vertex_of, proto,
+      mesh.hexes.size(), mesh.points.size(), [&](uint32_t h) { return valid[h] ? 0x3Fu : 0u; }, vertex_of, proto,
       [&](const FaceRec* b, const FaceRec* e, FacePass& acc) {
         ++acc.faces;
         const std::size_t n = static_cast<std::size_t>(e - b);
         if (n == 1) {
           acc.boundary.push_back(b->cycle);
+          acc.boundary_refs.push_back(b->ref);
         } else if (n > 2) {
           ++acc.nonmanifold;
           acc.messages.add(b->ref, [&] {
@@ -488,6 +494,7 @@ BoundaryStats analyze_boundary(const std::vector<std::array<uint32_t, 4>>& quads
 struct MeshResult {
   MeshStats stats;
   std::vector<uint8_t> valid;
+  std::vector<uint32_t> boundary_refs;  // FacePass::boundary_refs
   Box corners_box;
   std::size_t errors = 0;
 };
@@ -539,6 +546,7 @@ MeshResult check_one(const HexMesh& mesh, const std::string& name, const CheckOp
   faces.messages.append_sorted_to(messages);
 
   s.boundary = analyze_boundary(faces.boundary, mesh.points.size());
+  r.boundary_refs = std::move(faces.boundary_refs);
 
   r.errors = s.nonfinite_points + s.bad_index_hexes + s.repeated_vertex_hexes + s.inverted_hexes +
              (s.region_size_ok ? 0 : 1) + s.nonmanifold_faces + s.orientation_errors +
@@ -641,9 +649,11 @@ UnionStats check_union(const HexMesh& in, const HexMesh& out, const MeshResult& 
   }
 
   // Union vertex ids: an inside point keeps its index; an outside point takes the index of the
-  // inside point at the same coordinates, or a fresh id after all inside ids.
+  // inside point at the same coordinates, or a fresh id after all inside ids. shared[p]: inside
+  // point p has an outside point at its coordinates.
   const std::size_t ni = in.points.size();
   std::vector<uint32_t> out_id(out.points.size());
+  std::vector<uint8_t> shared(ni, 0);
   {
     const PointIndex index(in.points);
     u.matched_points = tbb::parallel_reduce(
@@ -652,6 +662,7 @@ UnionStats check_union(const HexMesh& in, const HexMesh& out, const MeshResult& 
           for (std::size_t q = r.begin(); q < r.end(); ++q) {
             const uint32_t p = is_finite(out.points[q]) ? index.find(out.points[q]) : kNone;
             out_id[q] = p != kNone ? p : static_cast<uint32_t>(ni + q);
+            if (p != kNone) std::atomic_ref<uint8_t>(shared[p]).store(1, std::memory_order_relaxed);
             matched += p != kNone ? 1 : 0;
           }
           return matched;
@@ -660,8 +671,6 @@ UnionStats check_union(const HexMesh& in, const HexMesh& out, const MeshResult& 
   }
 
   const std::size_t hin = in.hexes.size();
-  std::vector<uint8_t> use(rin.valid);
-  use.insert(use.end(), rout.valid.begin(), rout.valid.end());
   const auto vertex_of = [&](uint32_t h, int c) {
     return h < hin ? in.hexes[h][c] : out_id[out.hexes[h - hin][c]];
   };
@@ -678,21 +687,42 @@ UnionStats check_union(const HexMesh& in, const HexMesh& out, const MeshResult& 
     return std::array<Vec3, 4>{m.points[hex[kFaces[f][0]]], m.points[hex[kFaces[f][1]]],
                                m.points[hex[kFaces[f][2]]], m.points[hex[kFaces[f][3]]]};
   };
+  const auto gap = [&](uint32_t ref, UnionPass& acc) {
+    if (on_box_side(face_points(ref), u.box)) return;
+    ++acc.gap;
+    acc.messages.add(ref, [&] {
+      return fmt::format("union: face {} of {} is in no other hex and not on the box (a gap)",
+                         points_text(face_points(ref)), describe(FaceRec{{}, {}, ref}));
+    });
+  };
 
+  // A face can be in hexes of both meshes only when its 4 vertices are points of both (union ids
+  // below ni with shared set): the interface and any overlap. Only those faces are grouped again
+  // here (in the pipeline's meshes, the faces along the surface: about 1 % of the outside
+  // mesh's); every other face was judged by its own mesh's check, and one that is a boundary face
+  // there is a boundary face of the union, which must lie on the box.
+  const auto is_shared = [&](uint32_t id) { return id < ni && shared[id]; };
+  const auto shared_faces = [&](uint32_t h) {
+    const bool valid = h < hin ? rin.valid[h] : rout.valid[h - hin];
+    if (!valid) return 0u;
+    unsigned corners = 0;
+    for (int c = 0; c < 8; ++c) corners |= is_shared(vertex_of(h, c)) ? 1u << c : 0u;
+    unsigned mask = 0;
+    for (int f = 0; f < 6; ++f) {
+      const unsigned face = 1u << kFaces[f][0] | 1u << kFaces[f][1] | 1u << kFaces[f][2] | 1u << kFaces[f][3];
+      if ((corners & face) == face) mask |= 1u << f;
+    }
+    return mask;
+  };
   const uint32_t first_outside_ref = static_cast<uint32_t>(6 * hin);
   UnionPass pass = reduce_face_groups(
-      hin + out.hexes.size(), ni + out.points.size(), use, vertex_of,
+      hin + out.hexes.size(), ni + out.points.size(), shared_faces, vertex_of,
       UnionPass(options.max_messages), [&](const FaceRec* b, const FaceRec* e, UnionPass& acc) {
         const std::size_t n = static_cast<std::size_t>(e - b);
         const std::size_t from_inside = static_cast<std::size_t>(
             std::count_if(b, e, [&](const FaceRec& r) { return r.ref < first_outside_ref; }));
         if (n == 1) {
-          if (on_box_side(face_points(b->ref), u.box)) return;
-          ++acc.gap;
-          acc.messages.add(b->ref, [&] {
-            return fmt::format("union: face {} of {} is in no other hex and not on the box (a gap)",
-                               points_text(face_points(b->ref)), describe(*b));
-          });
+          gap(b->ref, acc);
           return;
         }
         // Groups within one mesh were judged by that mesh's own check.
@@ -718,6 +748,17 @@ UnionStats check_union(const HexMesh& in, const HexMesh& out, const MeshResult& 
           });
         }
       });
+  // The boundary faces of either mesh with a vertex of that mesh alone.
+  const auto not_grouped = [&](uint32_t ref) { return !(shared_faces(ref / 6) >> (ref % 6) & 1); };
+  pass.join(reduce_ranges(rin.boundary_refs.size() + rout.boundary_refs.size(), 16384,
+                          UnionPass(options.max_messages), [&](std::size_t b, std::size_t e, UnionPass& acc) {
+                            for (std::size_t i = b; i < e; ++i) {
+                              const uint32_t ref = i < rin.boundary_refs.size()
+                                                       ? rin.boundary_refs[i]
+                                                       : first_outside_ref + rout.boundary_refs[i - rin.boundary_refs.size()];
+                              if (not_grouped(ref)) gap(ref, acc);
+                            }
+                          }));
   u.interface_faces = pass.interface;
   u.overlap_faces = pass.overlap;
   u.gap_faces = pass.gap;

@@ -7,10 +7,12 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <numeric>
 #include <random>
 #include <string>
 
+#include "core/hex_faces.h"
 #include "core/mesh_check.h"
 
 namespace mchex {
@@ -332,6 +334,126 @@ TEST(mesh_check, DuplicatedHexPutsFacesInThreeHexes) {
   const MeshCheck alone = check_mesh(p.in, nullptr, nullptr);
   EXPECT_FALSE(alone.ok);
   EXPECT_EQ(alone.inside.nonmanifold_faces, 3u);
+}
+
+// The union's face counts as the definition states them, by grouping every face of both meshes
+// by its 4 corner coordinates (not by point ids, as the checker does, and not only the faces whose
+// corners both meshes have, as the checker's union pass does): a face in one hex of the union and
+// not on the box is a gap; a face in hexes of both meshes is an interface face when in exactly 2
+// (an error unless their cycles run opposite ways), an overlap when in more.
+struct UnionReference {
+  std::size_t gap = 0, overlap = 0, interface = 0, interface_errors = 0;
+};
+
+UnionReference union_reference(const HexMesh& in, const HexMesh& out, const Box& box) {
+  using Key = std::array<std::array<double, 3>, 4>;
+  struct Seen {
+    bool inside;
+    std::array<Vec3, 4> cycle;
+  };
+  std::map<Key, std::vector<Seen>> faces;
+  for (const HexMesh* m : {&in, &out})
+    for (const Hex& hex : m->hexes)
+      for (const auto& f : kHexFaces) {
+        Seen s{m == &in, {}};
+        Key key;
+        for (int i = 0; i < 4; ++i) {
+          s.cycle[i] = m->points[hex[f[i]]];
+          key[i] = {s.cycle[i].x, s.cycle[i].y, s.cycle[i].z};
+        }
+        std::sort(key.begin(), key.end());
+        faces[key].push_back(s);
+      }
+  UnionReference r;
+  for (const auto& [key, seen] : faces) {
+    const auto inside = std::count_if(seen.begin(), seen.end(), [](const Seen& s) { return s.inside; });
+    if (seen.size() == 1) {
+      bool on_box = false;
+      for (int d = 0; d < 3; ++d)
+        for (double plane : {box.lo[d], box.hi[d]})
+          on_box = on_box || std::all_of(key.begin(), key.end(), [&](const auto& q) { return q[d] == plane; });
+      r.gap += on_box ? 0 : 1;
+    } else if (inside > 0 && inside < static_cast<std::ptrdiff_t>(seen.size())) {
+      if (seen.size() > 2) {
+        ++r.overlap;
+      } else {
+        ++r.interface;
+        // Opposite cycles: b runs through a's corners backwards from some start.
+        const auto& a = seen[0].cycle;
+        const auto& b = seen[1].cycle;
+        bool opposite = false;
+        for (int k = 0; k < 4; ++k) {
+          bool all = true;
+          for (int i = 0; i < 4; ++i) all = all && a[i] == b[(k - i + 4) % 4];
+          opposite = opposite || all;
+        }
+        r.interface_errors += opposite ? 0 : 1;
+      }
+    }
+  }
+  return r;
+}
+
+// The point of `m` at p, added when m has none there (a mesh keeps one point per coordinate).
+uint32_t point_at(HexMesh& m, Vec3 p) {
+  for (uint32_t i = 0; i < m.points.size(); ++i)
+    if (m.points[i] == p) return i;
+  m.points.push_back(p);
+  return static_cast<uint32_t>(m.points.size() - 1);
+}
+
+TEST(mesh_check, UnionCountsEqualAGroupingOfEveryFaceByCoordinates) {
+  // Random damage to a ball split out of a 6^3 grid: hexes removed, duplicated, copied into the
+  // other mesh, turned inside out, and points moved; every count of the union pass must equal
+  // the reference's, with the damage anywhere (along the interface or far from it).
+  const CellGrid g = ball_grid(6, 2.2);
+  const Box box{{0, 0, 0}, {6, 6, 6}};
+  std::mt19937_64 rng(20261126);
+  std::size_t nonzero = 0;
+  for (int trial = 0; trial < 300; ++trial) {
+    HexMesh mesh[2] = {build_mesh(g, true, {1, {0, 0, 0}, rng()}), build_mesh(g, false, {1, {0, 0, 0}, rng()})};
+    const int edits = 1 + static_cast<int>(rng() % 3);
+    for (int e = 0; e < edits; ++e) {
+      HexMesh& m = mesh[rng() % 2];
+      HexMesh& other = &m == &mesh[0] ? mesh[1] : mesh[0];
+      if (m.hexes.empty()) continue;
+      const std::size_t h = rng() % m.hexes.size();
+      switch (rng() % 5) {
+        case 0:  // removed
+          m.hexes.erase(m.hexes.begin() + static_cast<std::ptrdiff_t>(h));
+          m.region.pop_back();
+          break;
+        case 1:  // duplicated in its own mesh
+          m.hexes.push_back(m.hexes[h]);
+          m.region.push_back(m.region[0]);
+          break;
+        case 2: {  // copied into the other mesh, on that mesh's points
+          Hex copy;
+          for (int c = 0; c < 8; ++c) copy[c] = point_at(other, m.points[m.hexes[h][c]]);
+          other.hexes.push_back(copy);
+          other.region.push_back(other.region.empty() ? kOutside : other.region[0]);
+          break;
+        }
+        case 3: {  // inside out: bottom and top swapped
+          Hex& x = m.hexes[h];
+          x = {x[4], x[5], x[6], x[7], x[0], x[1], x[2], x[3]};
+          break;
+        }
+        case 4:  // a corner moved off the lattice
+          m.points[m.hexes[h][rng() % 8]].x += 0.25;
+          break;
+      }
+    }
+    const MeshCheck c = check_mesh(mesh[0], &mesh[1], &box);
+    const UnionReference r = union_reference(mesh[0], mesh[1], box);
+    ASSERT_TRUE(c.combined);
+    EXPECT_EQ(c.combined->gap_faces, r.gap) << "trial " << trial;
+    EXPECT_EQ(c.combined->overlap_faces, r.overlap) << "trial " << trial;
+    EXPECT_EQ(c.combined->interface_faces, r.interface) << "trial " << trial;
+    EXPECT_EQ(c.combined->interface_errors, r.interface_errors) << "trial " << trial;
+    nonzero += r.gap + r.overlap + r.interface_errors > 0;
+  }
+  EXPECT_GT(nonzero, 250u);  // the damage shows nearly always
 }
 
 TEST(mesh_check, RemovedOutsideHexLeavesAGap) {
