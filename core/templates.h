@@ -38,6 +38,22 @@
 // of boundary quads while every pattern above has an odd count (1, 3, 7, 9), a concave-corner
 // template (3 full faces + 3 three-marked faces) needs a three-marked face pattern with an odd
 // count: the 5 child squares plus a 3-quad corner fill (8) cannot be it.
+// Both are needed at once: the coarse cells enclosed by finer ones always include a corner cell
+// (7 marks), refining it gives its neighbour along the enclosed region's edge 7 marks, and so on.
+// Where the design stands (checked numerically outside the code base, not built): a concave
+// corner exists with these patterns. Three frustums, each the face template's 13 hexes above its child
+// cubes pressed into the frustum between a refined face and a face of the cube [4, 12]^3 at the
+// unmarked corner (4 thick, slanted sides on the planes x = y, y = z, x = z), and that cube: 40
+// hexes, every Bernstein coefficient positive, min corner scaled Jacobian 0.30 with the layer's inner
+// points at height 2 over 5 and 9 and its side points at height 3 over 6 and 9. Its
+// three-marked face has 9 quads: along each refined edge the layer's side pattern (3 quads to
+// the inner points, 1 to the cube's edge), and the cube's face. What blocks is the concave edge:
+// its two other faces carry the 2D edge pattern, which puts two coplanar quads (left and top) at
+// the cell's unmarked corner; with one quad of the three-marked face there, no hex can take both
+// faces on either side (a flat corner), and the arrangements tried there (a fan of three hexes
+// around that corner, the cube's face split on its diagonal) each left a degenerate hex. The
+// element-saving templates of the paper's authors (CMU-CBML/Element-Saving-Hexahedral-3-
+// Refinement-Templates, methods 3 and 4) change the 1- and 2-marked patterns too: the way left.
 //
 // Each template is stored once, in a canonical orientation (node at corner 0, edge on corners
 // 0-1, face on corners 0-3 = z = 0); a leaf's marked pattern selects the kind and the rotation
