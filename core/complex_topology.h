@@ -31,8 +31,8 @@ struct ComplexTopology {
 
 // Numbers edges and faces by sorting the cells' (point-pair / point-quad, cell) entries: ids
 // follow the sorted order, so they depend on the complex alone, never on the thread count.
-// Throws std::invalid_argument when a face is shared by more than two cells or a cell repeats a
-// point.
+// Throws std::invalid_argument when a face is shared by more than two cells, a cell repeats a
+// point or names one past the complex's points.
 ComplexTopology build_topology(const HexComplex& complex);
 
 // Position of point p in face_points[f] (0..3); -1 if p is not on the face.
