@@ -337,7 +337,8 @@ FacePass check_faces(const HexMesh& mesh, const std::string& name,
   const auto vertex_of = [&](uint32_t h, int c) { return mesh.hexes[h][c]; };
   const FacePass proto(max_messages);
   FacePass pass = reduce_face_groups(
-      mesh.hexes.size(), mesh.points.size(), [&](uint32_t h) { return valid[h] ? 0x3Fu : 0u; }, vertex_of, proto,
+      mesh.hexes.size(), mesh.points.size(), [&](uint32_t h) { return valid[h] ? 0x3Fu : 0u; },
+      vertex_of, proto,
       [&](const FaceRec* b, const FaceRec* e, FacePass& acc) {
         ++acc.faces;
         const std::size_t n = static_cast<std::size_t>(e - b);
@@ -675,8 +676,8 @@ UnionStats check_union(const HexMesh& in, const HexMesh& out, const MeshResult& 
     return h < hin ? in.hexes[h][c] : out_id[out.hexes[h - hin][c]];
   };
   // For messages and the box test: which mesh a union face reference is from, and its corners.
-  const auto describe = [&](const FaceRec& r) {
-    const uint32_t h = r.ref / 6;
+  const auto describe = [&](uint32_t ref) {
+    const uint32_t h = ref / 6;
     return h < hin ? fmt::format("inside hex {}", h) : fmt::format("outside hex {}", h - hin);
   };
   const auto face_points = [&](uint32_t ref) {
@@ -692,15 +693,15 @@ UnionStats check_union(const HexMesh& in, const HexMesh& out, const MeshResult& 
     ++acc.gap;
     acc.messages.add(ref, [&] {
       return fmt::format("union: face {} of {} is in no other hex and not on the box (a gap)",
-                         points_text(face_points(ref)), describe(FaceRec{{}, {}, ref}));
+                         points_text(face_points(ref)), describe(ref));
     });
   };
 
   // A face can be in hexes of both meshes only when its 4 vertices are points of both (union ids
   // below ni with shared set): the interface and any overlap. Only those faces are grouped again
-  // here (in the pipeline's meshes, the faces along the surface: about 1 % of the outside
-  // mesh's); every other face was judged by its own mesh's check, and one that is a boundary face
-  // there is a boundary face of the union, which must lie on the box.
+  // here (in the pipeline's meshes, little more than the interface faces); every other face was
+  // judged by its own mesh's check, and one that is a boundary face there is a boundary face of
+  // the union, which must lie on the box.
   const auto is_shared = [&](uint32_t id) { return id < ni && shared[id]; };
   const auto shared_faces = [&](uint32_t h) {
     const bool valid = h < hin ? rin.valid[h] : rout.valid[h - hin];
@@ -731,7 +732,7 @@ UnionStats check_union(const HexMesh& in, const HexMesh& out, const MeshResult& 
           ++acc.overlap;
           acc.messages.add(b->ref, [&] {
             std::vector<std::string> who;
-            for (const FaceRec* r = b; r != e; ++r) who.push_back(describe(*r));
+            for (const FaceRec* r = b; r != e; ++r) who.push_back(describe(r->ref));
             return fmt::format("union: face {} is in {} hexes ({}): the meshes overlap",
                                points_text(face_points(b->ref)), n, fmt::join(who, ", "));
           });
@@ -744,19 +745,20 @@ UnionStats check_union(const HexMesh& in, const HexMesh& out, const MeshResult& 
             return fmt::format(
                 "union: interface face {} of {} and {} is not matched with "
                 "opposite orientation",
-                points_text(face_points(b->ref)), describe(b[0]), describe(b[1]));
+                points_text(face_points(b->ref)), describe(b[0].ref), describe(b[1].ref));
           });
         }
       });
   // The boundary faces of either mesh with a vertex of that mesh alone.
-  const auto not_grouped = [&](uint32_t ref) { return !(shared_faces(ref / 6) >> (ref % 6) & 1); };
-  pass.join(reduce_ranges(rin.boundary_refs.size() + rout.boundary_refs.size(), 16384,
-                          UnionPass(options.max_messages), [&](std::size_t b, std::size_t e, UnionPass& acc) {
+  const std::size_t nb_in = rin.boundary_refs.size();
+  const auto boundary_ref = [&](std::size_t i) {
+    return i < nb_in ? rin.boundary_refs[i] : first_outside_ref + rout.boundary_refs[i - nb_in];
+  };
+  pass.join(reduce_ranges(nb_in + rout.boundary_refs.size(), 16384, UnionPass(options.max_messages),
+                          [&](std::size_t b, std::size_t e, UnionPass& acc) {
                             for (std::size_t i = b; i < e; ++i) {
-                              const uint32_t ref = i < rin.boundary_refs.size()
-                                                       ? rin.boundary_refs[i]
-                                                       : first_outside_ref + rout.boundary_refs[i - rin.boundary_refs.size()];
-                              if (not_grouped(ref)) gap(ref, acc);
+                              const uint32_t ref = boundary_ref(i);
+                              if (!(shared_faces(ref / 6) >> (ref % 6) & 1)) gap(ref, acc);
                             }
                           }));
   u.interface_faces = pass.interface;
