@@ -13,11 +13,14 @@
 //     each level's refined region grows to (about) its bounding box. "hull" is the fraction of the
 //     cube that the bounding box of the finest level's cells fills: the ratio cannot be far below it.
 // Prints a table and one JSON line; never pass/fail.
-//   bench_adaptive [--threshold T] [--max-depth D]... [--iou-depth D] [--lattice N] [--shape NAME]
+// --model PATH (repeatable) adds a triangle model read as `mchex-gpu mesh` reads it (perf/run.sh passes
+// the closed models of npm's stl-models when setup.sh has installed them).
+//   bench_adaptive [--threshold T] [--max-depth D]... [--iou-depth D] [--lattice N] [--shape NAME] [--model PATH]...
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
@@ -32,6 +35,7 @@
 #include "core/mchex_mesher.h"
 #include "core/octree.h"
 #include "core/shapes.h"
+#include "core/surface.h"
 #include "perf/bench_common.h"
 
 using namespace mchex;
@@ -87,7 +91,9 @@ int main(int argc, char** argv) {
   int iou_depth = 4;
   std::size_t lattice = 160;
   std::string only;
+  std::vector<std::string> model_paths;
   for (int i = 1; i + 1 < argc; i += 2) {
+    if (!std::strcmp(argv[i], "--model")) model_paths.push_back(argv[i + 1]);
     if (!std::strcmp(argv[i], "--threshold")) threshold = std::stod(argv[i + 1]);
     if (!std::strcmp(argv[i], "--max-depth")) depths.push_back(std::stoi(argv[i + 1]));
     if (!std::strcmp(argv[i], "--iou-depth")) iou_depth = std::stoi(argv[i + 1]);
@@ -102,6 +108,12 @@ int main(int argc, char** argv) {
     Model m{"torus-mesh", tessellate(ShapeKind::kTorus, 160), nullptr};
     m.sdf = std::make_unique<SurfaceSdf>(*m.surface);
     m.name = fmt::format("torus-mesh ({} triangles)", m.surface->triangles.size());
+    models.push_back(std::move(m));
+  }
+  for (const std::string& path : model_paths) {
+    Model m{"", read_surface(path), nullptr};
+    m.sdf = std::make_unique<SurfaceSdf>(*m.surface);
+    m.name = fmt::format("{} ({} triangles)", std::filesystem::path(path).stem().string(), m.surface->triangles.size());
     models.push_back(std::move(m));
   }
 
