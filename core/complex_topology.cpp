@@ -1,7 +1,7 @@
 #include "core/complex_topology.h"
 
 #include <algorithm>
-#include <atomic>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -30,25 +30,21 @@ struct FaceEntry {
   }
 };
 
-// Sorts v as std::sort would (the entries' own order, every key distinct): first into buckets by
-// the entry's lowest point (its first sort key) with a counting pass, then each bucket alone.
-// A bucket holds the few edges or faces that start at one point, so this costs a fraction of a
-// comparison sort over all of them (12 and 6 entries per cell). The scatter's order within a
-// bucket depends on the threads; the bucket sort removes that.
+// Sorts v as std::sort would (the entries' own order, every key distinct): grouped by the
+// entry's lowest point, its first sort key (group_by_key), then each group alone. A group holds
+// the few edges or faces that start at one point, so this costs a fraction of a comparison sort
+// over all of them (12 and 6 entries per cell); the group sort also removes the thread-dependent
+// order inside a group.
 template <class Entry, class LowPoint>
 void sort_by_lowest_point(std::vector<Entry>& v, std::size_t num_points, const LowPoint& low) {
-  std::vector<std::uint32_t> start(num_points + 1, 0);
-  parallel_for(v.size(), [&](std::size_t i) {
-    std::atomic_ref<std::uint32_t>(start[low(v[i]) + 1]).fetch_add(1, std::memory_order_relaxed);
-  });
-  for (std::size_t p = 0; p < num_points; ++p) start[p + 1] += start[p];
-  std::vector<std::uint32_t> next(start.begin(), start.end() - 1);
+  const KeyGroups g = group_by_key(
+      num_points,
+      [&](auto&& f) { parallel_for(v.size(), [&](std::size_t i) { f(static_cast<std::uint32_t>(i)); }); },
+      [&](std::uint32_t i) { return low(v[i]); });
   std::vector<Entry> out(v.size());
-  parallel_for(v.size(), [&](std::size_t i) {
-    out[std::atomic_ref<std::uint32_t>(next[low(v[i])]).fetch_add(1, std::memory_order_relaxed)] = v[i];
-  });
+  parallel_for(v.size(), [&](std::size_t j) { out[j] = v[g.items[j]]; });
   parallel_chunks(num_points, 4096, [&](std::size_t b, std::size_t e) {
-    for (std::size_t p = b; p < e; ++p) std::sort(out.begin() + start[p], out.begin() + start[p + 1]);
+    for (std::size_t p = b; p < e; ++p) std::sort(out.begin() + g.start[p], out.begin() + g.start[p + 1]);
   });
   v = std::move(out);
 }
@@ -61,6 +57,9 @@ ComplexTopology build_topology(const HexComplex& complex) {
   t.cell_edges.resize(n);
   t.cell_faces.resize(n);
 
+  // Entries are numbered in 32 bits (core/parallel.h group_by_key).
+  if (12 * n > std::numeric_limits<std::uint32_t>::max())
+    throw std::length_error("hex complex: " + std::to_string(n) + " cells are over 357,913,941");
   std::vector<EdgeEntry> edges(12 * n);
   std::vector<FaceEntry> faces(6 * n);
   parallel_for(n, [&](std::size_t c) {

@@ -18,6 +18,7 @@
 
 #include "core/error.h"
 #include "core/hex_faces.h"
+#include "core/parallel.h"
 #include "core/quality.h"
 
 namespace mchex {
@@ -248,9 +249,8 @@ FaceRec face_rec(const VertexOf& vertex_of, uint32_t ref) {
 // and reduces the visits into an Acc. Only the faces that faces_of(h) selects take part (bit k:
 // the hex's face k).
 //
-// Counting sort of the 6 * hexes face references by smallest vertex id (two parallel passes
-// with relaxed atomic counters), then each bucket, a handful of faces, is sorted by the other
-// three ids. Two faces with the same vertex set have the same smallest id, so each group lies
+// The face references grouped by smallest vertex id (core/parallel.h group_by_key, a counting
+// sort), then each bucket, a handful of faces, sorted by the other three ids. Two faces with the same vertex set have the same smallest id, so each group lies
 // in one bucket. Memory: 4 bytes per face plus 4 per vertex id; no hash table, no 16-byte keys.
 //
 // Face references (hex * 6 + face) and vertex ids are 32-bit; check_mesh checks the sizes.
@@ -261,7 +261,6 @@ Acc reduce_face_groups(std::size_t num_hexes, std::size_t num_ids, const FacesOf
     const auto ids = face_ids(vertex_of, ref);
     return *std::min_element(ids.begin(), ids.end());
   };
-  std::vector<uint32_t> offset(num_ids + 1, 0);
   auto for_each_face = [&](auto&& f) {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, num_hexes, 4096), [&](const auto& r) {
       for (std::size_t h = r.begin(); h < r.end(); ++h) {
@@ -271,24 +270,13 @@ Acc reduce_face_groups(std::size_t num_hexes, std::size_t num_ids, const FacesOf
       }
     });
   };
-  for_each_face([&](uint32_t ref) {
-    std::atomic_ref<uint32_t>(offset[min_id(ref)]).fetch_add(1, std::memory_order_relaxed);
-  });
-  std::inclusive_scan(offset.begin(), offset.end() - 1, offset.begin());
-  offset[num_ids] = num_ids > 0 ? offset[num_ids - 1] : 0;
-  std::vector<uint32_t> refs(offset[num_ids]);
-  // Filling from each bucket's end leaves offset[v] at the start of bucket v.
-  for_each_face([&](uint32_t ref) {
-    const uint32_t slot =
-        std::atomic_ref<uint32_t>(offset[min_id(ref)]).fetch_sub(1, std::memory_order_relaxed);
-    refs[slot - 1] = ref;
-  });
+  const KeyGroups buckets = group_by_key(num_ids, for_each_face, min_id);
   return reduce_ranges(num_ids, 4096, proto, [&](std::size_t b, std::size_t e, Acc& acc) {
     std::vector<FaceRec> recs;
     for (std::size_t v = b; v < e; ++v) {
       recs.clear();
-      for (uint32_t i = offset[v]; i < offset[v + 1]; ++i)
-        recs.push_back(face_rec(vertex_of, refs[i]));
+      for (uint32_t i = buckets.start[v]; i < buckets.start[v + 1]; ++i)
+        recs.push_back(face_rec(vertex_of, buckets.items[i]));
       std::sort(recs.begin(), recs.end());
       for (std::size_t i = 0; i < recs.size();) {
         std::size_t j = i + 1;
@@ -702,22 +690,23 @@ UnionStats check_union(const HexMesh& in, const HexMesh& out, const MeshResult& 
   // here (in the pipeline's meshes, little more than the interface faces); every other face was
   // judged by its own mesh's check, and one that is a boundary face there is a boundary face of
   // the union, which must lie on the box.
+  // grouped[h]: bit f set when face f of union hex h is one of those (valid hexes only).
   const auto is_shared = [&](uint32_t id) { return id < ni && shared[id]; };
-  const auto shared_faces = [&](uint32_t h) {
-    const bool valid = h < hin ? rin.valid[h] : rout.valid[h - hin];
-    if (!valid) return 0u;
+  std::vector<uint8_t> grouped(hin + out.hexes.size(), 0);
+  parallel_for(grouped.size(), [&](std::size_t i) {
+    const auto h = static_cast<uint32_t>(i);
+    if (!(h < hin ? rin.valid[h] : rout.valid[h - hin])) return;
     unsigned corners = 0;
     for (int c = 0; c < 8; ++c) corners |= is_shared(vertex_of(h, c)) ? 1u << c : 0u;
-    unsigned mask = 0;
     for (int f = 0; f < 6; ++f) {
       const unsigned face = 1u << kFaces[f][0] | 1u << kFaces[f][1] | 1u << kFaces[f][2] | 1u << kFaces[f][3];
-      if ((corners & face) == face) mask |= 1u << f;
+      if ((corners & face) == face) grouped[h] |= static_cast<uint8_t>(1u << f);
     }
-    return mask;
-  };
+  });
   const uint32_t first_outside_ref = static_cast<uint32_t>(6 * hin);
   UnionPass pass = reduce_face_groups(
-      hin + out.hexes.size(), ni + out.points.size(), shared_faces, vertex_of,
+      hin + out.hexes.size(), ni + out.points.size(), [&](uint32_t h) { return unsigned{grouped[h]}; },
+      vertex_of,
       UnionPass(options.max_messages), [&](const FaceRec* b, const FaceRec* e, UnionPass& acc) {
         const std::size_t n = static_cast<std::size_t>(e - b);
         const std::size_t from_inside = static_cast<std::size_t>(
@@ -758,7 +747,7 @@ UnionStats check_union(const HexMesh& in, const HexMesh& out, const MeshResult& 
                           [&](std::size_t b, std::size_t e, UnionPass& acc) {
                             for (std::size_t i = b; i < e; ++i) {
                               const uint32_t ref = boundary_ref(i);
-                              if (!(shared_faces(ref / 6) >> (ref % 6) & 1)) gap(ref, acc);
+                              if (!(grouped[ref / 6] >> (ref % 6) & 1)) gap(ref, acc);
                             }
                           }));
   u.interface_faces = pass.interface;
