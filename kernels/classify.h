@@ -1,8 +1,8 @@
 // MC33 classification of one cell on a device, in the common dialect of kernels/dialect.h: a port
-// of core/mc33.cpp classify() that returns the fields of host/backend.h CellCode (packed as in
-// core/device_scene.h). Tables come from the generated mchex_tables header; the (sign pattern,
+// of core/cutting/mc33.cpp classify() that returns the fields of core/device/backend.h CellCode (packed as in
+// core/device/device_scene.h). Tables come from the generated mchex_tables header; the (sign pattern,
 // face outcomes) -> (subcase, symmetry) lookup is core's own table, uploaded as the `configs`
-// buffer (core/device_scene.h packed_mc33_configs()).
+// buffer (core/device/device_scene.h packed_mc33_configs()).
 //
 // The decisions must equal the CPU's exactly:
 //   - the face test is the sign of p0 p1 - n0 n1, computed exactly. OpenCL has a correctly
@@ -12,7 +12,7 @@
 //     path) the sign comes from Dekker's exact products and an exact expansion sum (Shewchuk 1997,
 //     Grow-Expansion): exact too, so both give the same decision whenever the products neither
 //     overflow nor underflow (|values| between ~1e-150 and ~1e150, as for core's Kahan);
-//   - the interior test (core/mc33.cpp interior_join) is the same double arithmetic in the same
+//   - the interior test (core/cutting/mc33.cpp interior_join) is the same double arithmetic in the same
 //     order.
 #ifndef MCHEX_CLASSIFY_H
 #define MCHEX_CLASSIFY_H
@@ -30,7 +30,7 @@
 #endif
 
 STRUCT(CellValues) {
-  double f[8];  // corner values, core/mc33.h corner order; f > 0 inside
+  double f[8];  // corner values, core/cutting/mc33.h corner order; f > 0 inside
 };
 
 #ifdef __OPENCL_C_VERSION__
@@ -39,7 +39,7 @@ STRUCT(CellValues) {
 #define MCHEX_CROSSING_NAN double(uintBitsToFloat(0x7FC00000u))
 #endif
 
-// core/mc33.cpp classify()'s crossing parameter on Table 1's edge e (a constant after unrolling:
+// core/cutting/mc33.cpp classify()'s crossing parameter on Table 1's edge e (a constant after unrolling:
 // see classify_pattern on indices): f_a / (f_a - f_b) from the edge's first corner where the edge
 // is cut, a quiet NaN where it is not.
 INLINE double edge_crossing(CellValues v, int mask, int e) {
@@ -55,7 +55,7 @@ STRUCT(CellWords) {
 };
 
 #ifdef MCHEX_HAS_FMA
-// core/mc33.cpp kahan_det, operation for operation.
+// core/cutting/mc33.cpp kahan_det, operation for operation.
 INLINE bool det_nonnegative(double a, double b, double c, double d) {
   EXACT double w = c * d;
   EXACT double e = fma(-c, d, w);
@@ -141,12 +141,12 @@ INLINE bool det_nonnegative(double a, double b, double c, double d) {
 }
 #endif
 
-// core/mc33.cpp face_joins_positive.
+// core/cutting/mc33.cpp face_joins_positive.
 INLINE bool face_joins_positive(double p0, double p1, double n0, double n1) {
   return det_nonnegative(p0, p1, n0, n1);
 }
 
-// core/mc33.cpp interior_join: -1 when the extremum joins nothing, else c1 | c2 << 4.
+// core/cutting/mc33.cpp interior_join: -1 when the extremum joins nothing, else c1 | c2 << 4.
 INLINE int interior_join(CellValues v) {
   EXACT double b0 = v.f[0];
   EXACT double b1 = v.f[1];
@@ -205,7 +205,7 @@ INLINE int component_of(int adj[8], int c) {
   return comp;
 }
 
-// core/mc33.cpp classify() without crossings and regions (the host derives those from the values
+// core/cutting/mc33.cpp classify() without crossings and regions (the host derives those from the values
 // and the code), for a cell whose sign pattern (bit c: f[c] > 0) is `mask`. Values must be finite
 // (the host checks). A cell with one sign everywhere (mask 0 or 255, nearly every cell of a grid)
 // takes the short way: no edge is cut, no face is ambiguous and the subcase has no tunnel partner,
@@ -214,7 +214,7 @@ INLINE int component_of(int adj[8], int c) {
 // Arrays (the values, the links, the tables) are only ever indexed by loop counters that unroll to
 // constants: SIMD compilers that run invocations as vector lanes (llvmpipe) spill an array indexed
 // by a varying value to per-invocation memory, which on lavapipe cost more than the work itself.
-// Per-subcase facts come from the `configs` buffer for the same reason (core/device_scene.h).
+// Per-subcase facts come from the `configs` buffer for the same reason (core/device/device_scene.h).
 INLINE CellWords classify_pattern(CLASSIFY_PARAMS_ CellValues v, int mask) {
   if (mask == 0 || mask == 255) {
     uint e = configs[mask * 64];
@@ -236,7 +236,7 @@ INLINE CellWords classify_pattern(CLASSIFY_PARAMS_ CellValues v, int mask) {
   int face_joins = 0;
   for (int fi = 0; fi < 6; ++fi) {
     int q0 = kHexFaces[4 * fi], q1 = kHexFaces[4 * fi + 1], q2 = kHexFaces[4 * fi + 2], q3 = kHexFaces[4 * fi + 3];
-    // Ambiguous (core/mc33.cpp compute_ambiguous_faces): both diagonals are same-sign pairs of
+    // Ambiguous (core/cutting/mc33.cpp compute_ambiguous_faces): both diagonals are same-sign pairs of
     // opposite signs.
     int s0 = (mask >> q0) & 1, s1 = (mask >> q1) & 1, s2 = (mask >> q2) & 1, s3 = (mask >> q3) & 1;
     if (s0 != s2 || s1 != s3 || s0 == s1) continue;
@@ -288,14 +288,14 @@ INLINE CellWords classify_cell(CLASSIFY_PARAMS_ CellValues v) {
   return classify_pattern(CLASSIFY_ARGS_ v, mask);
 }
 
-// Hexes the mesher makes from the cell (core/local_refinement.h local_refinement_hexes: 8 + 2 * cut
+// Hexes the mesher makes from the cell (core/cutting/local_refinement.h local_refinement_hexes: 8 + 2 * cut
 // edges for a cell cut directly, the sum over its leaves for one refined locally), a function of
 // the subcase alone, so the prefix sum of these is where each cell's hexes start in the output.
 INLINE uint cell_hexes(CLASSIFY_PARAMS_ CellWords w) {
   return configs[MCHEX_CONFIG_SUBCASE_BASE + (w.w0 & 255u)] >> MCHEX_CONFIG_HEXES_SHIFT;
 }
 
-// The uniform grid's point numbering (core/grid.h UniformGrid: cells x fastest, points
+// The uniform grid's point numbering (core/grid/grid.h UniformGrid: cells x fastest, points
 // i + (n+1)(j + (n+1)k), corners as UniformGrid::cell_corners), so a uniform complex needs no
 // corner list on the device: cell `cell`'s corner 0, then corner c at a fixed offset from it.
 INLINE uint uniform_cell_base(uint cell, uint n) {

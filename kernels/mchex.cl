@@ -1,4 +1,4 @@
-// OpenCL C 1.2 kernels of the opencl backend (host/backend_opencl.cpp): thin wrappers around the
+// OpenCL C 1.2 kernels of the opencl backend (host/backends/opencl.cpp): thin wrappers around the
 // shared device logic. The host builds the program from, in order, the generated
 // mchex_tables.cl.h, dialect.h, sdf.h, refine.h, classify.h and this file (embedded into the
 // binary at build time), so there are no #include lines here.
@@ -48,11 +48,11 @@ __kernel void refinement_error(__global const double *lattice, __global const do
   errors[i] = refinement_error_of(L, sizes[i]);
 }
 
-// MC33 classification of the cells [first, first + n) of the complex (host/backend.h
+// MC33 classification of the cells [first, first + n) of the complex (core/device/backend.h
 // classify_cells). Corner point ids come from `cells` (8 per cell of the chunk), or, when
 // uniform_n > 0, from the uniform grid's numbering (no corner list at all); values holds the
 // points [value_base, ...) that the chunk's cells use. zero_tolerance > 0 applies the mesher's
-// zero rule (core/mchex_mesher.h apply_zero_rule: |f| < t becomes -t) to each corner value as it
+// zero rule (core/cutting/mchex_mesher.h apply_zero_rule: |f| < t becomes -t) to each corner value as it
 // is read, so the host need not make a ruled copy. Writes one byte per cell (its Subcase: all the
 // mesher needs), the packed CellCode words when want_words != 0, and sets bad[0] when a corner
 // value is not finite (the host turns that into core's InputError).

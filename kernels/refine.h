@@ -1,5 +1,5 @@
 // The refinement error of one octree cell on a device, in the common dialect of kernels/dialect.h:
-// core/refinement_error.cpp (paper Section 3) operation for operation, so that every value equals
+// core/grid/refinement_error.cpp (paper Section 3) operation for operation, so that every value equals
 // the CPU's bit for bit.
 #ifndef MCHEX_REFINE_H
 #define MCHEX_REFINE_H
@@ -12,7 +12,7 @@
 #endif
 
 STRUCT(ChildLattice) {
-  double f[64];  // core/refinement_error.h: point (a, b, c) at a + 4 b + 16 c
+  double f[64];  // core/grid/refinement_error.h: point (a, b, c) at a + 4 b + 16 c
 };
 
 INLINE double refinement_error_of(ChildLattice L, double size) {

@@ -1,16 +1,16 @@
 // Signed distance on a device, in the common dialect of kernels/dialect.h (OpenCL C and GLSL):
-// the same arithmetic, in the same order, as core/sdf.cpp and core/shapes.cpp, so that every
+// the same arithmetic, in the same order, as core/sdf/sdf.cpp and core/sdf/shapes.cpp, so that every
 // value equals the CPU reference bit for bit.
 //
-// Surface SDF: the search of core/sdf.cpp's reference, over the same kind of tree
-// (core/device_scene.h: four children per node, each bounded by a box in a frame of its own, and
+// Surface SDF: the search of core/sdf/sdf.cpp's reference, over the same kind of tree
+// (core/device/device_scene.h: four children per node, each bounded by a box in a frame of its own, and
 // a plane-and-edge-lines bound per triangle below each leaf): a nearest-first walk in float that
 // prunes a node or triangle only when its float lower bound exceeds the best squared distance
 // found so far (rounded up), and measures the survivors exactly, in double, with
 // closest_point_on_triangle (Ericson's Voronoi-region walk, the same regions as core). The answer
 // is the minimum squared distance and, among equal ones, the LOWEST triangle id (SurfaceSdf's
 // tie rule), which makes the result independent of the walk, the tree, the packet and the seed;
-// the sign is the angle-weighted pseudonormal's of the closest feature (core/device_scene.h).
+// the sign is the angle-weighted pseudonormal's of the closest feature (core/device/device_scene.h).
 //
 // Packets: one walk serves MCHEX_SDF_PACKET points at once (neighbours in Morton order, as in the
 // reference's packets): a node is opened when it is in range of any of them, each point
@@ -21,7 +21,7 @@
 // keys are the subgroup's minimum so the walk, its order and its stack of node ids are uniform,
 // and each invocation prunes for its own point: the walk a GPU takes (on an H200 2.5x faster in
 // the kernel than one walk per invocation); on llvmpipe, which runs a subgroup as one SIMD vector
-// under masks, it measured slower than one walk per invocation (host/backend_vulkan.cpp picks).
+// under masks, it measured slower than one walk per invocation (host/backends/vulkan.cpp picks).
 //
 // Pruning is conservative: every bound is float, computed on the host in double from the float
 // vectors the kernel projects on and rounded outward; the kernel subtracts a slack of 1e-6 of the
@@ -41,7 +41,7 @@
 #ifndef MCHEX_SDF_PACKET
 #define MCHEX_SDF_PACKET 1
 #endif
-// Whether the walk bounds each triangle of a leaf child in range (core/device_scene.h
+// Whether the walk bounds each triangle of a leaf child in range (core/device/device_scene.h
 // leaf_bounds: 17 float4 per leaf) before measuring it exactly, or measures them all. On lavapipe
 // (texel reads) measuring all is faster (4.7x -> 3.8x the cpu reference's time): the bounds cost
 // more fetches than the 1-2 exact tests per leaf they save, under a mask that the slowest lane
@@ -133,7 +133,7 @@
 #define IN_RANGE4(d, b) mix(F4(MCHEX_F_INF), d, lessThanEqual(d, F4(b)))
 #endif
 
-// Left to right, as core/geometry.h dot(): no dot() builtin, whose summation order is the
+// Left to right, as core/base/geometry.h dot(): no dot() builtin, whose summation order is the
 // driver's.
 INLINE double dot3(DVEC3 a, DVEC3 b) {
   EXACT double s = a.x * b.x + a.y * b.y + a.z * b.z;
@@ -147,7 +147,7 @@ INLINE double dot3(DVEC3 a, DVEC3 b) {
 STRUCT(ClosestPoint) {
   DVEC3 point;
   double squared_distance;
-  int region;  // 0..2 vertex a/b/c, 3 edge ab, 4 edge bc, 5 edge ca, 6 interior (core/sdf.h)
+  int region;  // 0..2 vertex a/b/c, 3 edge ab, 4 edge bc, 5 edge ca, 6 interior (core/sdf/sdf.h)
 };
 
 INLINE ClosestPoint closest_point(DVEC3 q, double squared_distance, int region) {
@@ -158,7 +158,7 @@ INLINE ClosestPoint closest_point(DVEC3 q, double squared_distance, int region) 
   return r;
 }
 
-// core/sdf.cpp closest_point_on_triangle, operation for operation.
+// core/sdf/sdf.cpp closest_point_on_triangle, operation for operation.
 INLINE ClosestPoint closest_point_on_triangle(DVEC3 p, DVEC3 a, DVEC3 b, DVEC3 c) {
   EXACT DVEC3 ab = b - a;
   EXACT DVEC3 ac = c - a;
@@ -261,7 +261,7 @@ INLINE float lane4(FVEC4 v, int c) { return c == 0 ? v.x : (c == 1 ? v.y : (c ==
 INLINE uint ulane4(UVEC4 v, int c) { return c == 0 ? v.x : (c == 1 ? v.y : (c == 2 ? v.z : v.w)); }
 
 // Lower bounds of the squared distance from p to the triangles under each of wide node n's four
-// children (core/device_scene.h wide_boxes), less the slack; +inf for an absent child.
+// children (core/device/device_scene.h wide_boxes), less the slack; +inf for an absent child.
 INLINE FVEC4 children_distance2(SCENE_PARAMS_ uint n, FVEC3 p, float slack) {
   uint b = CAST(uint, MCHEX_WIDE_NODE_FLOAT4S) * n;
   FVEC4 d2 = F4(0.0f);
@@ -273,7 +273,7 @@ INLINE FVEC4 children_distance2(SCENE_PARAMS_ uint n, FVEC3 p, float slack) {
   return d2;
 }
 
-// Lower bounds of the squared distance from p to each of leaf l's triangles (core/device_scene.h
+// Lower bounds of the squared distance from p to each of leaf l's triangles (core/device/device_scene.h
 // leaf_bounds: plane interval and edge lines), less the slack; +inf for an absent lane.
 INLINE FVEC4 triangles_distance2(SCENE_PARAMS_ uint l, FVEC3 p, float slack) {
   uint b = CAST(uint, MCHEX_LEAF_BOUND_FLOAT4S) * l;
@@ -378,7 +378,7 @@ INLINE SurfacePacket closest_on_surface(SCENE_PARAMS_ SurfacePacket q, double sc
     best2[l] = bound_up(q.hit[l].best.squared_distance);
   }
   // Pending nodes, each with every point's lower bound of it when it was pushed (a point whose
-  // best has shrunk below that since skips the node). core/device_scene.h sizes the stack.
+  // best has shrunk below that since skips the node). core/device/device_scene.h sizes the stack.
   uint stack_node[MCHEX_SDF_WIDE_STACK];
   float stack_d2[MCHEX_SDF_WIDE_STACK * MCHEX_SDF_PACKET];
   stack_node[0] = 0u;
@@ -419,7 +419,7 @@ INLINE SurfacePacket closest_on_surface(SCENE_PARAMS_ SurfacePacket q, double sc
     order[1] = s.o1;
     order[2] = s.o2;
     order[3] = s.o3;
-    // The node's links (core/device_scene.h wide_links): child[4], then count[4].
+    // The node's links (core/device/device_scene.h wide_links): child[4], then count[4].
     UVEC4 child = WIDE_LINKS4(2u * node), count4 = WIDE_LINKS4(2u * node + 1u);
     // The leaf children's triangles that each point's float bound keeps, as bits 4 c + t, then
     // measured exactly in one loop per point. Collecting first and measuring once costs a few
@@ -484,7 +484,7 @@ INLINE SurfacePacket closest_on_surface(SCENE_PARAMS_ SurfacePacket q, double sc
   return q;
 }
 
-// core/device_scene.h pseudonormal_signed_value on the hit.
+// core/device/device_scene.h pseudonormal_signed_value on the hit.
 INLINE double signed_value_of(SCENE_PARAMS_ DVEC3 p, SurfaceHit hit) {
   EXACT double d = sqrt(hit.best.squared_distance);
   if (d == 0.0) return 0.0;
@@ -505,7 +505,7 @@ INLINE double signed_value_of(SCENE_PARAMS_ DVEC3 p, SurfaceHit hit) {
 
 #endif  // MCHEX_SHAPES_ONLY
 
-// ---- Analytic shapes: core/shapes.cpp, operation for operation -------------------------------
+// ---- Analytic shapes: core/sdf/shapes.cpp, operation for operation -------------------------------
 
 INLINE double planar_norm(double a, double b) {
   EXACT double s = a * a + b * b;
@@ -517,7 +517,7 @@ INLINE double circle_distance(DVEC3 p, double cx, double radius) {
   return planar_norm(r, p.z);
 }
 
-// kind: core/shapes.h ShapeKind (0 sphere, 1 torus, 2 rounded box, 3 two-holed).
+// kind: core/sdf/shapes.h ShapeKind (0 sphere, 1 torus, 2 rounded box, 3 two-holed).
 INLINE double shape_sdf(int kind, DVEC3 p) {
   if (kind == 0) {
     EXACT double r = MCHEX_SPHERE_RADIUS - sqrt(dot3(p, p));

@@ -1,6 +1,6 @@
 // The surface SDF on a device without fp64 (kernels/dialect.h, MCHEX_FP32): single precision
 // decides WHICH triangles can hold the answer, the host computes the answer from them in double
-// (host/fp32_path.h, for kernels/mchex.cl and shaders/surface_sdf32*.comp), so the value is core/sdf.h SurfaceSdf's bit for bit.
+// (host/backends/fp32_path.h, for kernels/mchex.cl and shaders/surface_sdf32*.comp), so the value is core/sdf/sdf.h SurfaceSdf's bit for bit.
 //
 // For every point p the kernel returns a candidate set: the slots whose triangle may be the one
 // SurfaceSdf picks (the least squared distance as core computes it in double, the lowest triangle
@@ -27,7 +27,7 @@
 //        with err(v*) <= 16 u |ab| |ac| P^2 (u = 2^-53, P the largest |p - corner|); with
 //        P^2 <= 12 W^2 (W = max |p| coordinate + the surface's largest coordinate) and margin,
 //        delta(t) <= slot_slack[t] W^2 + 2^-44 W, slot_slack[t] = 12 2^-41 / (min(|ab|, |ac|)
-//        sin^2(angle at a)) computed on the host in double and rounded up (core/device_scene.h
+//        sin^2(angle at a)) computed on the host in double and rounded up (core/device/device_scene.h
 //        DeviceScene32). A near-degenerate triangle gets a large slack and is simply always a
 //        candidate when its node is visited.
 //
@@ -37,13 +37,13 @@
 // slot slack below them (node_slack), exceeds min U. Ties (a point nearest to a vertex or an edge
 // is equally near every triangle around it) are all candidates; the host applies core's tie rule.
 //
-// Buffers: nodes (BvhNode, float bounds rounded outward from the double triangles: core/bvh.h),
+// Buffers: nodes (BvhNode, float bounds rounded outward from the double triangles: core/sdf/bvh.h),
 // node_slack (float per node), slot_corners32 (float, 9 per slot), slot_slack (float per slot).
 #ifndef MCHEX_SDF_FP32_H
 #define MCHEX_SDF_FP32_H
 
 #ifndef MCHEX_SDF_STACK
-#define MCHEX_SDF_STACK 72  // > the BVH's maximum depth (64, core/bvh.cpp): one pending sibling per level
+#define MCHEX_SDF_STACK 72  // > the BVH's maximum depth (64, core/sdf/bvh.cpp): one pending sibling per level
 #endif
 
 // A loop budget, for llvmpipe (lavapipe), as kernels/sdf.h's: gallivm ends a shader's loops after
@@ -91,7 +91,7 @@ INLINE float max_abs3f(FVEC3 a) { return max(max(FABS(a.x), FABS(a.y)), FABS(a.z
 // x clamped to [0, 1]; NaN (0 / 0 on a degenerate triangle) becomes 0.
 INLINE float unit01(float x) { return x > 0.0f ? min(x, 1.0f) : 0.0f; }
 
-// Ericson's Voronoi-region walk (core/sdf.cpp) in float, every parameter clamped into the
+// Ericson's Voronoi-region walk (core/sdf/sdf.cpp) in float, every parameter clamped into the
 // triangle: the result is a point of the triangle up to rounding, whatever the rounding did to
 // the region decisions.
 INLINE FVEC3 closest_point_f(FVEC3 p, FVEC3 a, FVEC3 b, FVEC3 c) {

@@ -1,5 +1,5 @@
-// Adaptive 3-refinement (core/octree.h) against issue 6's targets, on the analytic shapes and one
-// closed triangle model (the torus tessellated, core/shapes.h):
+// Adaptive 3-refinement (core/grid/octree.h) against issue 6's targets, on the analytic shapes and one
+// closed triangle model (the torus tessellated, core/sdf/shapes.h):
 //   - speed: refinement + balancing + templates in output cells per second, the SDF's time taken
 //     out (target: >= 1 M/s), with the time of each stage;
 //   - size: the adaptive grid's cells over a uniform grid of the same finest cell size (target:
@@ -30,13 +30,14 @@
 
 #include <fmt/format.h>
 
-#include "core/fidelity.h"
-#include "core/grid.h"
-#include "core/mchex_mesher.h"
-#include "core/octree.h"
-#include "core/shapes.h"
-#include "core/surface.h"
+#include "core/check/fidelity.h"
+#include "core/grid/grid.h"
+#include "core/cutting/mchex_mesher.h"
+#include "core/grid/octree.h"
+#include "core/sdf/shapes.h"
+#include "core/mesh/surface.h"
 #include "perf/bench_common.h"
+#include "core/io/surface_io.h"
 
 using namespace mchex;
 using bench::seconds_of;
@@ -74,7 +75,7 @@ struct Model {
   std::unique_ptr<SignedDistance> sdf;
 };
 
-// As the CLI's --fidelity (host/main.cpp measure()): surface samples at 1/400 of the box
+// As the CLI's --fidelity (host/cli/main.cpp measure()): surface samples at 1/400 of the box
 // diagonal, IoU on a lattice over the padded cube.
 Fidelity fidelity(const HexMesh& inside, const Model& m, const Box& cube, std::size_t lattice) {
   const double spacing = cube.diagonal() / 400;

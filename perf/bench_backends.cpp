@@ -34,18 +34,18 @@
 #include <vector>
 
 #include <nlohmann/json.hpp>
-#include <tbb/info.h>
 
-#include "core/grid.h"
-#include "core/hex_complex.h"
-#include "core/mchex_mesher.h"
-#include "core/refinement_error.h"
-#include "core/shapes.h"
-#include "host/backend.h"
-#include "host/backend_cpu.h"
-#include "host/backend_opencl.h"
-#include "host/backend_vulkan.h"
+#include "core/grid/grid.h"
+#include "core/grid/hex_complex.h"
+#include "core/cutting/mchex_mesher.h"
+#include "core/grid/refinement_error.h"
+#include "core/sdf/shapes.h"
+#include "core/device/backend.h"
+#include "host/backends/cpu.h"
+#include "host/backends/opencl.h"
+#include "host/backends/vulkan.h"
 #include "perf/bench_common.h"
+#include "core/base/parallel.h"
 
 using namespace mchex;
 using bench::seconds_of;
@@ -168,7 +168,7 @@ int main(int argc, char** argv) {
         VulkanOptions o;
         o.device = vulkan_device;
         if (name == "vulkan-subgroup") o.sdf_walk = VulkanOptions::SdfWalk::kSubgroup;
-        o.force_fp32 = name == "vulkan-fp32";  // host/fp32_path.h, as opencl-fp32
+        o.force_fp32 = name == "vulkan-fp32";  // host/backends/fp32_path.h, as opencl-fp32
         auto b = std::make_unique<VulkanBackend>(o);
         vks[name] = b.get();
         backends.push_back({name, std::move(b)});
@@ -276,7 +276,7 @@ int main(int argc, char** argv) {
         b->refinement_error(w.lattice, w.sizes, o.doubles);
       });
     // What the mesher needs (a subcase byte per cell and the offsets), from the raw SDF values with
-    // the zero rule and the uniform grid's corner ids on the device: host/main.cpp's call.
+    // the zero rule and the uniform grid's corner ids on the device: host/cli/main.cpp's call.
     ClassifyOptions co;
     co.zero_tolerance = zero_tolerance_of(w.complex);
     co.uniform_cells_per_axis = uniform_n;
@@ -311,13 +311,13 @@ int main(int argc, char** argv) {
   }
 
   std::printf("bench_backends: %zu surface triangles, %zu points, %zu refinement cells, %zu MC cells, %d CPU threads\n",
-              w.surface.triangles.size(), n_points, w.lattice.size(), n_cells, tbb::info::default_concurrency());
+              w.surface.triangles.size(), n_points, w.lattice.size(), n_cells, hardware_threads());
   nlohmann::json j = {{"bench", "backends"},
                       {"triangles", w.surface.triangles.size()},
                       {"points", n_points},
                       {"mc_cells", n_cells},
                       {"refinement_cells", w.lattice.size()},
-                      {"threads", tbb::info::default_concurrency()},
+                      {"threads", hardware_threads()},
                       {"unavailable", unavailable}};
   for (auto& [name, b] : backends) {
     std::printf("%-7s %s / %s\n", name.c_str(), b->device().platform.c_str(), b->device().name.c_str());

@@ -9,15 +9,15 @@
 #include <string>
 #include <vector>
 
-#include <tbb/global_control.h>
 
-#include "core/grid.h"
+#include "core/grid/grid.h"
 #include "perf/bench_common.h"
-#include "core/mesh_check.h"
-#include "core/mchex_mesher.h"
-#include "core/mesh_io.h"
-#include "core/ro.h"
-#include "core/shapes.h"
+#include "core/check/mesh_check.h"
+#include "core/cutting/mchex_mesher.h"
+#include "core/io/mesh_io.h"
+#include "core/cutting/ro.h"
+#include "core/sdf/shapes.h"
+#include "core/base/parallel.h"
 
 using namespace mchex;
 using bench::seconds_of;
@@ -44,7 +44,7 @@ int main(int argc, char** argv) {
   double t_serial = 0;
   if (method == "mchex") {
     // The same mesher on one thread, in the same run: the parallel speed-up as a ratio.
-    tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+    ThreadLimit one(1);
     MchexStats s1;
     t_serial = seconds_of([&] { (void)mesh_mchex(grid, f, 1e-3, &s1); });
   }

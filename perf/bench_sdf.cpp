@@ -7,14 +7,14 @@
 #include <string>
 #include <vector>
 
-#include <tbb/global_control.h>
-#include <tbb/info.h>
 
-#include "core/grid.h"
+#include "core/grid/grid.h"
 #include "perf/bench_common.h"
-#include "core/sdf.h"
-#include "core/shapes.h"
-#include "core/surface.h"
+#include "core/sdf/sdf.h"
+#include "core/sdf/shapes.h"
+#include "core/mesh/surface.h"
+#include "core/io/surface_io.h"
+#include "core/base/parallel.h"
 
 using namespace mchex;
 using bench::seconds_of;
@@ -43,7 +43,7 @@ int main(int argc, char** argv) {
     if (!std::strcmp(argv[i], "--grid")) grid = std::stoi(argv[i + 1]);
     if (!std::strcmp(argv[i], "--segments")) segments = std::stoi(argv[i + 1]);
   }
-  const int cores = tbb::info::default_concurrency();
+  const int cores = hardware_threads();
 
   const TriangleSurface big = model.empty() ? tessellate(ShapeKind::kTorus, segments) : read_surface(model);
   const SurfaceReport report = validate_surface(big);
@@ -51,7 +51,7 @@ int main(int argc, char** argv) {
   // time shows.
   double tbuild = 0;
   {
-    tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+    ThreadLimit one(1);
     tbuild = seconds_of([&] { const SurfaceSdf once(big); });
   }
   const SurfaceSdf sdf(big);
@@ -59,7 +59,7 @@ int main(int argc, char** argv) {
   std::vector<double> f(pts.size());
   double t1 = 0, tn = 0;
   {
-    tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+    ThreadLimit one(1);
     t1 = seconds_of([&] { sdf.evaluate(pts, f); });
   }
   tn = seconds_of([&] { sdf.evaluate(pts, f); });
@@ -71,7 +71,7 @@ int main(int argc, char** argv) {
   std::vector<double> a(small_pts.size()), b(small_pts.size());
   double tb = 0, tv = 0;
   {
-    tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+    ThreadLimit one(1);
     tb = seconds_of([&] { brute_force_sdf(small, small_pts, a); });
     tv = seconds_of([&] { small_sdf.evaluate(small_pts, b); });
   }

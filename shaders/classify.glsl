@@ -3,12 +3,12 @@
 // kernels/classify.h (the same source as the OpenCL kernel; in GLSL its face test takes the exact
 // no-fma path, Dekker products and an expansion sum, since Vulkan does not promise a fused fma).
 // Writes each cell's Subcase byte (all the mesher needs; four to a word, OR-ed atomically into a
-// word the host zeroed, since core Vulkan has no byte stores), the CellCode words (core/device_scene.h
+// word the host zeroed, since core Vulkan has no byte stores), the CellCode words (core/device/device_scene.h
 // layout) when asked for, the crossing parameters in classify_crossings.comp (MCHEX_CLASSIFY_CROSSINGS:
 // a shader of its own, since llvmpipe would run a flagged branch under a mask in every cell), and
 // the cell's hex count for the prefix sum (shaders/scan_*.comp).
 // Tables come from the generated mchex_tables.glsl.h; the (sign pattern, face outcomes) lookup is
-// core's own, uploaded as `configs` (core/device_scene.h packed_mc33_configs()).
+// core's own, uploaded as `configs` (core/device/device_scene.h packed_mc33_configs()).
 #extension GL_GOOGLE_include_directive : require
 #include "mchex_tables.glsl.h"
 #include "kernels/dialect.h"

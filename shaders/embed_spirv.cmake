@@ -1,5 +1,5 @@
 # cmake -DSPV=in.spv -DOUT=out.cpp -DNAME=name -P embed_spirv.cmake
-# Writes the SPIR-V words of in.spv as `mchex::spirv::NAME` (host/vk_spirv.h declares them).
+# Writes the SPIR-V words of in.spv as `mchex::spirv::NAME` (host/backends/vk_spirv.h declares them).
 # SPIR-V is a stream of 32-bit words in the producer's byte order (little-endian from glslang);
 # the words are read back in the same order, so the array holds the module as the driver wants it.
 file(READ ${SPV} hex HEX)
@@ -24,6 +24,6 @@ foreach(w ${bytes})
   endif()
 endforeach()
 file(WRITE ${OUT} "// Generated from ${NAME}.comp by shaders/embed_spirv.cmake; do not edit.\n"
-  "#include \"host/vk_spirv.h\"\n\nnamespace mchex::spirv {\n"
+  "#include \"host/backends/vk_spirv.h\"\n\nnamespace mchex::spirv {\n"
   "static const std::uint32_t words_${NAME}[] = {\n${words}};\n"
   "const std::span<const std::uint32_t> ${NAME}(words_${NAME});\n}  // namespace mchex::spirv\n")

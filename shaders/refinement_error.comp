@@ -1,5 +1,5 @@
 #version 450
-// The refinement error of core/refinement_error.h, one cell per invocation: a thin wrapper around
+// The refinement error of core/grid/refinement_error.h, one cell per invocation: a thin wrapper around
 // the shared device logic of kernels/refine.h (the same source as the OpenCL kernel), bit for bit
 // equal to the reference.
 #extension GL_GOOGLE_include_directive : require

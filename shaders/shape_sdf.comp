@@ -1,5 +1,5 @@
 #version 450
-// Signed distance (f > 0 inside) of a built-in analytic shape (core/shapes.h ShapeKind) at a batch
+// Signed distance (f > 0 inside) of a built-in analytic shape (core/sdf/shapes.h ShapeKind) at a batch
 // of points: a thin wrapper around kernels/sdf.h shape_sdf (dimensions from the generated tables).
 #extension GL_GOOGLE_include_directive : require
 #include "mchex_tables.glsl.h"

@@ -1,7 +1,7 @@
 #version 450
 // The surface SDF with the subgroup walk (kernels/sdf.h MCHEX_SDF_SUBGROUP): a subgroup's
 // invocations share one walk of the tree for their points. Needs subgroup basic and arithmetic
-// operations in compute shaders (host/backend_vulkan.cpp checks; else surface_sdf_single.comp).
+// operations in compute shaders (host/backends/vulkan.cpp checks; else surface_sdf_single.comp).
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #define MCHEX_SDF_SUBGROUP

@@ -19,7 +19,7 @@
 layout(local_size_x = 64) in;
 
 #ifdef MCHEX_TEXEL_SCENE
-// The search arrays as uniform texel buffers (host/backend_vulkan.cpp makes the views: RGBA32F,
+// The search arrays as uniform texel buffers (host/backends/vulkan.cpp makes the views: RGBA32F,
 // RGBA32UI for the links and for two doubles of the corners, R32UI).
 layout(binding = 0) uniform samplerBuffer wide_boxes;
 layout(binding = 1) uniform usamplerBuffer wide_links;

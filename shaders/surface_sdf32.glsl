@@ -1,7 +1,7 @@
 // The body of shaders/surface_sdf32.comp and surface_sdf32_counted.comp: the fp32 path's surface
 // SDF (kernels/sdf_fp32.h, the same source as kernels/mchex.cl's sdf_surface32) for devices
 // without shaderFloat64 or shaderInt64, or forced (MCHEX_FORCE_FP32). No double and no 64-bit
-// integer anywhere: per point it writes a candidate record (host/fp32_path.h: the count, then
+// integer anywhere: per point it writes a candidate record (host/backends/fp32_path.h: the count, then
 // MCHEX_FP32_CANDIDATES slots; count MCHEX_FP32_CANDIDATES + 1 too many candidates, + 2 out of
 // the loop budget) and the host computes the value from it in double.
 //

@@ -10,12 +10,12 @@
 
 #include <gtest/gtest.h>
 
-#include "core/grid.h"
-#include "core/hex_complex.h"
-#include "core/mchex_mesher.h"
-#include "core/mc33.h"
-#include "core/shapes.h"
-#include "host/backend.h"
+#include "core/grid/grid.h"
+#include "core/grid/hex_complex.h"
+#include "core/cutting/mchex_mesher.h"
+#include "core/cutting/mc33.h"
+#include "core/sdf/shapes.h"
+#include "core/device/backend.h"
 
 namespace mchex::test {
 

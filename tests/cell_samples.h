@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <random>
 
-#include "core/quality.h"
+#include "core/mesh/quality.h"
 
 namespace mchex::test {
 

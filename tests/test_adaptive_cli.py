@@ -1,4 +1,4 @@
-"""`mchex-gpu mesh --threshold T --max-depth D` (the adaptive grid, core/octree.h) as a user runs it:
+"""`mchex-gpu mesh --threshold T --max-depth D` (the adaptive grid, core/grid/octree.h) as a user runs it:
 the report says what T is relative to and how many grid points the refinement's SDF samples
 served, both meshes pass `mchex-gpu check` with the shape's topology, and the output is the same
 byte for byte on 1 and 2 threads. Run by ctest with MCHEX_GPU pointing at the binary."""

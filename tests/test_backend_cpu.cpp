@@ -1,4 +1,4 @@
-// The backend interface (host/backend.h) and its cpu reference: make_backend's names, the device
+// The backend interface (core/device/backend.h) and its cpu reference: make_backend's names, the device
 // list, the CellCode word layout the kernels write, and the cpu backend against core/ called
 // directly (it must be exactly core's answers, since every other backend is tested against it).
 #include <gtest/gtest.h>
@@ -10,18 +10,20 @@
 #include <random>
 #include <regex>
 
-#include "core/device_scene.h"
-#include "core/error.h"
-#include "core/grid.h"
-#include "core/local_refinement.h"
-#include "core/mc33.h"
-#include "core/mchex_mesher.h"
-#include "core/refinement_error.h"
-#include "core/sdf.h"
-#include "core/shapes.h"
-#include "host/backend.h"
-#include "host/backend_cpu.h"
+#include "core/device/device_scene.h"
+#include "core/base/error.h"
+#include "core/grid/grid.h"
+#include "core/cutting/local_refinement.h"
+#include "core/cutting/mc33.h"
+#include "core/cutting/mchex_mesher.h"
+#include "core/grid/refinement_error.h"
+#include "core/sdf/sdf.h"
+#include "core/sdf/shapes.h"
+#include "core/device/backend.h"
+#include "host/backends/cpu.h"
 #include "tests/backend_samples.h"
+#include "host/backends/registry.h"
+#include "core/device/cell_words.h"
 
 using namespace mchex;
 
@@ -49,7 +51,7 @@ TEST(Backend, DeviceListStartsWithTheReference) {
   for (const DeviceInfo& d : list) {
     EXPECT_FALSE(d.name.empty());
     EXPECT_TRUE(d.type == "cpu" || d.type == "gpu" || d.type == "other");
-    // A device without fp64 is usable: the fp32 path (host/fp32_path.h).
+    // A device without fp64 is usable: the fp32 path (host/backends/fp32_path.h).
     EXPECT_TRUE(d.precision == "fp64" || d.precision == "fp32") << d.name;
     if (!d.fp64) {
       EXPECT_EQ(d.precision, "fp32") << d.name;
@@ -57,7 +59,7 @@ TEST(Backend, DeviceListStartsWithTheReference) {
   }
 }
 
-// The word layout of core/device_scene.h, packed here by hand from its comment, decodes to the
+// The word layout of core/device/device_scene.h, packed here by hand from its comment, decodes to the
 // same CellCode, for every subcase, sign mask, face mask, tunnel, inversion, symmetry and cut-edge
 // bit.
 TEST(Backend, CellCodeWordsRoundTrip) {
@@ -178,7 +180,7 @@ TEST(BackendCpu, RefinementErrorIsCore) {
   }
 }
 
-// core/mchex_mesher.h DeviceClassification: a backend's classification handed to the mesher is
+// core/cutting/mchex_mesher.h DeviceClassification: a backend's classification handed to the mesher is
 // checked, not trusted. The true one gives the very same mesh; one wrong subcase or one wrong
 // prefix sum is a logic_error that names the cell(s).
 TEST(BackendCpu, MesherChecksADeviceClassification) {

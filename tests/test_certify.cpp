@@ -1,6 +1,6 @@
-// `mchex-gpu certify` (core/certify.h): the paper's positivity proof re-derived over the cell-type
+// `mchex-gpu certify` (core/cutting/certify.h): the paper's positivity proof re-derived over the cell-type
 // table x 24 rotations x MC33 subcases. Asserted: every type, rotation and subcase certifies (the
-// volume-centre search of core/repair.h and 3.2's own-level template included), and the cases that
+// volume-centre search of core/cutting/repair.h and 3.2's own-level template included), and the cases that
 // failed before these fixes are kept as regression tests that fail without them.
 #include <gtest/gtest.h>
 
@@ -8,14 +8,14 @@
 #include <cmath>
 #include <cstdio>
 
-#include "core/cell_types.h"
-#include "core/certify.h"
-#include "core/local_refinement.h"
-#include "core/mc33.h"
-#include "core/polyhedra.h"
-#include "core/quality.h"
-#include "core/repair.h"
-#include "core/subdivide.h"
+#include "core/grid/cell_types.h"
+#include "core/cutting/certify.h"
+#include "core/cutting/local_refinement.h"
+#include "core/cutting/mc33.h"
+#include "core/cutting/polyhedra.h"
+#include "core/mesh/quality.h"
+#include "core/cutting/repair.h"
+#include "core/cutting/subdivide.h"
 
 namespace mchex {
 namespace {
@@ -140,7 +140,7 @@ TEST(certify, Subcase3_2Regression) {
 
 // Why certify's route covers the local-refinement cell types (the paper's 15 + 1) without listing
 // them: every cell of a grid is A(type moved by a rotation) for an affine A with det > 0
-// (core/cell_types.h), and refine_locally commutes with A (inner points are affine combinations of
+// (core/grid/cell_types.h), and refine_locally commutes with A (inner points are affine combinations of
 // the corners; values and signs do not depend on positions), so the leaves the mesher cuts are the
 // images under A of the leaves certify cuts, and the certificate is invariant under A (Theorem 5.2).
 TEST(certify, LocalRefinementCommutesWithAffineMaps) {

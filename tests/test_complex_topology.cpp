@@ -1,4 +1,4 @@
-// core/complex_topology.h against a direct reading of its contract: edges and faces numbered in
+// core/grid/complex_topology.h against a direct reading of its contract: edges and faces numbered in
 // the ascending order of their point sets, every cell's entries naming them, the owner the
 // lowest cell around, a face's points in the stated cyclic order; and the errors. The reference
 // here groups with std::map, independently of the counting sort the implementation uses.
@@ -11,11 +11,11 @@
 #include <stdexcept>
 #include <vector>
 
-#include "core/complex_topology.h"
-#include "core/grid.h"
-#include "core/hex_faces.h"
-#include "core/mc33.h"
-#include "core/octree.h"
+#include "core/grid/complex_topology.h"
+#include "core/grid/grid.h"
+#include "core/mesh/hex_faces.h"
+#include "core/cutting/mc33.h"
+#include "core/grid/octree.h"
 
 namespace mchex {
 namespace {

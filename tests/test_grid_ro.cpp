@@ -4,13 +4,13 @@
 #include <cmath>
 #include <numbers>
 
-#include "core/error.h"
-#include "core/fidelity.h"
-#include "core/grid.h"
-#include "core/hex_complex.h"
-#include "core/mesh_check.h"
-#include "core/ro.h"
-#include "core/shapes.h"
+#include "core/base/error.h"
+#include "core/check/fidelity.h"
+#include "core/grid/grid.h"
+#include "core/grid/hex_complex.h"
+#include "core/check/mesh_check.h"
+#include "core/cutting/ro.h"
+#include "core/sdf/shapes.h"
 
 namespace mchex {
 namespace {

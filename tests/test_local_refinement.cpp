@@ -1,4 +1,4 @@
-// Local refinement (core/local_refinement.h, paper Section 5 / Figure 7).
+// Local refinement (core/cutting/local_refinement.h, paper Section 5 / Figure 7).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -14,11 +14,11 @@
 #include <string>
 #include <vector>
 
-#include "core/local_refinement.h"
-#include "core/mc33.h"
-#include "core/polyhedra.h"
-#include "core/quality.h"
-#include "core/subdivide.h"
+#include "core/cutting/local_refinement.h"
+#include "core/cutting/mc33.h"
+#include "core/cutting/polyhedra.h"
+#include "core/mesh/quality.h"
+#include "core/cutting/subdivide.h"
 #include "tests/cell_samples.h"
 
 namespace mchex {

@@ -1,4 +1,4 @@
-// MC33 classification of one cell (core/mc33.h), checked against references that do not share
+// MC33 classification of one cell (core/cutting/mc33.h), checked against references that do not share
 // its code: the facts table of notes/mc33-topology.md, the classic MC case counts, a few entries
 // of Lewiner's cases[] table, a flood fill of the sampled trilinear interpolant (the ground truth
 // for which corners are connected), the body critical points that Custodio et al. use for 13.5,
@@ -17,8 +17,8 @@
 #include <set>
 #include <vector>
 
-#include "core/error.h"
-#include "core/mc33.h"
+#include "core/base/error.h"
+#include "core/cutting/mc33.h"
 
 namespace mchex {
 namespace {

@@ -1,4 +1,4 @@
-// The MCHex mesher on uniform grids (core/mchex_mesher.h): the analytic sphere, torus and
+// The MCHex mesher on uniform grids (core/cutting/mchex_mesher.h): the analytic sphere, torus and
 // two-holed solid at depths 2-4. Asserted: the inside/outside pair passes check_mesh (no
 // structural error, gap or overlap; volumes add up to the box: the conformity the global keys
 // are for), the inside boundary is a closed 2-manifold with the shape's Euler characteristic,
@@ -10,20 +10,20 @@
 #include <algorithm>
 #include <chrono>
 #include <numeric>
-#include <tbb/global_control.h>
 #include <random>
 #include <cstdio>
 #include <cstring>
 #include <string>
 #include <vector>
 
-#include "core/fidelity.h"
-#include "core/grid.h"
-#include "core/hex_complex.h"
-#include "core/mchex_mesher.h"
-#include "core/mesh_check.h"
-#include "core/ro.h"
-#include "core/shapes.h"
+#include "core/check/fidelity.h"
+#include "core/grid/grid.h"
+#include "core/grid/hex_complex.h"
+#include "core/cutting/mchex_mesher.h"
+#include "core/check/mesh_check.h"
+#include "core/cutting/ro.h"
+#include "core/sdf/shapes.h"
+#include "core/base/parallel.h"
 
 namespace mchex {
 namespace {
@@ -195,11 +195,11 @@ TEST(Mchex, RandomFieldsConformAndCertifyIncludingRefinedCells) {
 
 TEST(Mchex, SameBytesOnOneAndTwoThreads) {
   MchexRun one = [] {
-    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+    ThreadLimit limit(1);
     return mesh_shape(ShapeKind::kTwoHoled, 3);
   }();
   MchexRun two = [] {
-    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 2);
+    ThreadLimit limit(2);
     return mesh_shape(ShapeKind::kTwoHoled, 3);
   }();
   for (const auto& [a, b] : {std::pair{&one.mesh.inside, &two.mesh.inside},

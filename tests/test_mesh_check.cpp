@@ -1,4 +1,4 @@
-// The mesh validator (core/mesh_check.h) on grids of unit cells split into an inside and an
+// The mesh validator (core/check/mesh_check.h) on grids of unit cells split into an inside and an
 // outside mesh. Expected counts are computed here by direct loops over the cell grid (or by
 // hand for the small shapes), independently of the checker's sort-based face matching.
 #include <gtest/gtest.h>
@@ -12,8 +12,8 @@
 #include <random>
 #include <string>
 
-#include "core/hex_faces.h"
-#include "core/mesh_check.h"
+#include "core/mesh/hex_faces.h"
+#include "core/check/mesh_check.h"
 
 namespace mchex {
 namespace {

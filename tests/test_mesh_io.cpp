@@ -1,7 +1,7 @@
 // Mesh files: exact round trips, atomic writes, files from other tools, and bad files that must
 // fail with an InputError naming the file. tests/test_meshio_formats.py drives the two
 // HexmeshSamples tests to check the same files against meshio, an independent reader and writer.
-#include "core/mesh_io.h"
+#include "core/io/mesh_io.h"
 
 #include <gtest/gtest.h>
 #include <sys/resource.h>
@@ -22,7 +22,7 @@
 #include <string>
 #include <vector>
 
-#include "core/error.h"
+#include "core/base/error.h"
 
 namespace mchex {
 namespace {

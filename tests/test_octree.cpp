@@ -1,6 +1,6 @@
-// Adaptive 3-refinement (core/octree.h): refinement by the paper's error with one SDF batch per
+// Adaptive 3-refinement (core/grid/octree.h): refinement by the paper's error with one SDF batch per
 // level, balancing to a fixed point, and the conforming complex of templates. Conformity is
-// checked by the project's independent checker (core/mesh_check.h): the complex is split into two
+// checked by the project's independent checker (core/check/mesh_check.h): the complex is split into two
 // meshes that must tile the box face for face with no gap (a hanging node leaves a face in one
 // hex inside the box), every face in at most two hexes, volumes adding up to the box.
 #include <gtest/gtest.h>
@@ -12,17 +12,17 @@
 #include <cmath>
 #include <set>
 
-#include <tbb/global_control.h>
 
-#include "core/cell_types.h"
-#include "core/grid.h"
-#include "core/hex_complex.h"
-#include "core/mc33.h"
-#include "core/mesh_check.h"
-#include "core/octree.h"
-#include "core/refinement_error.h"
-#include "core/ro.h"
-#include "core/shapes.h"
+#include "core/grid/cell_types.h"
+#include "core/grid/grid.h"
+#include "core/grid/hex_complex.h"
+#include "core/cutting/mc33.h"
+#include "core/check/mesh_check.h"
+#include "core/grid/octree.h"
+#include "core/grid/refinement_error.h"
+#include "core/cutting/ro.h"
+#include "core/sdf/shapes.h"
+#include "core/base/parallel.h"
 
 namespace mchex {
 namespace {
@@ -443,11 +443,11 @@ AdaptiveGrid sphere_complex(int max_depth, double threshold, OctreeStats* stats 
 TEST(octree, SameComplexOnOneAndTwoThreads) {
   AdaptiveGrid one, two;
   {
-    tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
+    ThreadLimit c(1);
     one = sphere_complex(4, 0.05);
   }
   {
-    tbb::global_control c(tbb::global_control::max_allowed_parallelism, 2);
+    ThreadLimit c(2);
     two = sphere_complex(4, 0.05);
   }
   ASSERT_EQ(one.complex.points.size(), two.complex.points.size());

@@ -19,20 +19,22 @@
 #include <random>
 #include <sstream>
 
-#include "core/error.h"
-#include "core/grid.h"
-#include "core/hex_complex.h"
-#include "core/local_refinement.h"
-#include "core/mc33.h"
-#include "core/mchex_mesher.h"
-#include "core/refinement_error.h"
-#include "core/sdf.h"
-#include "core/shapes.h"
-#include "core/surface.h"
+#include "core/base/error.h"
+#include "core/grid/grid.h"
+#include "core/grid/hex_complex.h"
+#include "core/cutting/local_refinement.h"
+#include "core/cutting/mc33.h"
+#include "core/cutting/mchex_mesher.h"
+#include "core/grid/refinement_error.h"
+#include "core/sdf/sdf.h"
+#include "core/sdf/shapes.h"
+#include "core/mesh/surface.h"
 #include "tests/backend_samples.h"
-#include "host/backend.h"
-#include "host/backend_cpu.h"
-#include "host/backend_opencl.h"
+#include "core/device/backend.h"
+#include "host/backends/cpu.h"
+#include "host/backends/opencl.h"
+#include "core/io/surface_io.h"
+#include "host/backends/registry.h"
 
 namespace fs = std::filesystem;
 using namespace mchex;
@@ -457,7 +459,7 @@ TEST(Opencl, ClassificationOfAGridAcrossChunks) {
   expect_same_classification(b, batch, "two-holed grid, chunks of 777");
 }
 
-// The mesher's call (host/main.cpp): raw SDF values with the zero rule applied on the device,
+// The mesher's call (host/cli/main.cpp): raw SDF values with the zero rule applied on the device,
 // corner ids computed on the device for a uniform grid, only the subcase bytes and offsets back;
 // and the values the SDF left on the device reused (ClassifyOptions::values_from_last_sdf, which
 // only a device with its own buffers has: zero_copy off runs that path on PoCL). Every field equals

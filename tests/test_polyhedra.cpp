@@ -1,9 +1,9 @@
-// Cutting cells into 3-regular polyhedra (core/polyhedra.h) and midpoint subdivision
-// (core/subdivide.h), checked on every sign pattern against the facts of notes/mc33-topology.md
+// Cutting cells into 3-regular polyhedra (core/cutting/polyhedra.h) and midpoint subdivision
+// (core/cutting/subdivide.h), checked on every sign pattern against the facts of notes/mc33-topology.md
 // (regions, corner counts, polyhedron V/F, hexes = 8 + 2 * cut edges) and against geometry that
 // does not share their code (volumes by the divergence theorem and by the exact trilinear hex
 // volume). Then the Bernstein certificate of every hex, per subcase: every subcase that
-// core/local_refinement.h cuts directly is asserted 100% certified; the refined ones (their
+// core/cutting/local_refinement.h cuts directly is asserted 100% certified; the refined ones (their
 // direct cut is what makes them refined) are measured and printed. tests/test_local_refinement.cpp
 // certifies the refined cells.
 //
@@ -15,7 +15,7 @@
 // (or of 12.2, which has two such regions; the paper's Table 3 offsets are for the transition
 // cells 2, 5 and 6 only, and 12.1.1 certifies fully on cubes here, so 12.1.1 is the likelier).
 // Case 11 (and its mirror 14) fails plain subdivision for crossings near 0 and 1; cut_cell moves
-// their volume centres by the offset of core/volume_centre_offset.h (the paper's Eq. 14), which
+// their volume centres by the offset of core/cutting/volume_centre_offset.h (the paper's Eq. 14), which
 // certifies them on affine cells, and local refinement takes them on the other cells.
 #include <gtest/gtest.h>
 
@@ -30,12 +30,12 @@
 #include <string>
 #include <vector>
 
-#include "core/local_refinement.h"
-#include "core/mc33.h"
-#include "core/polyhedra.h"
-#include "core/quality.h"
-#include "core/repair.h"
-#include "core/subdivide.h"
+#include "core/cutting/local_refinement.h"
+#include "core/cutting/mc33.h"
+#include "core/cutting/polyhedra.h"
+#include "core/mesh/quality.h"
+#include "core/cutting/repair.h"
+#include "core/cutting/subdivide.h"
 #include "tests/cell_samples.h"
 
 namespace mchex {
@@ -182,7 +182,7 @@ TEST(polyhedra, TunnelSubcasesAreRefused) {
 // (the vertex mean as volume centre) gives a hex with det J < 0 at a corner (min Bernstein
 // coefficient about -1.6e-3 on the unit cube; a scan of corner magnitudes in {1, t} finds failures
 // from t = 0.05 on and none at t >= 0.1). cut_cell's offset centre certifies it on the cube
-// (tests/test_volume_centre_offset.cpp), and local refinement (core/local_refinement.h, the
+// (tests/test_volume_centre_offset.cpp), and local refinement (core/cutting/local_refinement.h, the
 // route on non-affine cells) certifies every hex of the same cell too.
 TEST(polyhedra, Case11CounterexampleIsRefinedAndCertifies) {
   const Cell f = {0.05, 0.05, -0.05, -0.05, -1, 0.05, 1, -1};
@@ -326,7 +326,7 @@ TEST(polyhedra, AllSignPatternsCutSubdivideAndCertify) {
 namespace mchex {
 namespace {
 
-// The mesher's shortcut (core/repair.h): an uncut right-handed parallelepiped needs no check.
+// The mesher's shortcut (core/cutting/repair.h): an uncut right-handed parallelepiped needs no check.
 // Random parallelepipeds, checked with the full certificate; mirror images and warped cells are
 // refused.
 TEST(polyhedra, UncutAffineCellsAreCertifiedWithoutTheCheck) {

@@ -1,4 +1,4 @@
-// Element quality of one trilinear hex (core/quality.h): the Bernstein certificate of det J
+// Element quality of one trilinear hex (core/mesh/quality.h): the Bernstein certificate of det J
 // (paper Section 5, Eq. 7-10), the 9-point scaled Jacobian, edge ratio and exact volume.
 // References here are independent of the library's formulas: det J sampled from the Jacobian
 // columns, the Bernstein polynomial summed from its basis, coefficients rebuilt from values at
@@ -11,7 +11,7 @@
 #include <limits>
 #include <random>
 
-#include "core/quality.h"
+#include "core/mesh/quality.h"
 
 namespace mchex {
 namespace {

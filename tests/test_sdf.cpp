@@ -6,10 +6,10 @@
 #include <numeric>
 #include <random>
 
-#include <tbb/global_control.h>
 
-#include "core/sdf.h"
-#include "core/shapes.h"
+#include "core/sdf/sdf.h"
+#include "core/sdf/shapes.h"
+#include "core/base/parallel.h"
 
 namespace mchex {
 namespace {
@@ -99,7 +99,7 @@ TEST(SurfaceSdf, EqualsBruteForceAndIsDeterministicAcrossThreadCounts) {
   sdf.evaluate(pts, fast);
   brute_force_sdf(mesh, pts, brute);
   {
-    tbb::global_control single(tbb::global_control::max_allowed_parallelism, 1);
+    ThreadLimit single(1);
     sdf.evaluate(pts, one);
   }
   for (std::size_t i = 0; i < pts.size(); ++i) {

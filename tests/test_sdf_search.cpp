@@ -1,4 +1,4 @@
-// The reference SDF's search (core/sdf.cpp) against the paper's brute-force loop, bit for bit, where
+// The reference SDF's search (core/sdf/sdf.cpp) against the paper's brute-force loop, bit for bit, where
 // its shortcuts are most exposed: exact ties at shared vertices and edges (every incident triangle
 // at exactly the same distance; the lowest index must win, as in the loop), points far out in
 // vertex regions (many nearly tied triangles, the float bounds' slack decides), flat faces split
@@ -11,8 +11,8 @@
 #include <numeric>
 #include <random>
 
-#include "core/sdf.h"
-#include "core/shapes.h"
+#include "core/sdf/sdf.h"
+#include "core/sdf/shapes.h"
 
 namespace mchex {
 namespace {

@@ -22,8 +22,9 @@
 #include <unistd.h>
 #endif
 
-#include "core/error.h"
-#include "core/surface.h"
+#include "core/base/error.h"
+#include "core/mesh/surface.h"
+#include "core/io/surface_io.h"
 
 namespace mchex {
 namespace {

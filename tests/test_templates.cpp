@@ -1,5 +1,5 @@
-// The standard 3-refinement templates (core/templates.h) and the cell-type table derived from them
-// (core/cell_types.h): geometry against independent facts (volumes, face matching, the vertex
+// The standard 3-refinement templates (core/grid/templates.h) and the cell-type table derived from them
+// (core/grid/cell_types.h): geometry against independent facts (volumes, face matching, the vertex
 // levels of notes/refinement-templates.md, the paper's count of 9 basic cells), the Bernstein
 // certificate of every template hex, and conformity of every pair of face neighbours whose marks
 // admit templates (exhaustive over the 2^12 marks of two cells).
@@ -12,10 +12,10 @@
 #include <set>
 #include <vector>
 
-#include "core/cell_types.h"
-#include "core/mc33.h"
-#include "core/quality.h"
-#include "core/templates.h"
+#include "core/grid/cell_types.h"
+#include "core/cutting/mc33.h"
+#include "core/mesh/quality.h"
+#include "core/grid/templates.h"
 
 namespace mchex {
 namespace {
@@ -181,7 +181,7 @@ TEST(templates, FaceNeighboursConformForEveryAdmissibleMarking) {
   EXPECT_GT(pairs, 100);
 }
 
-// The invariant the conformity of the complex rests on (core/templates.h): the quads a template
+// The invariant the conformity of the complex rests on (core/grid/templates.h): the quads a template
 // puts on a cell face depend only on that face's 4 corner marks. Checked directly on every face
 // of every template in every rotation, independently of which template or rotation produced it:
 // the face's quads and marks, moved by the symmetry of the square that puts the marks in a
@@ -264,14 +264,14 @@ TEST(templates, FacePatternDependsOnlyOnItsFourCornerMarks) {
     }
   EXPECT_EQ(faces, 4 * kNumCubeRotations * 6);
   // The classes the four templates use: no mark, one corner, an edge, all four (canonical marks
-  // 0, 1, 3, 15), with 1, 3, 7 and 9 quads (core/templates.h's face patterns).
+  // 0, 1, 3, 15), with 1, 3, 7 and 9 quads (core/grid/templates.h's face patterns).
   std::map<int, std::size_t> counts;
   for (const auto& [m, p] : by_class) counts[m] = p.quads.size();
   EXPECT_EQ(counts, (std::map<int, std::size_t>{{0, 1}, {1, 3}, {3, 7}, {15, 9}}));
   for (const auto& [m, n] : counts) EXPECT_EQ(n % 2, 1u) << "face pattern with marks " << m;
 }
 
-// The hand classification in core/cell_types.h: cube 1, node 1, edge 3, face 3 = 8 types, one
+// The hand classification in core/grid/cell_types.h: cube 1, node 1, edge 3, face 3 = 8 types, one
 // fewer than the paper's 9 (reported there). The names record which template each came from.
 TEST(cell_types, BasicCellsAreTheHandClassification) {
   const auto types = cell_types();

@@ -1,4 +1,4 @@
-// Volume-centre offsets (core/volume_centre_offset.h; Tong & Zhang 2025, Section 5, Eq. 14):
+// Volume-centre offsets (core/cutting/volume_centre_offset.h; Tong & Zhang 2025, Section 5, Eq. 14):
 // the offset rule of MC33 11 and 14 (the paper's Figure 6 "Case 12" and its mirror image), checked
 // by the Bernstein certificate of every hex over every sign pattern of both cases with crossings
 // on a grid of [eps, 1 - eps]^6 (its corners, the ends eps and 1 - eps, included), on affine
@@ -17,13 +17,13 @@
 #include <string>
 #include <vector>
 
-#include "core/cell_types.h"
-#include "core/local_refinement.h"
-#include "core/mc33.h"
-#include "core/polyhedra.h"
-#include "core/quality.h"
-#include "core/subdivide.h"
-#include "core/volume_centre_offset.h"
+#include "core/grid/cell_types.h"
+#include "core/cutting/local_refinement.h"
+#include "core/cutting/mc33.h"
+#include "core/cutting/polyhedra.h"
+#include "core/mesh/quality.h"
+#include "core/cutting/subdivide.h"
+#include "core/cutting/volume_centre_offset.h"
 
 namespace mchex {
 namespace {
@@ -279,7 +279,7 @@ TEST(volume_centre_offset, EveryPatternOf11And14CertifiesOnAffineCells) {
 
 // ---- Transition cells: refined, because no offset can certify them ----------------------------
 
-// On the templates' transition cells (core/cell_types.h) the direct cut with the offset fails for
+// On the templates' transition cells (core/grid/cell_types.h) the direct cut with the offset fails for
 // some crossings and rotations, so the mesher refines 11 and 14 there; measured and printed.
 TEST(volume_centre_offset, TransitionCellsAreRoutedToLocalRefinement) {
   std::mt19937_64 rng(7);

@@ -23,21 +23,21 @@
 #include <string>
 #include <vector>
 
-#include "core/error.h"
-#include "core/grid.h"
-#include "core/hex_complex.h"
-#include "core/local_refinement.h"
-#include "core/mc33.h"
-#include "core/mchex_mesher.h"
-#include "core/refinement_error.h"
-#include "core/sdf.h"
-#include "core/shapes.h"
-#include "core/surface.h"
+#include "core/base/error.h"
+#include "core/grid/grid.h"
+#include "core/grid/hex_complex.h"
+#include "core/cutting/local_refinement.h"
+#include "core/cutting/mc33.h"
+#include "core/cutting/mchex_mesher.h"
+#include "core/grid/refinement_error.h"
+#include "core/sdf/sdf.h"
+#include "core/sdf/shapes.h"
+#include "core/mesh/surface.h"
 #include "tests/backend_samples.h"
-#include "host/backend_cpu.h"
-#include "host/backend_vulkan.h"
-#include "host/vk_context.h"
-#include "host/vk_spirv.h"
+#include "host/backends/cpu.h"
+#include "host/backends/vulkan.h"
+#include "host/backends/vk_context.h"
+#include "host/backends/vk_spirv.h"
 
 namespace fs = std::filesystem;
 using namespace mchex;
@@ -333,7 +333,7 @@ TEST(vulkan, ClassifyOnASharedGridChunkedAndGatheredEqualsWhole) {
   EXPECT_GE(small.dispatches(), 4 * ((complex.cells.size() + 999) / 1000));
 }
 
-// The mesher's call (host/main.cpp): raw SDF values with the zero rule applied on the device,
+// The mesher's call (host/cli/main.cpp): raw SDF values with the zero rule applied on the device,
 // corner ids computed on the device for a uniform grid, only the subcase bytes and offsets back,
 // and the values the SDF left on the device reused (ClassifyOptions::values_from_last_sdf). Every
 // field equals core's classification of apply_zero_rule's values.
@@ -691,7 +691,7 @@ TEST(vulkan, SurfaceSdfAtTheCentreOfAFineSphereWhereTheWalkOpensTheWholeTree) {
   }
 }
 
-// ---- The fp32 path (kernels/sdf_fp32.h, host/fp32_path.h), forced on lavapipe ----------------
+// ---- The fp32 path (kernels/sdf_fp32.h, host/backends/fp32_path.h), forced on lavapipe ----------------
 
 namespace {
 

@@ -1,4 +1,4 @@
-"""PENDING: rename to tests/test_vulkan_cli.py once host/main.cpp has `devices` and `--backend vulkan`
+"""PENDING: rename to tests/test_vulkan_cli.py once host/cli/main.cpp has `devices` and `--backend vulkan`
 (the opencl engineer adds them); until then ctest would fail on the missing options.
 
 `mchex-gpu` with `--backend vulkan` on Mesa lavapipe, selected explicitly (its ICD alone, the
@@ -70,7 +70,7 @@ class VulkanCli(ScratchTestCase):
 
     def test_fp32_path_meshes_equal_cpu_byte_for_byte(self):
         # MCHEX_FORCE_FP32=1: the surface SDF from the device's float candidates with the values
-        # computed on the host in double (host/fp32_path.h), the other stages on the host.
+        # computed on the host in double (host/backends/fp32_path.h), the other stages on the host.
         env = dict(self.env, MCHEX_FORCE_FP32="1")
         stl = os.path.join(self.dir, "bumpy.stl")
         write_binary_stl(stl, *bumpy_torus(96, 40))

@@ -10,8 +10,9 @@
 #include <fstream>
 #include <string>
 
-#include "core/error.h"
-#include "core/surface.h"
+#include "core/base/error.h"
+#include "core/mesh/surface.h"
+#include "core/io/surface_io.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size < 1) return 0;

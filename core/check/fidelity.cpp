@@ -1,0 +1,200 @@
+#include "core/check/fidelity.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <limits>
+#include <memory>
+
+#include "core/check/mesh_check.h"
+#include "core/mesh/quality.h"
+#include "core/base/parallel.h"
+
+namespace mchex {
+namespace {
+
+// Newton on the trilinear map (paper Eq. 7) from the centre. Returns false when it does not
+// converge; *inside tells whether the preimage lies in the closed unit cube.
+bool invert_trilinear(const std::array<Vec3, 8>& x, Vec3 p, bool* inside) {
+  Vec3 t{0.5, 0.5, 0.5};
+  for (int it = 0; it < 30; ++it) {
+    const auto [du, dv, dw] = jacobian(x, t.x, t.y, t.z);
+    const double det = triple(du, dv, dw);
+    if (!(std::abs(det) > 0)) return false;
+    const Vec3 r = p - trilinear_map(x, t);
+    // Cramer's rule for J * delta = r.
+    const Vec3 delta{triple(r, dv, dw) / det, triple(du, r, dw) / det, triple(du, dv, r) / det};
+    t += delta;
+    if (std::max({std::abs(delta.x), std::abs(delta.y), std::abs(delta.z)}) < 1e-13) {
+      constexpr double tol = 1e-10;
+      *inside = t.x >= -tol && t.x <= 1 + tol && t.y >= -tol && t.y <= 1 + tol && t.z >= -tol &&
+                t.z <= 1 + tol;
+      return true;
+    }
+    // Far outside the cube the map is not meaningful; the point is not in this hex.
+    if (std::abs(t.x - 0.5) > 4 || std::abs(t.y - 0.5) > 4 || std::abs(t.z - 0.5) > 4) {
+      *inside = false;
+      return true;
+    }
+  }
+  return false;
+}
+
+}  // namespace
+
+std::vector<Vec3> sample_surface(const TriangleSurface& surface, double spacing) {
+  std::vector<Vec3> out;
+  for (const auto& t : surface.triangles) {
+    const Vec3 a = surface.vertices[t[0]], b = surface.vertices[t[1]], c = surface.vertices[t[2]];
+    const double longest = std::max({norm(b - a), norm(c - b), norm(a - c)});
+    const int k = std::max(1, int(std::ceil(longest / spacing)));
+    for (int i = 0; i <= k; ++i)
+      for (int j = 0; i + j <= k; ++j) out.push_back(a + (double(i) / k) * (b - a) + (double(j) / k) * (c - a));
+  }
+  return out;
+}
+
+std::vector<Vec3> sample_surface(const SignedDistance& solid, const Box& box, double spacing) {
+  // Lattice points within a spacing of the surface, pulled onto it along the SDF gradient
+  // (p - f grad f is the closest point for an exact SDF; three rounds absorb the rest).
+  const Vec3 size = box.size();
+  const std::size_t nx = std::size_t(std::ceil(size.x / spacing)) + 1,
+                    ny = std::size_t(std::ceil(size.y / spacing)) + 1,
+                    nz = std::size_t(std::ceil(size.z / spacing)) + 1;
+  std::vector<Vec3> lattice;
+  lattice.reserve(nx * ny * nz);
+  for (std::size_t k = 0; k < nz; ++k)
+    for (std::size_t j = 0; j < ny; ++j)
+      for (std::size_t i = 0; i < nx; ++i) lattice.push_back(box.lo + Vec3{i * spacing, j * spacing, k * spacing});
+  std::vector<double> f(lattice.size());
+  solid.evaluate(lattice, f);
+  std::vector<Vec3> pts;
+  for (std::size_t i = 0; i < lattice.size(); ++i)
+    if (std::abs(f[i]) < spacing) pts.push_back(lattice[i]);
+  const double h = 1e-6 * box.diagonal();
+  std::vector<Vec3> probes(7 * pts.size());
+  std::vector<double> values(probes.size());
+  for (int round = 0; round < 3; ++round) {
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+      probes[7 * i] = pts[i];
+      for (int a = 0; a < 3; ++a) {
+        Vec3 e{};
+        e[a] = h;
+        probes[7 * i + 1 + 2 * a] = pts[i] + e;
+        probes[7 * i + 2 + 2 * a] = pts[i] - e;
+      }
+    }
+    solid.evaluate(probes, values);
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+      const double* v = &values[7 * i];
+      const Vec3 g = normalized(Vec3{v[1] - v[2], v[3] - v[4], v[5] - v[6]});
+      pts[i] = pts[i] - v[0] * g;  // f > 0 inside and grad points inward: step against it
+    }
+  }
+  return pts;
+}
+
+Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid,
+                          std::span<const Vec3> surface_samples, const Box& lattice_box,
+                          std::size_t lattice, double spacing) {
+  Fidelity fid;
+  fid.lattice = lattice;
+  const Vec3 lo = lattice_box.lo, size = lattice_box.size();
+  const Vec3 step{size.x / lattice, size.y / lattice, size.z / lattice};
+  auto sample = [&](std::size_t i, std::size_t j, std::size_t k) {
+    return Vec3{lo.x + (i + 0.5) * step.x, lo.y + (j + 0.5) * step.y, lo.z + (k + 0.5) * step.z};
+  };
+  const std::size_t count = lattice * lattice * lattice;
+
+  // The solid on the lattice.
+  std::vector<Vec3> points(count);
+  parallel_for(count, [&](std::size_t s) {
+    points[s] = sample(s % lattice, (s / lattice) % lattice, s / (lattice * lattice));
+  });
+  std::vector<double> f(count);
+  solid.evaluate(points, f);
+  points = {};
+
+  // The mesh on the lattice: each hex marks the samples it contains.
+  std::unique_ptr<std::atomic<uint8_t>[]> covered(new std::atomic<uint8_t>[count]);
+  for (std::size_t s = 0; s < count; ++s) covered[s].store(0, std::memory_order_relaxed);
+  std::atomic<std::size_t> unresolved{0};
+  auto index_range = [&](double a, double b, double o, double d) {
+    const double ia = std::ceil((a - o) / d - 0.5), ib = std::floor((b - o) / d - 0.5);
+    return std::pair<std::size_t, std::size_t>(std::size_t(std::max(0.0, ia)),
+                                               std::size_t(std::min(double(lattice) - 1, ib)));
+  };
+  parallel_for(inside.hexes.size(), [&](std::size_t h) {
+    const auto x = inside.corners(h);
+    Box b;
+    for (const Vec3& p : x) b.extend(p);
+    const auto [i0, i1] = index_range(b.lo.x, b.hi.x, lo.x, step.x);
+    const auto [j0, j1] = index_range(b.lo.y, b.hi.y, lo.y, step.y);
+    const auto [k0, k1] = index_range(b.lo.z, b.hi.z, lo.z, step.z);
+    if (b.hi.x < lo.x + 0.5 * step.x || b.hi.y < lo.y + 0.5 * step.y || b.hi.z < lo.z + 0.5 * step.z) return;
+    for (std::size_t k = k0; k <= k1 && k < lattice; ++k)
+      for (std::size_t j = j0; j <= j1 && j < lattice; ++j)
+        for (std::size_t i = i0; i <= i1 && i < lattice; ++i) {
+          const std::size_t s = i + lattice * (j + lattice * k);
+          if (covered[s].load(std::memory_order_relaxed)) continue;
+          bool in = false;
+          if (!invert_trilinear(x, sample(i, j, k), &in)) {
+            unresolved.fetch_add(1, std::memory_order_relaxed);
+            continue;
+          }
+          if (in) covered[s].store(1, std::memory_order_relaxed);
+        }
+  });
+  std::size_t both = 0, either = 0, mesh_n = 0, solid_n = 0;
+  for (std::size_t s = 0; s < count; ++s) {
+    const bool m = covered[s].load(std::memory_order_relaxed) != 0, v = f[s] > 0;
+    both += m && v;
+    either += m || v;
+    mesh_n += m;
+    solid_n += v;
+  }
+  const double cell_volume = step.x * step.y * step.z;
+  fid.iou = either ? double(both) / double(either) : 1.0;
+  fid.mesh_volume = mesh_n * cell_volume;
+  fid.solid_volume = solid_n * cell_volume;
+  fid.unresolved = unresolved.load();
+
+  // Hausdorff, mesh side: bilinear samples on every boundary quad, measured by |f|.
+  const auto quads = boundary_quads(inside);
+  std::vector<Vec3> mesh_samples;
+  TriangleSurface boundary;
+  boundary.vertices = inside.points;
+  for (const auto& q : quads) {
+    const Vec3 c[4] = {inside.points[q[0]], inside.points[q[1]], inside.points[q[2]], inside.points[q[3]]};
+    const double longest = std::max({norm(c[1] - c[0]), norm(c[2] - c[1]), norm(c[3] - c[2]), norm(c[0] - c[3])});
+    const int k = std::max(1, int(std::ceil(longest / spacing)));
+    for (int a = 0; a <= k; ++a)
+      for (int b = 0; b <= k; ++b) {
+        const double u = double(a) / k, v = double(b) / k;
+        mesh_samples.push_back((1 - u) * (1 - v) * c[0] + u * (1 - v) * c[1] + u * v * c[2] + (1 - u) * v * c[3]);
+      }
+    // Four triangles through the bilinear centre stand in for the quad on the other side.
+    const uint32_t centre = uint32_t(boundary.vertices.size());
+    boundary.vertices.push_back(0.25 * (c[0] + c[1] + c[2] + c[3]));
+    for (int e = 0; e < 4; ++e) boundary.triangles.push_back({q[e], q[(e + 1) % 4], centre});
+  }
+  std::vector<double> d(mesh_samples.size());
+  solid.evaluate(mesh_samples, d);
+  for (double v : d) fid.mesh_to_surface = std::max(fid.mesh_to_surface, std::abs(v));
+
+  if (boundary.triangles.empty()) {
+    // No mesh surface at all: nothing of the input is matched.
+    fid.surface_to_mesh = surface_samples.empty() ? 0 : std::numeric_limits<double>::infinity();
+  } else if (!surface_samples.empty()) {
+    const SurfaceSdf mesh_surface(boundary);
+    d.assign(surface_samples.size(), 0);
+    mesh_surface.distance(surface_samples, d);
+    for (double v : d) fid.surface_to_mesh = std::max(fid.surface_to_mesh, v);
+  }
+  fid.hausdorff = std::max(fid.mesh_to_surface, fid.surface_to_mesh);
+  const double diag = solid.bounds().diagonal();
+  fid.hausdorff_ratio = diag > 0 ? fid.hausdorff / diag : 0;
+  return fid;
+}
+
+}  // namespace mchex

@@ -1,0 +1,40 @@
+// How well the inside mesh fits the input solid (the paper's section 6 measures):
+//  - IoU: volume of (mesh AND solid) over volume of (mesh OR solid), counted on a lattice of
+//    cell-centred samples over the mesh box; a sample is in the mesh when it lies in some hex
+//    (inverse trilinear map), in the solid when the reference SDF is positive there.
+//  - two-sided Hausdorff distance between the mesh boundary (the quads of the inside mesh that
+//    belong to one hex) and the input surface, both sampled at a spacing, divided by the input's
+//    bounding-box diagonal (the paper's HR). Sampling makes it a lower bound of the true value,
+//    tight to about the spacing.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "core/mesh/hex_mesh.h"
+#include "core/sdf/sdf.h"
+
+namespace mchex {
+
+struct Fidelity {
+  double iou = 0;
+  double mesh_volume = 0, solid_volume = 0;  // lattice estimates
+  double mesh_to_surface = 0;                // max over mesh-boundary samples
+  double surface_to_mesh = 0;                // max over input-surface samples
+  double hausdorff = 0;
+  double hausdorff_ratio = 0;                // hausdorff / input bounding-box diagonal
+  std::size_t lattice = 0;                   // samples per axis
+  std::size_t unresolved = 0;                // samples where the inverse map did not converge
+};
+
+// Points on the reference surface at about the given spacing.
+std::vector<Vec3> sample_surface(const TriangleSurface& surface, double spacing);
+std::vector<Vec3> sample_surface(const SignedDistance& solid, const Box& box, double spacing);
+
+Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid,
+                          std::span<const Vec3> surface_samples, const Box& lattice_box,
+                          std::size_t lattice, double spacing);
+
+}  // namespace mchex

@@ -1,0 +1,313 @@
+#include "core/cutting/certify.h"
+
+#include <algorithm>
+#include <bit>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <random>
+
+#include <fmt/format.h>
+
+#include "core/grid/cell_types.h"
+#include "core/base/error.h"
+#include "core/cutting/local_refinement.h"
+#include "core/base/parallel.h"
+#include "core/cutting/polyhedra.h"
+#include "core/mesh/quality.h"
+#include "core/cutting/repair.h"
+#include "core/cutting/subdivide.h"
+
+namespace mchex {
+
+CertifyRoute certify_route(Subcase s) {
+  // The local-refinement module's own routing (core/cutting/local_refinement.h, paper Figure 7).
+  return needs_local_refinement(s) ? CertifyRoute::kLocalRefinement : CertifyRoute::kDirect;
+}
+
+namespace {
+
+struct Pattern {
+  Subcase subcase;
+  CellClass cls;
+  std::array<double, 8> f;  // the cell it was found on
+};
+
+// Cells of the subcases that seeded random draws practically never give: 13.5.2 needs both of the
+// cell's body saddles inside it with the tunnel's sign (core/cutting/mc33.h's interior test). The values
+// are tests/test_mc33.cpp's 13.5.2 example; samples() walks from it through nearby cells of the
+// same class.
+constexpr std::array<std::array<double, 8>, 1> kConstructedCells = {{
+    {1.0, -0.2, 1.0, -0.8, -0.3, 0.4, -0.3, 0.2},
+}};
+
+// One classified cell per direct subcase and class of sign patterns up to rotation (the
+// representative's own class, and the mirror class where the subcase needs a reflection).
+std::vector<Pattern> patterns(std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(0.05, 1.0);
+  std::bernoulli_distribution coin(0.5);
+  std::array<std::array<bool, 2>, kNumSubcases> seen{};
+  std::vector<Pattern> out;
+  for (int draw = 0; draw < 64; ++draw)
+    for (int mask = 0; mask < 256; ++mask) {
+      std::array<double, 8> f;
+      for (int c = 0; c < 8; ++c) {
+        const double m = draw % 2 ? (coin(rng) ? 1.0 : 1e-3 * u(rng)) : u(rng);
+        f[c] = (mask >> c & 1) ? m : -m;
+      }
+      const CellClass c = classify(f);
+      const int mirror = c.symmetry >= kNumCubeRotations;
+      if (seen[static_cast<int>(c.subcase)][mirror]) continue;
+      seen[static_cast<int>(c.subcase)][mirror] = true;
+      out.push_back({c.subcase, c, f});
+    }
+  for (const auto& f : kConstructedCells) {
+    const CellClass c = classify(f);
+    const int mirror = c.symmetry >= kNumCubeRotations;
+    if (seen[static_cast<int>(c.subcase)][mirror]) continue;
+    seen[static_cast<int>(c.subcase)][mirror] = true;
+    out.push_back({c.subcase, c, f});
+  }
+  std::sort(out.begin(), out.end(), [](const Pattern& a, const Pattern& b) {
+    return std::make_pair(a.subcase, a.cls.symmetry >= kNumCubeRotations) <
+           std::make_pair(b.subcase, b.cls.symmetry >= kNumCubeRotations);
+  });
+  return out;
+}
+
+struct TaskResult {
+  std::size_t hexes = 0, failed = 0, moved_centres = 0;
+  double min_coefficient = std::numeric_limits<double>::infinity();
+  std::optional<CertifyFailure> failure;
+};
+
+// The cells of one pattern to cut: corner values with the pattern's signs and magnitudes drawn
+// at random, at the ends (every corner at 1 or at 1e-6, which puts the crossings at the clamp
+// eps or 1 - eps) and mixed, each classified and clamped as the mesher does; draws whose face or
+// interior tests change the subcase's topology are skipped. Crossings come from corner values,
+// so only combinations a cell can have are certified (sampling each s on its own also gives
+// combinations no corner values make, and some of those are negative on transition cells).
+struct Sample {
+  std::array<double, 8> f;
+  CellClass cls;
+};
+
+// Crossings clamped to [eps, 1 - eps], as the mesher does.
+CellClass clamped(CellClass c, double eps) {
+  clamp_crossings(c, eps);
+  return c;
+}
+
+constexpr std::size_t kWalkBelow = 16;   // a class with fewer samples than this is walked ...
+constexpr std::size_t kWalkTarget = 32;  // ... until it has this many (or kWalkSteps steps)
+constexpr int kWalkSteps = 256;
+
+std::vector<Sample> samples(const Pattern& p, const CertifyOptions& o, std::mt19937_64& rng) {
+  const CellClass& ref = p.cls;
+  std::uniform_real_distribution<double> u(0.05, 1.0);
+  std::bernoulli_distribution coin(0.5);
+  std::vector<Sample> out;
+  auto add = [&](const std::array<double, 8>& magnitude) {
+    std::array<double, 8> f;
+    for (int c = 0; c < 8; ++c) f[c] = (ref.sign_mask >> c & 1) ? magnitude[c] : -magnitude[c];
+    const CellClass c = classify(f);
+    if (c.subcase != ref.subcase || c.face_joins != ref.face_joins || c.tunnel != ref.tunnel) return;
+    out.push_back({f, c});
+  };
+  if (ref.cut_edges == 0) {
+    add({1, 1, 1, 1, 1, 1, 1, 1});
+    return out;
+  }
+  for (int i = 0; i < o.random_samples; ++i) {
+    std::array<double, 8> m;
+    for (double& x : m) x = u(rng);
+    add(m);
+  }
+  for (int bits = 0; bits < 256; ++bits) {
+    std::array<double, 8> m;
+    for (int c = 0; c < 8; ++c) m[c] = (bits >> c & 1) ? 1.0 : 1e-6;
+    add(m);
+  }
+  for (int i = 0; i < o.mixed_samples; ++i) {
+    std::array<double, 8> m;
+    for (double& x : m) x = coin(rng) ? (coin(rng) ? 1.0 : 1e-6) : u(rng);
+    add(m);
+  }
+  // A class that the draws above rarely reach (13.5.2 above all): a random walk from the pattern's
+  // own cell, each step scaling every corner magnitude by a factor in [e^-1, e], kept in
+  // [1e-6, 1] and accepted only when the class stays, so the samples spread over the class's
+  // region of values instead of sitting on one cell.
+  if (out.size() < kWalkBelow) {
+    std::normal_distribution<double> n01(0, 1);
+    std::array<double, 8> m;
+    for (int c = 0; c < 8; ++c) m[c] = std::abs(p.f[c]);
+    const double top = *std::max_element(m.begin(), m.end());
+    for (double& x : m) x /= top;
+    for (int step = 0; step < kWalkSteps && out.size() < kWalkTarget; ++step) {
+      std::array<double, 8> trial = m;
+      for (double& x : trial) x = std::clamp(x * std::exp(std::clamp(n01(rng), -1.0, 1.0)), 1e-6, 1.0);
+      const std::size_t before = out.size();
+      add(trial);
+      if (out.size() > before) m = trial;
+    }
+  }
+  // Many end cells clamp to the same crossings (the cut does not depend on the values beyond its
+  // class and crossings, except through the inner points' virtual values of a refined cell):
+  // keep one per distinct (crossings, values' signs pattern) for direct cells.
+  if (!needs_local_refinement(ref)) {
+    auto key = [&](const Sample& a) { return clamped(a.cls, o.eps).crossing; };
+    std::vector<Sample> unique;
+    std::vector<std::array<double, 12>> seen;
+    for (const Sample& smp : out) {
+      const auto k = key(smp);
+      bool dup = false;
+      for (const auto& q : seen) dup = dup || std::memcmp(q.data(), k.data(), sizeof(k)) == 0;
+      if (dup) continue;
+      seen.push_back(k);
+      unique.push_back(smp);
+    }
+    out.swap(unique);
+  }
+  return out;
+}
+
+}  // namespace
+
+CertifyResult certify(const CertifyOptions& o) {
+  if (!(o.eps > 0 && o.eps < 0.5)) throw InputError(fmt::format("--eps must be in (0, 0.5), got {}", o.eps));
+  const auto start = std::chrono::steady_clock::now();
+  const auto types = cell_types();
+  CertifyResult r;
+  r.options = o;
+  r.table.assign(types.size(), {});
+  const std::vector<Pattern> pats = patterns(o.seed);
+  const std::size_t per_pattern = types.size() * kNumCubeRotations;
+  std::vector<TaskResult> results(pats.size() * per_pattern);
+  parallel_chunks(results.size(), 1, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t task = begin; task < end; ++task) {
+      const Pattern& p = pats[task / per_pattern];
+      const int type = static_cast<int>(task % per_pattern / kNumCubeRotations);
+      const int rotation = static_cast<int>(task % kNumCubeRotations);
+      const HexCorners corners = transform_hex(types[type].corners, rotation);
+      std::mt19937_64 rng(o.seed ^ (0x9E3779B97F4A7C15ULL * (task + 1)));
+      TaskResult& tr = results[task];
+      auto check = [&](const std::array<Vec3, 8>& cell, const CellClass& c, const std::array<double, 12>& s) {
+        // As the mesher builds them: in the parametric cube, corners mapped by the cell's map.
+        for (const Polyhedron& poly : cut_cell(kUnitCubeCorners, c)) {
+          const MappedSubdivision ms = subdivide_in_cell(poly, cell);
+          tr.moved_centres += ms.centre_moved;
+          for (const double scaled : ms.hex_min_scaled) {
+            ++tr.hexes;
+            tr.min_coefficient = std::min(tr.min_coefficient, scaled);
+            if (!(scaled > 0)) {
+              ++tr.failed;
+              if (!tr.failure) tr.failure = CertifyFailure{type, rotation, p.subcase, s, scaled};
+            }
+          }
+        }
+      };
+      for (const Sample& smp : samples(p, o, rng)) {
+        const CellClass c = clamped(smp.cls, o.eps);
+        if (!needs_local_refinement(smp.cls, corners)) {  // as the mesher routes it
+          check(corners, c, c.crossing);
+          continue;
+        }
+        // The mesher's route: the 7 children (and a second level where the template asks),
+        // virtual values at the inner points, each leaf classified and cut on its own.
+        const LocalRefinement lr = refine_locally(corners, smp.f, smp.cls, 1e-10);
+        for (std::size_t i = 0; i < lr.cells.size(); ++i) {
+          const LocalRefinementLeaf leaf = leaf_cell(lr, i);
+          check(leaf.corners, clamped(classify(leaf.values), o.eps), c.crossing);
+        }
+      }
+    }
+  });
+  for (std::size_t task = 0; task < results.size(); ++task) {
+    const Pattern& p = pats[task / per_pattern];
+    const int type = static_cast<int>(task % per_pattern / kNumCubeRotations);
+    CertifyEntry& e = r.table[type][static_cast<int>(p.subcase)];
+    const TaskResult& tr = results[task];
+    e.min_coefficient = e.checked ? std::min(e.min_coefficient, tr.min_coefficient) : tr.min_coefficient;
+    e.checked = true;
+    e.hexes += tr.hexes;
+    e.failed_hexes += tr.failed;
+    e.moved_centres += tr.moved_centres;
+    r.hexes += tr.hexes;
+    if (tr.failure && !r.first_failure) r.first_failure = tr.failure;
+  }
+  // Every subcase must have been reached by the pattern search, else it is not certified.
+  for (int s = 0; s < kNumSubcases; ++s) {
+    bool checked = false;
+    for (const auto& row : r.table) checked = checked || row[s].checked;
+    r.not_landed_subcases += !checked;
+  }
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return r;
+}
+
+std::string certify_report(const CertifyResult& r) {
+  const auto types = cell_types();
+  std::string out = fmt::format(
+      "certify: {} cell types x {} rotations x {} subcases, crossings in [{}, {}]; the 27 Bernstein "
+      "coefficients of det J of every hex must be > 0\n",
+      types.size(), kNumCubeRotations, kNumSubcases - 1, r.options.eps, 1 - r.options.eps);
+  out += fmt::format("basic cell types here: {} (the paper counts {}); the 15 + 1 local-refinement types are not in the\n"
+                     "table: LR subcases are certified through refine_locally on each basic type instead\n",
+                     types.size(), kPaperBasicCellTypes);
+  out += fmt::format("{:<8} {} {:>9} ", "subcase", "  ", "hexes");
+  for (const CellType& t : types) out += fmt::format(" {:>9}", t.name);
+  out += "\n";
+  for (int s = 0; s < kNumSubcases; ++s) {
+    const Subcase sub = static_cast<Subcase>(s);
+    out += fmt::format("{:<8} {} ", std::string(subcase_name(sub)),
+                       certify_route(sub) == CertifyRoute::kLocalRefinement ? "LR" : "  ");
+    if (!r.table[0][s].checked) {
+      out += "NOT CHECKED (no cell of this subcase found)\n";
+      continue;
+    }
+    std::size_t hexes = 0;
+    for (std::size_t t = 0; t < types.size(); ++t) hexes += r.table[t][s].hexes;
+    out += fmt::format("{:>9} ", hexes);
+    for (std::size_t t = 0; t < types.size(); ++t) {
+      const CertifyEntry& e = r.table[t][s];
+      out += !e.checked ? fmt::format(" {:>9}", "-")
+                        : fmt::format(" {:>9}", fmt::format("{}{:.1e}", e.failed_hexes ? "!" : "", e.min_coefficient));
+    }
+    out += "\n";
+  }
+  out += "(LR: through local refinement; entry: min over the hexes of min coefficient / mean edge^3; '!': some coefficient <= 0)\n";
+  // Where plain midpoint subdivision was not certified and core/cutting/repair.h moved a volume centre.
+  out += fmt::format("{:<8} {} {:>9} ", "moved", "  ", "centres");
+  for (std::size_t t = 0; t < types.size(); ++t) {
+    std::size_t moved = 0;
+    for (int s = 0; s < kNumSubcases; ++s) moved += r.table[t][s].moved_centres;
+    out += fmt::format(" {:>9}", moved);
+  }
+  out += "\n";
+  std::string where;
+  for (int s = 0; s < kNumSubcases; ++s) {
+    std::size_t moved = 0;
+    for (std::size_t t = 0; t < types.size(); ++t) moved += r.table[t][s].moved_centres;
+    if (moved) where += fmt::format(" {} ({})", std::string(subcase_name(static_cast<Subcase>(s))), moved);
+  }
+  out += fmt::format("(polyhedra whose plain subdivision was not certified, so the volume-centre search of core/cutting/repair.h "
+                     "moved the centre; by subcase:{})\n", where.empty() ? " none" : where);
+  if (r.first_failure) {
+    const CertifyFailure& f = *r.first_failure;
+    std::string s;
+    for (int e = 0; e < 12; ++e)
+      if (!std::isnan(f.s[e])) s += fmt::format(" s{}={:.6g}", e + 1, f.s[e]);
+    out += fmt::format("first failure: type {} rotation {} subcase {}:{} (coefficient {:.3e})\n", types[f.type].name,
+                       f.rotation, std::string(subcase_name(f.subcase)), s, f.coefficient);
+  }
+  out += fmt::format("{} hexes checked in {:.1f} s; {} subcases not checked\n", r.hexes, r.seconds,
+                     r.not_landed_subcases);
+  out += r.passed() ? "certify: PASSED\n"
+                    : fmt::format("certify: NOT PASSED ({})\n",
+                                  r.first_failure ? "a coefficient is not positive" : "a subcase was not checked");
+  return out;
+}
+
+}  // namespace mchex

@@ -1,0 +1,202 @@
+// Cutting one cell into 3-regular polyhedra; see polyhedra.h for the construction and its scope.
+#include "core/cutting/polyhedra.h"
+
+#include <string>
+
+#include "core/mesh/hex_faces.h"
+#include "core/cutting/volume_centre_offset.h"
+
+namespace mchex {
+namespace {
+
+constexpr int kNoEdge = -1;
+
+int edge_between(int a, int b) {
+  for (int e = 0; e < 12; ++e)
+    if ((kCubeEdges[e][0] == a && kCubeEdges[e][1] == b) ||
+        (kCubeEdges[e][0] == b && kCubeEdges[e][1] == a))
+      return e;
+  return kNoEdge;
+}
+
+// A piece of a cell face, as cell point keys in the face's counter-clockwise order (seen from
+// outside the cell, kHexFaces), and the region it belongs to.
+struct FacePiece {
+  std::vector<CellPointKey> keys;
+  int region = -1;
+};
+
+bool corner_positive(const CellClass& c, int corner) { return (c.sign_mask >> corner & 1) != 0; }
+
+// The pieces of cell face f. Walking the face boundary gives the cycle corner, [crossing], corner,
+// [crossing], ... with 0, 2 or 4 crossings. The crossings split the cycle into arcs, each a run
+// of same-sign corners between two consecutive crossings; an arc closed by its chord is a piece.
+// With 4 crossings (an ambiguous face: the diagonals have opposite signs) the face test joins
+// the two corners of one sign: their two arcs form one hexagon (the face less the two triangles
+// that the chords cut off the other two corners).
+void face_pieces(const CellClass& c, int f, std::vector<FacePiece>& out) {
+  const auto& q = kHexFaces[f];
+  std::vector<CellPointKey> cycle;
+  std::vector<int> crossing_pos;
+  for (int i = 0; i < 4; ++i) {
+    cycle.push_back(corner_key(q[i]));
+    const int e = edge_between(q[i], q[(i + 1) % 4]);
+    if (c.cut_edges >> e & 1) {
+      crossing_pos.push_back(static_cast<int>(cycle.size()));
+      cycle.push_back(crossing_key(e));
+    }
+  }
+  auto region_of = [&](const std::vector<CellPointKey>& keys) {
+    int region = -1;
+    for (CellPointKey k : keys) {
+      if (!is_corner_key(k)) continue;
+      const int r = c.corner_region[k];
+      if (region >= 0 && r != region)
+        throw std::logic_error("cut_cell: a piece of face " + std::to_string(f) +
+                               " has corners in two regions");
+      region = r;
+    }
+    return region;
+  };
+  if (crossing_pos.empty()) {
+    out.push_back({cycle, region_of(cycle)});
+    return;
+  }
+  // The arcs, starting at each crossing and ending at the next one (cyclically).
+  const int n = static_cast<int>(cycle.size());
+  const int k = static_cast<int>(crossing_pos.size());
+  std::vector<std::vector<CellPointKey>> arcs;
+  for (int i = 0; i < k; ++i) {
+    std::vector<CellPointKey> arc;
+    const int begin = crossing_pos[i], end = crossing_pos[(i + 1) % k];
+    for (int p = begin;; p = (p + 1) % n) {
+      arc.push_back(cycle[p]);
+      if (p == end && arc.size() > 1) break;
+    }
+    arcs.push_back(std::move(arc));
+  }
+  if (k == 2) {
+    for (auto& arc : arcs) {
+      const int r = region_of(arc);
+      out.push_back({std::move(arc), r});
+    }
+    return;
+  }
+  if (k != 4) throw std::logic_error("cut_cell: a face with an odd number of crossings");
+  // Ambiguous face: arcs alternate in sign; the joined sign's two arcs merge.
+  const bool joins_positive = (c.face_joins >> f & 1) != 0;
+  auto arc_positive = [&](const std::vector<CellPointKey>& arc) {
+    return corner_positive(c, arc[1]);  // arc = crossing, corner, crossing
+  };
+  const int first_joined = arc_positive(arcs[0]) == joins_positive ? 0 : 1;
+  std::vector<CellPointKey> merged = arcs[first_joined];
+  merged.insert(merged.end(), arcs[first_joined + 2].begin(), arcs[first_joined + 2].end());
+  const int r = region_of(merged);
+  out.push_back({std::move(merged), r});
+  for (int i : {1 - first_joined, 3 - first_joined}) {
+    const int ri = region_of(arcs[i]);
+    out.push_back({std::move(arcs[i]), ri});
+  }
+}
+
+}  // namespace
+
+std::vector<Polyhedron> cut_cell(const std::array<Vec3, 8>& corners, const CellClass& c) {
+  if (subcase_has_tunnel(c.subcase))
+    throw TunnelSubcaseError("cut_cell: subcase " + std::string(subcase_name(c.subcase)) +
+                             " has a tunnel; its cell must be refined first (paper, Figure 7)");
+  auto position = [&](CellPointKey k) -> Vec3 {
+    if (is_corner_key(k)) return corners[k];
+    const int e = key_edge(k);
+    const double s = c.crossing[e];
+    return (1 - s) * corners[kCubeEdges[e][0]] + s * corners[kCubeEdges[e][1]];
+  };
+
+  std::vector<FacePiece> pieces;
+  for (int f = 0; f < 6; ++f) face_pieces(c, f, pieces);
+
+  // kEmpty: classify() reports one region holding all 8 corners, so the loop below gives the cube.
+  const int num_regions = c.num_regions;
+  std::vector<Polyhedron> out(num_regions);
+  for (int r = 0; r < num_regions; ++r) {
+    Polyhedron& p = out[r];
+    p.region_sign = c.regions[r].sign;
+    p.corners = c.regions[r].corners;
+    std::array<int, 20> local{};
+    local.fill(-1);
+    auto index_of = [&](CellPointKey k) {
+      if (local[k] < 0) {
+        local[k] = static_cast<int>(p.points.size());
+        p.points.push_back(position(k));
+        p.keys.push_back(k);
+      }
+      return static_cast<std::uint32_t>(local[k]);
+    };
+    // Corners first, in corner order, so that the vertex order does not depend on the faces.
+    for (int corner = 0; corner < 8; ++corner)
+      if (p.corners >> corner & 1) index_of(corner_key(corner));
+    // Cell-face pieces; each chord u -> v that closes a piece (two consecutive crossings in the
+    // piece's cycle) is traversed v -> u by the isosurface polygon on the same region, so that
+    // the polyhedron's surface is consistently oriented.
+    std::array<int, 20> next{};
+    next.fill(-1);
+    int num_chords = 0;
+    for (const FacePiece& piece : pieces) {
+      if (piece.region != r) continue;
+      std::vector<std::uint32_t> face;
+      const std::size_t m = piece.keys.size();
+      for (std::size_t i = 0; i < m; ++i) {
+        const CellPointKey u = piece.keys[i], v = piece.keys[(i + 1) % m];
+        face.push_back(index_of(u));
+        if (!is_corner_key(u) && !is_corner_key(v)) {
+          if (next[v] >= 0) throw std::logic_error("cut_cell: two chords leave one crossing");
+          next[v] = u;
+          ++num_chords;
+        }
+      }
+      p.faces.push_back(std::move(face));
+    }
+    p.num_cell_face_pieces = static_cast<std::uint32_t>(p.faces.size());
+    // The loops: every crossing of the region has exactly one chord out (above) and one in.
+    std::array<bool, 20> used{};
+    for (int start = 8; start < 20; ++start) {
+      if (next[start] < 0 || used[start]) continue;
+      std::vector<std::uint32_t> loop;
+      int k = start;
+      while (!used[k]) {
+        used[k] = true;
+        loop.push_back(index_of(static_cast<CellPointKey>(k)));
+        k = next[k];
+        if (k < 0) throw std::logic_error("cut_cell: an isosurface loop does not close");
+        num_chords -= 1;
+      }
+      if (k != start) throw std::logic_error("cut_cell: an isosurface loop does not close");
+      p.faces.push_back(std::move(loop));
+    }
+    if (num_chords != 0) throw std::logic_error("cut_cell: chords left outside the loops");
+    // Paper Section 5, Eq. 14: where the table has an offset, the volume centre is the cell's
+    // trilinear map at the parametric vertex mean plus the offset.
+    if (const auto v = volume_centre_offset(c, p.corners))
+      p.volume_centre = trilinear_point(corners, parametric_volume_centre(p, c) + *v);
+  }
+  return out;
+}
+
+double polyhedron_volume(const Polyhedron& p) {
+  if (p.points.empty()) return 0;
+  // Relative to one vertex, so that a cell far from the origin loses no digits.
+  const Vec3 o = p.points[0];
+  double six_v = 0;
+  for (const auto& face : p.faces) {
+    Vec3 centre{};
+    for (std::uint32_t i : face) centre += p.points[i];
+    centre = centre / static_cast<double>(face.size()) - o;
+    for (std::size_t i = 0; i < face.size(); ++i) {
+      const Vec3 a = p.points[face[i]] - o, b = p.points[face[(i + 1) % face.size()]] - o;
+      six_v += triple(centre, a, b);
+    }
+  }
+  return six_v / 6;
+}
+
+}  // namespace mchex

@@ -1,0 +1,201 @@
+// Mapped midpoint subdivision with a volume-centre search; see repair.h.
+#include "core/cutting/repair.h"
+
+#include "core/cutting/volume_centre_offset.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+
+namespace mchex {
+namespace {
+
+// The least coefficient is a max-min of polynomials in the centre (the hex's corner-6 coefficient
+// is even linear in it: the signed volume of the centre over the plane of its three neighbours),
+// so a plain local search stalls at the kink where two hexes' coefficients cross (measured: a
+// 26-direction compass search leaves case 5 on the node type at -1.5e-4 where a grid finds
+// +6e-7). Sequential linear programming handles the kinks: linearize the coefficients that can
+// bind within a trust region, maximize their least value over the box (a 4-variable LP, solved
+// exactly by its vertices), accept the step if the true least coefficient grows, else shrink.
+constexpr double kFirstRadius = 0.1;    // trust-region half-width, in mean hex edges L
+constexpr double kMaxRadius = 0.5;
+constexpr double kLeastRadius = 1e-7;   // stop below this
+constexpr double kCertifiedRadius = 1e-3;  // once certified, stop below this
+constexpr double kDerivativeStep = 1e-6;  // central differences, in L (the coefficients are cubic)
+constexpr int kMaxIterations = 60;
+constexpr std::size_t kMaxActive = 8;  // linearized coefficients per LP (with the 6 box sides)
+
+// Every scaled coefficient (beta / mean edge^3) of every hex, hex-major.
+void scaled_coefficients(const std::vector<SubdivisionHex>& hexes, std::vector<double>& out) {
+  out.clear();
+  for (const SubdivisionHex& h : hexes) {
+    const double l = mean_edge_length(h.corners);
+    const double scale = 1.0 / (l * l * l);
+    for (double b : bernstein_jacobian(h.corners)) out.push_back(b * scale);
+  }
+}
+
+// max t subject to t <= c_k + g_k . d (the rows) and |d_i| <= r: the optimum is a vertex, where 4
+// of the constraints hold with equality; every 4-subset is solved (Gaussian elimination with
+// partial pivoting) and the best feasible one kept. Rows are few (kMaxActive + 6), so this is
+// cheap and exact.
+struct LpRow {
+  std::array<double, 4> a;  // a . (d, t) <= b
+  double b;
+};
+
+bool solve4(std::array<std::array<double, 5>, 4> m, std::array<double, 4>& x) {
+  for (int c = 0; c < 4; ++c) {
+    int piv = c;
+    for (int r = c + 1; r < 4; ++r)
+      if (std::abs(m[r][c]) > std::abs(m[piv][c])) piv = r;
+    if (std::abs(m[piv][c]) < 1e-14) return false;
+    std::swap(m[c], m[piv]);
+    for (int r = 0; r < 4; ++r) {
+      if (r == c) continue;
+      const double f = m[r][c] / m[c][c];
+      for (int k = c; k < 5; ++k) m[r][k] -= f * m[c][k];
+    }
+  }
+  for (int r = 0; r < 4; ++r) x[r] = m[r][4] / m[r][r];
+  return true;
+}
+
+bool solve_lp(const std::vector<LpRow>& rows, std::array<double, 4>& best) {
+  const std::size_t n = rows.size();
+  bool found = false;
+  const double tol = 1e-12;
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t j = i + 1; j < n; ++j)
+      for (std::size_t k = j + 1; k < n; ++k)
+        for (std::size_t l = k + 1; l < n; ++l) {
+          std::array<std::array<double, 5>, 4> m{};
+          const std::array<std::size_t, 4> pick = {i, j, k, l};
+          for (int r = 0; r < 4; ++r) {
+            for (int c = 0; c < 4; ++c) m[r][c] = rows[pick[r]].a[c];
+            m[r][4] = rows[pick[r]].b;
+          }
+          std::array<double, 4> x{};
+          if (!solve4(m, x)) continue;
+          if (found && x[3] <= best[3]) continue;
+          bool feasible = true;
+          for (const LpRow& row : rows) {
+            const double lhs = row.a[0] * x[0] + row.a[1] * x[1] + row.a[2] * x[2] + row.a[3] * x[3];
+            if (lhs > row.b + tol * (1 + std::abs(row.b))) {
+              feasible = false;
+              break;
+            }
+          }
+          if (!feasible) continue;
+          best = x;
+          found = true;
+        }
+  return found;
+}
+
+}  // namespace
+
+MappedSubdivision subdivide_in_cell(const Polyhedron& parametric, const HexCorners& cell) {
+  MappedSubdivision out;
+  out.hexes = midpoint_subdivide(parametric);
+  for (SubdivisionHex& h : out.hexes)
+    for (Vec3& x : h.corners) x = trilinear_map(cell, x);
+  std::vector<double> beta;
+  auto least = [&] {
+    scaled_coefficients(out.hexes, beta);
+    return *std::min_element(beta.begin(), beta.end());
+  };
+  // Scaled coefficients have the sign of the coefficients (the scale is a positive length cubed;
+  // a hex with all corners equal gives NaN, which counts as not certified).
+  auto finish = [&](double least_value) {
+    out.hex_min_scaled.assign(out.hexes.size(), 0);
+    for (std::size_t i = 0; i < out.hexes.size(); ++i)
+      out.hex_min_scaled[i] = *std::min_element(beta.begin() + 27 * i, beta.begin() + 27 * (i + 1));
+    out.min_scaled = least_value;
+    out.certified = true;
+    for (double v : out.hex_min_scaled) out.certified = out.certified && v > 0;
+    return out;
+  };
+  const double plain_least = least();
+  if (plain_least > 0) return finish(plain_least);
+  out.centre_moved = true;
+  // Corner 6 of every hex is the volume centre (subdivide.h).
+  auto place = [&](const Vec3& c) {
+    for (SubdivisionHex& h : out.hexes) h.corners[6] = c;
+  };
+  double length = 0;
+  for (const SubdivisionHex& h : out.hexes) length += mean_edge_length(h.corners);
+  length /= static_cast<double>(out.hexes.size());
+
+  Vec3 centre = out.hexes.front().corners[6];
+  double best = plain_least;
+  std::vector<double> value = beta, plus, minus;
+  std::array<std::vector<double>, 3> grad;
+  double radius = kFirstRadius * length;
+  const double h = kDerivativeStep * length;
+  for (int it = 0; it < kMaxIterations && radius > kLeastRadius * length; ++it) {
+    // Certified and the steps already small: more would only add margin to a tiny coefficient.
+    if (best > 0 && radius < kCertifiedRadius * length) break;
+    for (int axis = 0; axis < 3; ++axis) {
+      Vec3 e{};
+      e[axis] = h;
+      place(centre + e);
+      scaled_coefficients(out.hexes, plus);
+      place(centre - e);
+      scaled_coefficients(out.hexes, minus);
+      grad[axis].resize(plus.size());
+      for (std::size_t k = 0; k < plus.size(); ++k) grad[axis][k] = (plus[k] - minus[k]) / (2 * h);
+    }
+    // Coefficients that can bind within the box: lower bound over the box below the least upper
+    // bound of any coefficient; the lowest kMaxActive of them.
+    double upper = std::numeric_limits<double>::infinity();
+    std::vector<std::pair<double, std::size_t>> lower(value.size());
+    for (std::size_t k = 0; k < value.size(); ++k) {
+      const double reach = radius * (std::abs(grad[0][k]) + std::abs(grad[1][k]) + std::abs(grad[2][k]));
+      upper = std::min(upper, value[k] + reach);
+      lower[k] = {value[k] - reach, k};
+    }
+    std::sort(lower.begin(), lower.end());
+    std::vector<LpRow> rows;
+    for (std::size_t i = 0; i < lower.size() && rows.size() < kMaxActive && lower[i].first <= upper; ++i) {
+      const std::size_t k = lower[i].second;
+      rows.push_back({{-grad[0][k], -grad[1][k], -grad[2][k], 1.0}, value[k]});
+    }
+    for (int axis = 0; axis < 3; ++axis)
+      for (double sign : {1.0, -1.0}) {
+        LpRow row{{0, 0, 0, 0}, radius};
+        row.a[axis] = sign;
+        rows.push_back(row);
+      }
+    std::array<double, 4> x{};
+    if (!solve_lp(rows, x) || x[3] <= best) {
+      radius *= 0.5;
+      continue;
+    }
+    const Vec3 trial = centre + Vec3{x[0], x[1], x[2]};
+    place(trial);
+    scaled_coefficients(out.hexes, plus);
+    const double v = *std::min_element(plus.begin(), plus.end());
+    if (v > best) {
+      best = v;
+      centre = trial;
+      value = plus;
+      radius = std::min(radius * 1.5, kMaxRadius * length);
+    } else {
+      radius *= 0.5;
+    }
+  }
+  place(centre);
+  least();
+  return finish(best);
+}
+
+bool uncut_affine_cell_certified(const HexCorners& x) {
+  if (cell_shape(x) != CellShape::kAffine) return false;
+  const Vec3 a = x[1] - x[0], b = x[3] - x[0], c = x[4] - x[0];
+  const double size = std::max({norm(a), norm(b), norm(c)});
+  return dot(a, cross(b, c)) > 1e-6 * size * size * size;
+}
+
+}  // namespace mchex

@@ -1,0 +1,91 @@
+// Midpoint subdivision (paper Definition 4.3); see subdivide.h.
+#include "core/cutting/subdivide.h"
+
+#include <stdexcept>
+#include <string>
+
+namespace mchex {
+
+std::vector<SubdivisionHex> midpoint_subdivide(const Polyhedron& p) {
+  using Kind = SubdivisionPointKey::Kind;
+  const std::size_t nv = p.points.size();
+  // Per vertex, the faces through it with the vertex before and after it in the face's cycle.
+  struct Incidence {
+    std::uint32_t face, prev, next;
+  };
+  std::vector<std::vector<Incidence>> around(nv);
+  std::vector<Vec3> centroid(p.faces.size());
+  for (std::uint32_t f = 0; f < p.faces.size(); ++f) {
+    const auto& face = p.faces[f];
+    const std::size_t m = face.size();
+    if (m < 3) throw std::invalid_argument("midpoint_subdivide: a face with fewer than 3 vertices");
+    Vec3 sum{};
+    for (std::size_t i = 0; i < m; ++i) {
+      sum += p.points[face[i]];
+      around.at(face[i]).push_back({f, face[(i + m - 1) % m], face[(i + 1) % m]});
+    }
+    centroid[f] = sum / static_cast<double>(m);
+  }
+  Vec3 centre{};
+  for (const Vec3& v : p.points) centre += v;
+  centre = centre / static_cast<double>(nv);
+  if (p.volume_centre) centre = *p.volume_centre;  // an offset centre (paper Eq. 14)
+
+  auto key_of = [&](std::uint32_t v) { return p.keys.empty() ? std::uint8_t(v) : p.keys[v]; };
+  auto edge_key = [&](std::uint32_t u, std::uint32_t v) {
+    std::uint8_t a = key_of(u), b = key_of(v);
+    if (b < a) std::swap(a, b);
+    return SubdivisionPointKey{Kind::kEdge, a, b};
+  };
+  auto fail = [](std::uint32_t v) {
+    throw std::invalid_argument("midpoint_subdivide: vertex " + std::to_string(v) +
+                                " is not a consistently oriented degree-3 vertex");
+  };
+
+  std::vector<SubdivisionHex> hexes;
+  hexes.reserve(nv);
+  for (std::uint32_t v = 0; v < nv; ++v) {
+    const auto& inc = around[v];
+    if (inc.size() != 3) fail(v);
+    // Face F = inc[0] runs a -> v -> b. Around v the faces seen from outside alternate their
+    // shared edges: the face where a is the NEXT vertex holds edges (v, c) and (v, a), and the
+    // face where b is the PREVIOUS vertex holds edges (v, b) and (v, c).
+    const std::uint32_t a = inc[0].prev, b = inc[0].next;
+    const Incidence* fac = nullptr;
+    const Incidence* fbc = nullptr;
+    for (int i = 1; i < 3; ++i) {
+      if (inc[i].next == a) fac = &inc[i];
+      if (inc[i].prev == b) fbc = &inc[i];
+    }
+    if (!fac || !fbc || fac == fbc || fac->prev != fbc->next || fac->prev == a ||
+        fac->prev == b)
+      fail(v);
+    const std::uint32_t c = fac->prev;
+    const Vec3 x = p.points[v];
+    SubdivisionHex h;
+    h.vertex = v;
+    h.corners = {x,
+                 0.5 * (x + p.points[a]),
+                 centroid[inc[0].face],
+                 0.5 * (x + p.points[b]),
+                 0.5 * (x + p.points[c]),
+                 centroid[fac->face],
+                 centre,
+                 centroid[fbc->face]};
+    auto face_key = [](std::uint32_t f) {
+      return SubdivisionPointKey{Kind::kFace, static_cast<std::uint8_t>(f), 0};
+    };
+    h.keys = {SubdivisionPointKey{Kind::kVertex, key_of(v), 0},
+              edge_key(v, a),
+              face_key(inc[0].face),
+              edge_key(v, b),
+              edge_key(v, c),
+              face_key(fac->face),
+              SubdivisionPointKey{Kind::kCentre, 0, 0},
+              face_key(fbc->face)};
+    hexes.push_back(h);
+  }
+  return hexes;
+}
+
+}  // namespace mchex

@@ -1,0 +1,848 @@
+#include "core/grid/octree.h"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+#include <fmt/format.h>
+
+#include "core/grid/cell_types.h"
+#include "core/base/error.h"
+#include "core/mesh/cube.h"
+#include "core/base/parallel.h"
+#include "core/grid/refinement_error.h"
+
+namespace mchex {
+
+// ---- KeySet ------------------------------------------------------------------------------------
+
+namespace {
+
+constexpr std::uint64_t kEmptyKey = ~std::uint64_t{0};
+
+constexpr std::uint64_t mix(std::uint64_t x) {  // splitmix64's finaliser
+  x ^= x >> 30;
+  x *= 0xbf58476d1ce4e5b9ULL;
+  x ^= x >> 27;
+  x *= 0x94d049bb133111ebULL;
+  return x ^ (x >> 31);
+}
+
+}  // namespace
+
+void KeySet::reserve(std::size_t n) {
+  keys_.reserve(n);
+  std::size_t cap = 16;
+  while (cap < 2 * n) cap *= 2;
+  if (cap <= slots_.size()) return;
+  std::vector<std::uint64_t> old;
+  old.swap(slots_);
+  slots_.assign(cap, kEmptyKey);
+  for (std::uint64_t k : keys_) {
+    std::size_t i = mix(k) & (slots_.size() - 1);
+    while (slots_[i] != kEmptyKey) i = (i + 1) & (slots_.size() - 1);
+    slots_[i] = k;
+  }
+}
+
+void KeySet::grow() { reserve(std::max<std::size_t>(16, 2 * keys_.size() + 1)); }
+
+bool KeySet::insert(std::uint64_t key) {
+  if (2 * (keys_.size() + 1) > slots_.size()) grow();
+  std::size_t i = mix(key) & (slots_.size() - 1);
+  while (slots_[i] != kEmptyKey) {
+    if (slots_[i] == key) return false;
+    i = (i + 1) & (slots_.size() - 1);
+  }
+  slots_[i] = key;
+  keys_.push_back(key);
+  return true;
+}
+
+bool KeySet::contains(std::uint64_t key) const {
+  if (slots_.empty()) return false;
+  std::size_t i = mix(key) & (slots_.size() - 1);
+  while (slots_[i] != kEmptyKey) {
+    if (slots_[i] == key) return true;
+    i = (i + 1) & (slots_.size() - 1);
+  }
+  return false;
+}
+
+// ---- Octree ------------------------------------------------------------------------------------
+
+namespace {
+
+std::uint32_t pow3(int n) {
+  std::uint32_t p = 1;
+  for (int i = 0; i < n; ++i) p *= 3;
+  return p;
+}
+
+std::uint64_t parent_of(std::uint64_t cell) {
+  const auto [i, j, k] = octree_unkey(cell);
+  return octree_key(i / 3, j / 3, k / 3);
+}
+
+std::vector<std::uint64_t> sorted(std::vector<std::uint64_t> v) {
+  std::sort(v.begin(), v.end());
+  return v;
+}
+
+}  // namespace
+
+Octree::Octree(const Box& cube, int max_depth) : cube_(cube), max_depth_(max_depth) {
+  if (max_depth < 0 || max_depth > kMaxAdaptiveDepth)
+    throw InputError(fmt::format("--max-depth must be between 0 and {}, got {}", kMaxAdaptiveDepth, max_depth));
+  refined_.resize(static_cast<std::size_t>(max_depth));
+  marks_.resize(static_cast<std::size_t>(max_depth));
+}
+
+std::uint32_t Octree::cells_per_axis(int level) const { return pow3(level); }
+
+bool Octree::is_refined(int level, std::uint64_t cell) const {
+  return level < max_depth_ && refined_[level].contains(cell);
+}
+
+bool Octree::exists(int level, std::uint64_t cell) const {
+  const auto [i, j, k] = octree_unkey(cell);
+  const std::uint32_t n = cells_per_axis(level);
+  if (i >= n || j >= n || k >= n) return false;
+  return level == 0 || refined_[level - 1].contains(parent_of(cell));
+}
+
+bool Octree::refine(int level, std::uint64_t cell) {
+  if (level >= max_depth_) throw std::logic_error("refining a cell at the deepest level");
+  if (!exists(level, cell)) throw std::logic_error("refining a cell whose parent is not refined");
+  if (!refined_[level].insert(cell)) return false;
+  const auto [i, j, k] = octree_unkey(cell);
+  for (int c = 0; c < 8; ++c)
+    marks_[level].insert(octree_key(i + kCubeCorners[c][0], j + kCubeCorners[c][1], k + kCubeCorners[c][2]));
+  return true;
+}
+
+bool Octree::mark(int level, std::uint64_t vertex) {
+  if (level >= max_depth_) throw std::logic_error("marking a vertex at the deepest level");
+  return marks_[level].insert(vertex);
+}
+
+bool Octree::is_marked(int level, std::uint64_t vertex) const {
+  return level < max_depth_ && marks_[level].contains(vertex);
+}
+
+std::vector<std::uint64_t> Octree::marked_vertices(int level) const {
+  if (level >= max_depth_) return {};
+  return marks_[level].keys();
+}
+
+std::uint8_t mark_closure(std::uint8_t marks) {
+  if (template_for_marks(marks).valid) return marks;
+  std::uint8_t best = 0xFF;
+  for (int m = 0; m < 256; ++m)
+    if ((m & marks) == marks && template_for_marks(static_cast<std::uint8_t>(m)).valid &&
+        std::popcount(static_cast<unsigned>(m)) < std::popcount(static_cast<unsigned>(best)))
+      best = static_cast<std::uint8_t>(m);
+  return best;
+}
+
+std::vector<std::uint64_t> Octree::refined_cells(int level) const {
+  if (level >= max_depth_) return {};
+  return sorted(refined_[level].keys());
+}
+
+std::vector<std::uint64_t> Octree::leaves(int level) const {
+  std::vector<std::uint64_t> out;
+  if (level == 0) {
+    if (!is_refined(0, 0)) out.push_back(0);
+    return out;
+  }
+  for (std::uint64_t p : refined_[level - 1].keys()) {
+    const auto [pi, pj, pk] = octree_unkey(p);
+    for (std::uint32_t c = 0; c < 27; ++c) {
+      const std::uint64_t child = octree_key(3 * pi + c % 3, 3 * pj + c / 3 % 3, 3 * pk + c / 9);
+      if (!is_refined(level, child)) out.push_back(child);
+    }
+  }
+  return out;
+}
+
+std::size_t Octree::leaf_count() const {
+  std::size_t n = is_refined(0, 0) ? 0 : 1;
+  for (int l = 0; l < max_depth_; ++l) n += 26 * refined_[l].size();  // 27 children replace 1
+  return n;
+}
+
+std::uint8_t Octree::marks(int level, std::uint64_t cell) const {
+  if (level >= max_depth_ || marks_[level].size() == 0) return 0;
+  const auto [i, j, k] = octree_unkey(cell);
+  std::uint8_t m = 0;
+  for (int c = 0; c < 8; ++c)
+    if (marks_[level].contains(octree_key(i + kCubeCorners[c][0], j + kCubeCorners[c][1], k + kCubeCorners[c][2])))
+      m |= static_cast<std::uint8_t>(1u << c);
+  return m;
+}
+
+// ---- Sorting and sampling ------------------------------------------------------------------------
+
+namespace {
+
+// Stable LSD radix sort by key(element) < 2^bits: 8-bit digits, each pass counted and scattered in
+// parallel over a fixed number of chunks, so the result does not depend on the thread count.
+template <class T, class Key>
+void radix_sort(std::vector<T>& v, int bits, Key&& key) {
+  const std::size_t n = v.size();
+  constexpr int kDigit = 8;
+  constexpr std::size_t kBuckets = std::size_t{1} << kDigit;
+  const std::size_t chunks = std::clamp<std::size_t>(n / 32768, 1, 64);
+  std::vector<T> tmp(n);
+  std::vector<std::size_t> hist(chunks * kBuckets);
+  auto lo = [&](std::size_t c) { return n * c / chunks; };
+  for (int shift = 0; shift < bits; shift += kDigit) {
+    parallel_chunks(chunks, 1, [&](std::size_t b, std::size_t e) {
+      for (std::size_t c = b; c < e; ++c) {
+        std::size_t* h = &hist[c * kBuckets];
+        std::fill(h, h + kBuckets, 0);
+        for (std::size_t i = lo(c); i < lo(c + 1); ++i) ++h[(key(v[i]) >> shift) & (kBuckets - 1)];
+      }
+    });
+    std::size_t sum = 0;
+    for (std::size_t d = 0; d < kBuckets; ++d)
+      for (std::size_t c = 0; c < chunks; ++c) {
+        const std::size_t t = hist[c * kBuckets + d];
+        hist[c * kBuckets + d] = sum;
+        sum += t;
+      }
+    parallel_chunks(chunks, 1, [&](std::size_t b, std::size_t e) {
+      for (std::size_t c = b; c < e; ++c) {
+        std::size_t* h = &hist[c * kBuckets];
+        for (std::size_t i = lo(c); i < lo(c + 1); ++i) tmp[h[(key(v[i]) >> shift) & (kBuckets - 1)]++] = v[i];
+      }
+    });
+    v.swap(tmp);
+  }
+}
+
+// The distinct keys of a sorted sequence (key(i), slot(i)), i < n, in order, and index_of[slot]
+// = its key's index among them. Parallel in fixed chunks: each counts its run starts, a scan
+// places them.
+template <class KeyAt, class SlotAt>
+std::vector<std::uint64_t> distinct_runs(std::size_t n, KeyAt&& key, SlotAt&& slot, std::span<std::uint32_t> index_of) {
+  const std::size_t chunks = std::clamp<std::size_t>(n / 32768, 1, 64);
+  auto lo = [&](std::size_t c) { return n * c / chunks; };
+  std::vector<std::size_t> first(chunks + 1, 0);
+  parallel_chunks(chunks, 1, [&](std::size_t b, std::size_t e) {
+    for (std::size_t c = b; c < e; ++c)
+      for (std::size_t i = lo(c); i < lo(c + 1); ++i) first[c + 1] += i == 0 || key(i) != key(i - 1);
+  });
+  for (std::size_t c = 0; c < chunks; ++c) first[c + 1] += first[c];
+  std::vector<std::uint64_t> out(first[chunks]);
+  parallel_chunks(chunks, 1, [&](std::size_t b, std::size_t e) {
+    for (std::size_t c = b; c < e; ++c) {
+      std::size_t next = first[c];
+      for (std::size_t i = lo(c); i < lo(c + 1); ++i) {
+        if (i == 0 || key(i) != key(i - 1)) out[next++] = key(i);
+        index_of[slot(i)] = static_cast<std::uint32_t>(next - 1);
+      }
+    }
+  });
+  return out;
+}
+
+}  // namespace
+
+std::vector<std::uint64_t> sorted_distinct(std::vector<std::uint64_t> keys, int key_bits,
+                                           std::span<std::uint32_t> index_of) {
+  const std::size_t n = keys.size();
+  if (index_of.size() != n || n > std::numeric_limits<std::uint32_t>::max() || key_bits < 1 || key_bits > 64 ||
+      (key_bits < 64 && std::any_of(keys.begin(), keys.end(), [&](std::uint64_t k) { return k >> key_bits; })))
+    throw std::logic_error("sorted_distinct: one index per key, fewer than 2^32 keys, each below 2^key_bits");
+  const int slot_bits = std::bit_width(n);
+  if (key_bits + slot_bits <= 64) {
+    // Key and position in one word: half the memory traffic of a separate index array.
+    parallel_for(n, [&](std::size_t i) { keys[i] = keys[i] << slot_bits | i; });
+    radix_sort(keys, key_bits, [&](std::uint64_t w) { return w >> slot_bits; });
+    const std::uint64_t mask = (std::uint64_t{1} << slot_bits) - 1;
+    return distinct_runs(
+        n, [&](std::size_t i) { return keys[i] >> slot_bits; }, [&](std::size_t i) { return keys[i] & mask; },
+        index_of);
+  }
+  struct Pair {
+    std::uint64_t key;
+    std::uint32_t slot;
+  };
+  std::vector<Pair> pairs(n);
+  parallel_for(n, [&](std::size_t i) { pairs[i] = {keys[i], static_cast<std::uint32_t>(i)}; });
+  keys = {};
+  radix_sort(pairs, key_bits, [](const Pair& p) { return p.key; });
+  return distinct_runs(
+      n, [&](std::size_t i) { return pairs[i].key; }, [&](std::size_t i) { return pairs[i].slot; }, index_of);
+}
+
+namespace {
+
+// Points of a lattice with `units` steps per cube edge, packed densely as x + w (y + w z),
+// w = units + 1: the order of (z, y, x), as octree_key, in as few bits as the radix sort needs.
+struct PackedLattice {
+  std::uint64_t w;
+  int bits;
+  explicit PackedLattice(std::uint64_t units) : w(units + 1), bits(std::bit_width(w * w * w - 1)) {}
+  std::uint64_t pack(std::uint64_t x, std::uint64_t y, std::uint64_t z) const { return x + w * (y + w * z); }
+  std::uint64_t to_octree_key(std::uint64_t p) const { return octree_key(p % w, p / w % w, p / (w * w)); }
+};
+
+// Position of a point given in integer units (units per cube edge): computed from the integers
+// alone, never accumulated, in the same way as UniformGrid::vertex. A point of the finest vertex
+// lattice (3^max_depth units) and the same point in the complex's units (4 * 3^max_depth) get the
+// same coordinates bit for bit: t / u and 4t / 4u are the same correctly rounded quotient.
+double coordinate(double lo, double hi, std::uint64_t t, double units) {
+  return double(t) == units ? hi : lo + (hi - lo) * (double(t) / units);
+}
+
+Vec3 position(const Box& cube, std::uint64_t key, double units) {
+  const auto [x, y, z] = octree_unkey(key);
+  return {coordinate(cube.lo.x, cube.hi.x, x, units), coordinate(cube.lo.y, cube.hi.y, y, units),
+          coordinate(cube.lo.z, cube.hi.z, z, units)};
+}
+
+// The 27 sub-cubes of the child lattice, by their lowest lattice point.
+constexpr int kSubCubes = 27;
+
+// Whether balls of radius |f| around the 8 corners of a cube of edge `edge` cover it, all values
+// of one sign: see cell_may_hold_surface.
+bool corners_clear(const std::array<double, 8>& f, double edge) {
+  const bool positive = f[0] > 0;
+  double lo = std::numeric_limits<double>::infinity(), hi = 0;
+  for (double v : f) {
+    if (v == 0 || (v > 0) != positive) return false;
+    lo = std::min(lo, std::fabs(v));
+    hi = std::max(hi, std::fabs(v));
+  }
+  // Rounded up by a few ulps of the products so that a value equal to the bound never clears.
+  const double diagonal = edge * std::sqrt(3.0) * (1 + 1e-12);
+  return lo > 0.5 * diagonal || hi > diagonal;
+}
+
+}  // namespace
+
+bool cell_may_hold_surface(const std::array<double, kChildLatticePoints>& f, double size) {
+  std::array<double, 8> c;
+  for (int i = 0; i < 8; ++i) c[i] = f[child_lattice_index(3 * (i & 1), 3 * (i >> 1 & 1), 3 * (i >> 2))];
+  if (corners_clear(c, size)) return false;
+  for (int s = 0; s < kSubCubes; ++s) {
+    const int a = s % 3, b = s / 3 % 3, d = s / 9;
+    for (int i = 0; i < 8; ++i) c[i] = f[child_lattice_index(a + (i & 1), b + (i >> 1 & 1), d + (i >> 2))];
+    if (!corners_clear(c, size / 3)) return true;
+  }
+  // Every sub-cube clear; one sign in each, and they share corners, so one sign overall.
+  return false;
+}
+
+double adaptive_tolerance(const Box& cube, const AdaptiveOptions& options) {
+  return options.threshold * (cube.hi.x - cube.lo.x) / pow3(options.max_depth);
+}
+
+void Octree::record_samples(int level, std::vector<std::uint64_t> keys, std::vector<double> values) {
+  if (level < 0 || level >= max_depth_ || keys.size() != values.size() || !std::is_sorted(keys.begin(), keys.end()))
+    throw std::logic_error("Octree::record_samples: bad level or unsorted keys");
+  if (samples_.size() < static_cast<std::size_t>(max_depth_)) samples_.resize(static_cast<std::size_t>(max_depth_));
+  samples_[level] = {std::move(keys), std::move(values)};
+}
+
+bool Octree::sampled_value(std::uint64_t finest_key, double* value) const {
+  if (samples_.empty()) return false;
+  // Level L's batch holds child-lattice points of spacing 3^(D-1-L) that are not on the coarser
+  // spacing (those were the candidates' corners, sampled a level earlier); level 0's also holds
+  // the root's corners. So the 3-adic valuation of the coordinates names the one level to search.
+  const auto t = octree_unkey(finest_key);
+  int v = max_depth_;
+  for (std::uint32_t x : t) {
+    int e = 0;
+    for (; x != 0 && x % 3 == 0 && e < v; x /= 3) ++e;
+    if (x != 0) v = std::min(v, e);
+  }
+  const int level = std::max(0, max_depth_ - 1 - v);
+  const LevelSamples& s = samples_[level];
+  const auto it = std::lower_bound(s.keys.begin(), s.keys.end(), finest_key);
+  if (it == s.keys.end() || *it != finest_key) return false;
+  *value = s.values[it - s.keys.begin()];
+  return true;
+}
+
+// ---- Refinement ----------------------------------------------------------------------------------
+
+Octree refine_octree(const SignedDistance& sdf, const Box& cube, const AdaptiveOptions& options,
+                     OctreeStats* stats) {
+  if (!(options.threshold > 0) || !std::isfinite(options.threshold))
+    throw InputError(fmt::format("--threshold must be a positive number, got {}", options.threshold));
+  Octree tree(cube, options.max_depth);
+  const int depth = options.max_depth;
+  if (stats) stats->levels.assign(static_cast<std::size_t>(depth) + 1, {});
+  // Lattice points are keyed in units of the finest level's vertex lattice; the finest level whose
+  // child lattice is needed is max_depth (children at max_depth are never evaluated for error).
+  const std::uint32_t finest = pow3(depth);
+  const PackedLattice packed(finest);
+  const double edge = cube.hi.x - cube.lo.x;
+  const double tolerance = adaptive_tolerance(cube, options);
+
+  // Candidates come as groups of 27 siblings, the children of a cell refined at the level above
+  // (child c at x = c % 3, y = c / 3 % 3, z = c / 9), or the root alone; each with its 8 corner
+  // values, sampled with its parent's lattice. A group's child lattices together form a
+  // (3n + 1)^3 lattice, n children per axis; it emits each point its active children need once
+  // (the sort then merges what neighbouring groups share), which saves the sort most of the 56
+  // keys per cell that sharing faces and edges repeats.
+  std::vector<std::uint64_t> parents = {};  // the refined cells whose children are the candidates
+  std::vector<std::array<double, 8>> corners(1);
+  for (int level = 0; level < depth; ++level) {
+    const bool root = level == 0;
+    const std::size_t groups = root ? 1 : parents.size();
+    if (groups == 0) break;
+    const int n = root ? 1 : 3, w = 3 * n + 1;
+    const std::size_t num_candidates = groups * n * n * n;
+    const double h = edge / pow3(level);
+    const std::uint32_t step = finest / pow3(level + 1);  // child lattice spacing in finest units
+    auto candidate = [&](std::size_t g, int c) {
+      if (root) return octree_key(0, 0, 0);
+      const auto [i, j, k] = octree_unkey(parents[g]);
+      return octree_key(3 * i + c % 3, 3 * j + c / 3 % 3, 3 * k + c / 9);
+    };
+    // Candidates whose corners alone show that no surface passes through them stay leaves
+    // without sampling their lattice (cell_may_hold_surface's first test); the others' lattice
+    // points, less the corners (sampled a level above; the root has none), are this level's batch.
+    using Mask = std::array<std::uint64_t, 16>;  // bit a + w (b + w c) of the group's lattice
+    std::vector<Mask> need(groups);
+    std::vector<std::uint32_t> active_mask(groups);  // bit c: child c is sampled
+    std::vector<std::size_t> key_offset(groups + 1, 0);
+    parallel_for(groups, [&](std::size_t g) {
+      Mask m{};
+      std::uint32_t act = 0;
+      for (int c = 0; c < n * n * n; ++c) {
+        if (!root && corners_clear(corners[g * 27 + c], h)) continue;
+        act |= 1u << c;
+        const int x = 3 * (c % n), y = 3 * (c / n % n), z = 3 * (c / (n * n));
+        for (int p = 0; p < kChildLatticePoints; ++p) {
+          const int a = p % 4, b = p / 4 % 4, d = p / 16;
+          if (!root && a % 3 == 0 && b % 3 == 0 && d % 3 == 0) continue;
+          const int bit = (x + a) + w * ((y + b) + w * (z + d));
+          m[bit / 64] |= std::uint64_t{1} << (bit % 64);
+        }
+      }
+      std::size_t count = 0;
+      for (std::uint64_t word : m) count += static_cast<std::size_t>(std::popcount(word));
+      need[g] = m;
+      active_mask[g] = act;
+      key_offset[g + 1] = count;
+    });
+    for (std::size_t g = 0; g < groups; ++g) key_offset[g + 1] += key_offset[g];
+    if (key_offset.back() > std::numeric_limits<std::uint32_t>::max())
+      throw ResourceError("the adaptive refinement samples too many points at one level");
+    // The group's lattice point -> its index among the group's emitted keys.
+    auto rank_table = [&](std::size_t g, std::array<std::uint16_t, 1000>& rank) {
+      std::uint16_t r = 0;
+      for (int bit = 0; bit < w * w * w; ++bit) {
+        rank[bit] = r;
+        r = static_cast<std::uint16_t>(r + (need[g][bit / 64] >> (bit % 64) & 1));
+      }
+    };
+    // One batch: every group's keys, deduplicated by a sort.
+    std::vector<std::uint64_t> keys(key_offset.back());
+    parallel_for(groups, [&](std::size_t g) {
+      const auto [i, j, k] = root ? std::array<std::uint32_t, 3>{0, 0, 0} : octree_unkey(parents[g]);
+      std::size_t out = key_offset[g];
+      for (int bit = 0; bit < w * w * w; ++bit)
+        if (need[g][bit / 64] >> (bit % 64) & 1)
+          keys[out++] = packed.pack((9 * i + bit % w) * step, (9 * j + bit / w % w) * step, (9 * k + bit / (w * w)) * step);
+    });
+    std::vector<std::uint32_t> id(keys.size());  // a group's key -> its point's index in `fresh`
+    std::vector<std::uint64_t> fresh = sorted_distinct(std::move(keys), packed.bits, id);
+    parallel_for(fresh.size(), [&](std::size_t p) { fresh[p] = packed.to_octree_key(fresh[p]); });
+    std::vector<Vec3> points(fresh.size());
+    parallel_for(fresh.size(), [&](std::size_t p) { points[p] = position(cube, fresh[p], finest); });
+    std::vector<double> f(fresh.size());
+    if (!points.empty()) sdf.evaluate(points, f);
+    points = {};
+    for (double v : f)
+      if (!std::isfinite(v)) throw InputError("the signed distance is not finite at a grid point");
+    // Decisions, in parallel; each refined candidate's 64 values kept for its children's corners.
+    // Not zeroed (only sampled candidates' arrays are written, and only refined ones read).
+    std::unique_ptr<std::array<double, kChildLatticePoints>[]> lattice(new std::array<double, kChildLatticePoints>[num_candidates]);
+    std::vector<std::uint8_t> refine(num_candidates, 0);
+    parallel_chunks(groups, 16, [&](std::size_t gb, std::size_t ge) {
+      std::array<std::uint16_t, 1000> rank;
+      for (std::size_t g = gb; g < ge; ++g) {
+        rank_table(g, rank);
+        for (int c = 0; c < n * n * n; ++c) {
+          if (!(active_mask[g] >> c & 1)) continue;
+          const std::size_t cand = g * n * n * n + c;
+          std::array<double, kChildLatticePoints>& v = lattice[cand];
+          const int x = 3 * (c % n), y = 3 * (c / n % n), z = 3 * (c / (n * n));
+          for (int p = 0; p < kChildLatticePoints; ++p) {
+            const int a = p % 4, b = p / 4 % 4, d = p / 16;
+            if (!root && a % 3 == 0 && b % 3 == 0 && d % 3 == 0) {
+              v[p] = corners[cand][(a / 3) | (b / 3) << 1 | (d / 3) << 2];
+              continue;
+            }
+            v[p] = f[id[key_offset[g] + rank[(x + a) + w * ((y + b) + w * (z + d))]]];
+          }
+          refine[cand] = cell_may_hold_surface(v, h) && refinement_error(v, h) > tolerance;
+        }
+      }
+    });
+    id = {};
+    std::vector<std::uint64_t> next;
+    std::vector<std::array<double, 8>> next_corners;
+    std::size_t sampled = 0;
+    for (std::size_t g = 0; g < groups; ++g) sampled += static_cast<std::size_t>(std::popcount(active_mask[g]));
+    for (std::size_t cand = 0; cand < num_candidates; ++cand) {
+      if (!refine[cand]) continue;
+      const std::uint64_t cell = candidate(cand / (n * n * n), static_cast<int>(cand % (n * n * n)));
+      tree.refine(level, cell);
+      next.push_back(cell);
+      for (int ch = 0; ch < 27; ++ch) {
+        const int x = ch % 3, y = ch / 3 % 3, z = ch / 9;
+        std::array<double, 8>& cv = next_corners.emplace_back();
+        for (int c = 0; c < 8; ++c)
+          cv[c] = lattice[cand][child_lattice_index(x + (c & 1), y + (c >> 1 & 1), z + (c >> 2))];
+      }
+    }
+    if (stats) {
+      OctreeLevelStats& s = stats->levels[level];
+      s.candidates = num_candidates;
+      s.sampled = sampled;
+      s.sdf_points = fresh.size();
+      s.refined_by_error = next.size();
+    }
+    tree.record_samples(level, std::move(fresh), std::move(f));
+    parents = std::move(next);
+    corners = std::move(next_corners);
+  }
+  return tree;
+}
+
+// ---- Balancing -----------------------------------------------------------------------------------
+
+namespace {
+
+// The cells of a level whose closed box holds vertex v of the next level (v in that level's
+// vertex units: cell q spans [3q, 3q + 3]).
+template <class F>
+void for_each_cell_holding(std::uint64_t v, std::uint32_t n, F&& f) {
+  const auto a = octree_unkey(v);
+  std::array<std::array<std::uint32_t, 2>, 3> q{};
+  std::array<int, 3> count{};
+  for (int d = 0; d < 3; ++d) {
+    const std::int64_t lo = std::max<std::int64_t>(0, (std::int64_t(a[d]) + 2) / 3 - 1);
+    const std::int64_t hi = std::min<std::int64_t>(std::int64_t(n) - 1, a[d] / 3);
+    for (std::int64_t x = lo; x <= hi; ++x) q[d][count[d]++] = static_cast<std::uint32_t>(x);
+  }
+  for (int x = 0; x < count[0]; ++x)
+    for (int y = 0; y < count[1]; ++y)
+      for (int z = 0; z < count[2]; ++z) f(octree_key(q[0][x], q[1][y], q[2][z]));
+}
+
+}  // namespace
+
+std::size_t balance_octree(Octree& tree, OctreeStats* stats) {
+  const int depth = tree.max_depth();
+  if (stats && stats->levels.size() < static_cast<std::size_t>(depth) + 1)
+    stats->levels.resize(static_cast<std::size_t>(depth) + 1);
+  std::size_t total = 0;
+  int rounds = 0;
+  for (bool changed = true; changed;) {
+    changed = false;
+    ++rounds;
+    // Finest first: what is done for level L only adds marks at L and refinements whose corners
+    // are marks at L, which rule (a) carries to L - 1; new leaves at L + 1 wait for the next round.
+    for (int level = depth - 1; level >= 0; --level) {
+      std::size_t refined_here = 0, marked_here = 0;
+      // Rule (a): a leaf holding a mark of the next level refines.
+      if (level + 1 < depth) {
+        const std::uint32_t n = tree.cells_per_axis(level);
+        for (std::uint64_t v : tree.marked_vertices(level + 1))
+          for_each_cell_holding(v, n, [&](std::uint64_t q) {
+            if (tree.exists(level, q) && tree.refine(level, q)) ++refined_here;
+          });
+      }
+      // Rule (b), repeated: new marks and refinements change the neighbours' patterns.
+      for (bool again = true; again;) {
+        again = false;
+        for (std::uint64_t leaf : tree.leaves(level)) {
+          const std::uint8_t m = tree.marks(level, leaf);
+          if (template_for_marks(m).valid) continue;
+          again = true;
+          const std::uint8_t closed = mark_closure(m);
+          if (closed == 0xFF) {
+            tree.refine(level, leaf);
+            ++refined_here;
+            continue;
+          }
+          const auto [i, j, k] = octree_unkey(leaf);
+          for (int c = 0; c < 8; ++c)
+            if ((closed & ~m) >> c & 1) {
+              tree.mark(level, octree_key(i + kCubeCorners[c][0], j + kCubeCorners[c][1], k + kCubeCorners[c][2]));
+              ++marked_here;
+            }
+        }
+      }
+      if (refined_here || marked_here) changed = true;
+      total += refined_here;
+      if (stats) {
+        stats->levels[level].refined_by_balance += refined_here;
+        stats->levels[level].marks_added += marked_here;
+      }
+    }
+  }
+  if (stats) {
+    stats->balance_rounds += rounds;
+    // 27 children replace each refined cell.
+    std::size_t above = 1;
+    for (int level = 0; level <= depth; ++level) {
+      const std::size_t refined = level < depth ? tree.refined_cells(level).size() : 0;
+      stats->levels[level].leaves = above - refined;
+      above = 27 * refined;
+    }
+  }
+  return total;
+}
+
+bool octree_balanced(const Octree& tree, std::string* why) {
+  const int depth = tree.max_depth();
+  for (int level = 0; level < depth; ++level) {
+    KeySet holding;  // leaves of this level with a mark of the next level in their closed box
+    for (std::uint64_t v : tree.marked_vertices(level + 1))
+      for_each_cell_holding(v, tree.cells_per_axis(level), [&](std::uint64_t q) { holding.insert(q); });
+    for (std::uint64_t leaf : tree.leaves(level)) {
+      const auto [i, j, k] = octree_unkey(leaf);
+      if (holding.contains(leaf)) {
+        if (why) *why = fmt::format("leaf ({}, {}, {}) of level {} holds a mark of level {}", i, j, k, level, level + 1);
+        return false;
+      }
+      const std::uint8_t m = tree.marks(level, leaf);
+      if (!template_for_marks(m).valid) {
+        if (why) *why = fmt::format("leaf ({}, {}, {}) of level {} has marked corners {:#04x}, which no template handles", i, j, k, level, m);
+        return false;
+      }
+    }
+  }
+  return true;
+}
+
+// ---- The complex ------------------------------------------------------------------------------------
+
+namespace {
+
+// Every template in every rotation with its corners already moved (transform_template_point per
+// corner was a fifth of the complex's time), as distinct points and each hex corner's index there.
+struct RotatedTemplate {
+  std::vector<TemplatePoint> points;
+  std::vector<std::array<std::uint8_t, 8>> corners;
+};
+struct RotatedTemplates {
+  std::array<std::array<RotatedTemplate, kNumCubeRotations>, kNumTemplateKinds> rotated;
+  std::array<std::vector<std::uint8_t>, kNumTemplateKinds> type;   // cell_types() index per hex
+  std::array<std::vector<std::uint8_t>, kNumTemplateKinds> child;  // 1: a child cube (next level)
+};
+
+const RotatedTemplates& rotated_templates() {
+  static const RotatedTemplates t = [] {
+    RotatedTemplates t;
+    for (int k = 0; k < kNumTemplateKinds; ++k) {
+      const auto hexes = template_hexes(static_cast<TemplateKind>(k));
+      for (std::size_t h = 0; h < hexes.size(); ++h) {
+        t.type[k].push_back(static_cast<std::uint8_t>(template_hex_type(static_cast<TemplateKind>(k), static_cast<int>(h)).type));
+        t.child[k].push_back(hexes[h].child ? 1 : 0);
+      }
+      for (int r = 0; r < kNumCubeRotations; ++r) {
+        RotatedTemplate& rt = t.rotated[k][r];
+        for (const TemplateHex& h : hexes) {
+          std::array<std::uint8_t, 8>& c = rt.corners.emplace_back();
+          // The rotation keeps the hex right-handed; its corners move with it.
+          for (int i = 0; i < 8; ++i) {
+            const TemplatePoint p = transform_template_point(h.corners[i], r);
+            const auto at = std::find(rt.points.begin(), rt.points.end(), p);
+            c[i] = static_cast<std::uint8_t>(at - rt.points.begin());
+            if (at == rt.points.end()) rt.points.push_back(p);
+          }
+        }
+      }
+    }
+    return t;
+  }();
+  return t;
+}
+
+}  // namespace
+
+// The leaves come in groups, the 27 children of each refined cell (or the root alone when it is
+// not refined), and each group emits its distinct corner keys: one per used point of the children's
+// 4 x 4 x 4 lattice for its cube leaves (about 2.4 per cell instead of 8), each template leaf's
+// own distinct points (about 2.5 per cell). The sort then merges what groups share.
+AdaptiveGrid build_adaptive_complex(const Octree& tree) {
+  const int depth = tree.max_depth();
+  const Box& cube = tree.cube();
+  const double edge = cube.hi.x - cube.lo.x;
+  const std::uint32_t units = 4 * pow3(depth);  // point units per cube edge
+  const PackedLattice packed(units);
+  const RotatedTemplates& rt = rotated_templates();
+  constexpr std::uint8_t kRefinedChild = 0xFF;
+
+  struct Group {
+    std::uint64_t first_child;  // the lowest child's cell key at `level`
+    std::uint8_t level;         // of the children
+    std::uint8_t n;             // children per axis: 3, or 1 for the unrefined root
+    std::array<std::uint8_t, 27> child;  // kind * 24 + rotation, or kRefinedChild
+    std::uint64_t lattice = 0;  // bit a + (n + 1) (b + (n + 1) c): a corner of a cube leaf
+  };
+  std::vector<Group> groups;
+  if (!tree.is_refined(0, 0)) groups.push_back({0, 0, 1, {}, 0});
+  for (int level = 1; level <= depth; ++level)
+    for (std::uint64_t p : tree.refined_cells(level - 1)) {
+      const auto [i, j, k] = octree_unkey(p);
+      groups.push_back({octree_key(3 * i, 3 * j, 3 * k), static_cast<std::uint8_t>(level), 3, {}, 0});
+    }
+  // Pass 1: each group's templates, cells and keys.
+  std::vector<std::size_t> cell_offset(groups.size() + 1, 0), key_offset(groups.size() + 1, 0);
+  std::vector<std::uint8_t> bad(groups.size(), 0);
+  parallel_for(groups.size(), [&](std::size_t g) {
+    Group& gr = groups[g];
+    const auto [i0, j0, k0] = octree_unkey(gr.first_child);
+    const int n = gr.n, w = n + 1;
+    std::size_t cells = 0, keys = 0;
+    for (int c = 0; c < n * n * n; ++c) {
+      const int x = c % n, y = c / n % n, z = c / (n * n);
+      const std::uint64_t cell = octree_key(i0 + x, j0 + y, k0 + z);
+      if (tree.is_refined(gr.level, cell)) {
+        gr.child[c] = kRefinedChild;
+        continue;
+      }
+      const TemplateChoice choice = template_for_marks(tree.marks(gr.level, cell));
+      if (!choice.valid || (gr.level == depth && choice.kind != TemplateKind::kCube)) bad[g] = 1;
+      gr.child[c] = static_cast<std::uint8_t>(static_cast<int>(choice.kind) * kNumCubeRotations + choice.rotation);
+      if (choice.kind == TemplateKind::kCube) {
+        ++cells;
+        for (int q = 0; q < 8; ++q)
+          gr.lattice |= std::uint64_t{1} << ((x + kCubeCorners[q][0]) + w * ((y + kCubeCorners[q][1]) + w * (z + kCubeCorners[q][2])));
+      } else {
+        const RotatedTemplate& t = rt.rotated[static_cast<int>(choice.kind)][choice.rotation];
+        cells += t.corners.size();
+        keys += t.points.size();
+      }
+    }
+    cell_offset[g + 1] = cells;
+    key_offset[g + 1] = keys + static_cast<std::size_t>(std::popcount(gr.lattice));
+  });
+  if (std::find(bad.begin(), bad.end(), 1) != bad.end())
+    throw std::logic_error("build_adaptive_complex: the octree is not balanced");
+  AdaptiveGrid out;
+  for (std::size_t g = 0; g < groups.size(); ++g) {
+    cell_offset[g + 1] += cell_offset[g];
+    key_offset[g + 1] += key_offset[g];
+    out.levels = std::max(out.levels, groups[g].level + 1);
+    for (int c = 0; c < groups[g].n * groups[g].n * groups[g].n; ++c)
+      if (groups[g].child[c] != kRefinedChild) ++out.leaves_per_template[groups[g].child[c] / kNumCubeRotations];
+  }
+  const std::size_t num_cells = cell_offset.back(), num_keys = key_offset.back();
+  if (num_keys > std::numeric_limits<std::uint32_t>::max())
+    throw ResourceError(fmt::format("the adaptive grid would have {} cells, more than this program indexes", num_cells));
+  // Pass 2: keys, and each cell corner's key slot.
+  std::vector<std::uint64_t> keys(num_keys);
+  out.complex.cells.resize(num_cells);
+  out.cell_type.resize(num_cells);
+  out.cell_level.resize(num_cells);
+  out.complex.cell_size.resize(num_cells);
+  parallel_for(groups.size(), [&](std::size_t g) {
+    const Group& gr = groups[g];
+    const auto [i0, j0, k0] = octree_unkey(gr.first_child);
+    const int n = gr.n, w = n + 1;
+    const std::uint64_t size = units / pow3(gr.level);  // child edge in point units
+    // p * size / 12 is exact: size is a multiple of 12 above max_depth, and a leaf at max_depth is
+    // a cube (p in {0, 12}).
+    auto at = [size](int p) { return std::uint64_t(p) * size / kTemplateUnits; };
+    std::size_t key = key_offset[g], cell = cell_offset[g];
+    std::array<std::uint8_t, 64> rank;  // of each used lattice point among them
+    for (int b = 0; b < w * w * w; ++b) {
+      rank[b] = static_cast<std::uint8_t>(key - key_offset[g]);
+      if (gr.lattice >> b & 1)
+        keys[key++] = packed.pack((i0 + b % w) * size, (j0 + b / w % w) * size, (k0 + b / (w * w)) * size);
+    }
+    const double child_size = edge / pow3(gr.level);
+    for (int c = 0; c < n * n * n; ++c) {
+      if (gr.child[c] == kRefinedChild) continue;
+      const int x = c % n, y = c / n % n, z = c / (n * n);
+      const int kind = gr.child[c] / kNumCubeRotations;
+      if (kind == static_cast<int>(TemplateKind::kCube)) {
+        for (int q = 0; q < 8; ++q) {
+          const int b = (x + kCubeCorners[q][0]) + w * ((y + kCubeCorners[q][1]) + w * (z + kCubeCorners[q][2]));
+          out.complex.cells[cell][q] = static_cast<std::uint32_t>(key_offset[g] + rank[b]);
+        }
+        out.cell_type[cell] = rt.type[kind][0];
+        out.cell_level[cell] = gr.level;
+        out.complex.cell_size[cell] = child_size;
+        ++cell;
+        continue;
+      }
+      const RotatedTemplate& t = rt.rotated[kind][gr.child[c] % kNumCubeRotations];
+      const std::uint64_t ox = (i0 + x) * size, oy = (j0 + y) * size, oz = (k0 + z) * size;
+      const std::size_t first = key;
+      for (const TemplatePoint& p : t.points) keys[key++] = packed.pack(ox + at(p[0]), oy + at(p[1]), oz + at(p[2]));
+      for (std::size_t h = 0; h < t.corners.size(); ++h, ++cell) {
+        for (int q = 0; q < 8; ++q) out.complex.cells[cell][q] = static_cast<std::uint32_t>(first + t.corners[h][q]);
+        out.cell_type[cell] = rt.type[kind][h];
+        const int level = gr.level + rt.child[kind][h];
+        out.cell_level[cell] = static_cast<std::uint8_t>(level);
+        out.complex.cell_size[cell] = edge / pow3(level);
+      }
+    }
+  });
+  // Key slots -> point ids, points in key order.
+  std::vector<std::uint32_t> point_of(num_keys);
+  const std::vector<std::uint64_t> points = sorted_distinct(std::move(keys), packed.bits, point_of);
+  parallel_for(num_cells, [&](std::size_t c) {
+    for (std::uint32_t& q : out.complex.cells[c]) q = point_of[q];
+  });
+  point_of = {};
+  // Their SDF values where the refinement sampled them (core/grid/octree.h).
+  out.complex.box = cube;
+  out.complex.points.resize(points.size());
+  out.values.resize(points.size());
+  std::vector<std::uint8_t> sampled(points.size());
+  parallel_for(points.size(), [&](std::size_t p) {
+    const std::uint64_t key = packed.to_octree_key(points[p]);
+    out.complex.points[p] = position(cube, key, units);
+    const auto [x, y, z] = octree_unkey(key);
+    double v = std::numeric_limits<double>::quiet_NaN();
+    if (x % 4 == 0 && y % 4 == 0 && z % 4 == 0 && tree.sampled_value(octree_key(x / 4, y / 4, z / 4), &v)) sampled[p] = 1;
+    out.values[p] = v;
+  });
+  for (std::size_t p = 0; p < points.size(); ++p)
+    if (!sampled[p]) out.unsampled.push_back(static_cast<std::uint32_t>(p));
+  return out;
+}
+
+std::vector<Vec3> unsampled_points(const AdaptiveGrid& grid) {
+  std::vector<Vec3> out(grid.unsampled.size());
+  for (std::size_t i = 0; i < out.size(); ++i) out[i] = grid.complex.points[grid.unsampled[i]];
+  return out;
+}
+
+void set_unsampled_values(AdaptiveGrid& grid, std::span<const double> values) {
+  if (values.size() != grid.unsampled.size())
+    throw std::logic_error("set_unsampled_values: one value per unsampled point");
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    if (!std::isfinite(values[i])) throw InputError("the signed distance is not finite at a grid point");
+    grid.values[grid.unsampled[i]] = values[i];
+  }
+  grid.unsampled.clear();
+}
+
+void evaluate_unsampled(AdaptiveGrid& grid, const SignedDistance& sdf) {
+  const std::vector<Vec3> points = unsampled_points(grid);
+  std::vector<double> values(points.size());
+  if (!points.empty()) sdf.evaluate(points, values);
+  set_unsampled_values(grid, values);
+}
+
+}  // namespace mchex

@@ -1,0 +1,20 @@
+// Reading triangle surfaces from files (core/io/surface_io.cpp: Assimp, with our own prechecks).
+#pragma once
+
+#include <cstddef>
+#include <filesystem>
+
+#include "core/mesh/surface.h"
+
+namespace mchex {
+
+// Reads STL (ascii and binary), OBJ, OFF or PLY, chosen by the extension (any case), welds and
+// checks indices and coordinates. Polygons are triangulated; points and lines are ignored;
+// vertices no triangle uses are dropped; the rest keep the order of their first use.
+// Coordinates pass through single precision (the readers' type). *welded receives how many of
+// the file's vertices were duplicates merged by the weld (for STL every facet corner counts).
+// Throws InputError("PATH: reason", one line) on anything unreadable, empty, non-finite, out of
+// range or without triangles.
+TriangleSurface read_surface(const std::filesystem::path& path, std::size_t* welded = nullptr);
+
+}  // namespace mchex

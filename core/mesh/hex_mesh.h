@@ -1,0 +1,43 @@
+// An unstructured all-hex mesh: the mesher's output and the checker's input.
+// Corner order is VTK_HEXAHEDRON: bottom face 0-1-2-3 counter-clockwise seen from above
+// (from +w, w being the direction to the top face), top face 4-5-6-7 above 0-1-2-3. With this
+// order a positively oriented hex has a positive Jacobian determinant (paper Eq. 8, whose
+// node order is the same).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "core/base/geometry.h"
+
+namespace mchex {
+
+using Hex = std::array<uint32_t, 8>;
+
+// Region labels written per element (MEDIT reference, VTU/MSH cell data).
+enum Region : int32_t { kInside = 1, kOutside = 2 };
+
+struct HexMesh {
+  std::vector<Vec3> points;
+  std::vector<Hex> hexes;
+  std::vector<int32_t> region;  // one per hex
+
+  std::array<Vec3, 8> corners(std::size_t h) const {
+    std::array<Vec3, 8> c;
+    for (int i = 0; i < 8; ++i) c[i] = points[hexes[h][i]];
+    return c;
+  }
+};
+
+// The two meshes the mesher makes: the solid and the rest of the box, sharing their interface.
+struct MeshPair {
+  HexMesh inside, outside;
+};
+
+// Splits a set of hexes over shared points into a compact mesh of those hexes only (points
+// renumbered in first-use order, so the result is deterministic).
+HexMesh compact_mesh(std::span<const Vec3> points, std::span<const Hex> hexes, int32_t region);
+
+}  // namespace mchex

@@ -1,0 +1,96 @@
+// Element quality of one trilinear hexahedron, given its 8 corners in VTK_HEXAHEDRON order,
+// which is the node order of the paper's Eq. 8:
+//   0 (0,0,0)  1 (1,0,0)  2 (1,1,0)  3 (0,1,0)  4 (0,0,1)  5 (1,0,1)  6 (1,1,1)  7 (0,1,1)
+// in reference coordinates (xi, eta, zeta) in [0,1]^3.
+//
+// The map x(xi,eta,zeta) = X N(xi,eta,zeta) (Eq. 7-8) is trilinear, so each column of its
+// Jacobian J (Eq. 9) is bilinear in the two other coordinates and det J is a tensor
+// polynomial of degree (2,2,2). Two families of measures follow:
+//  - the certificate: the 27 Bernstein coefficients of det J (Theorem 5.1 / Eq. 10 gives them
+//    from the monomial form; we build them directly from products of edge vectors, see
+//    quality.cpp). All 27 > 0 proves det J > 0 on the whole closed element.
+//  - the customary sampled measures (ParaView/Verdict): scaled Jacobian at the 8 corners and
+//    the centre, edge ratio. These can be positive on an element whose det J is negative
+//    somewhere inside; the tests construct such an element.
+#pragma once
+
+#include <array>
+
+#include "core/base/geometry.h"
+
+namespace mchex {
+
+using HexCorners = std::array<Vec3, 8>;
+
+// The 27 Bernstein coefficients beta_{ijk}, i, j, k in {0,1,2} indexing (xi, eta, zeta).
+using BernsteinCoefficients = std::array<double, 27>;
+constexpr int bernstein_index(int i, int j, int k) { return i + 3 * j + 9 * k; }
+
+// The element map (paper Eq. 7, shape functions Eq. 8): the point of the hex with corners c at
+// parametric point t in the unit cube. Every cell of a complex is this map of the unit cube.
+// Nested linear interpolation (x, then y, then z): a lerp between equal values is exact, so a
+// point on a cell face whose corners share a coordinate (a face on the box) keeps it exactly.
+inline Vec3 trilinear_map(const HexCorners& c, Vec3 t) {
+  auto lerp = [](const Vec3& a, const Vec3& b, double s) { return a + s * (b - a); };
+  const Vec3 y0 = lerp(lerp(c[0], c[1], t.x), lerp(c[3], c[2], t.x), t.y);
+  const Vec3 y1 = lerp(lerp(c[4], c[5], t.x), lerp(c[7], c[6], t.x), t.y);
+  return lerp(y0, y1, t.z);
+}
+
+// The unit cube itself, corners in VTK order.
+inline constexpr HexCorners kUnitCubeCorners = {
+    {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}}};
+
+// Columns of J (Eq. 9): dx/dxi, dx/deta, dx/dzeta at (xi, eta, zeta).
+std::array<Vec3, 3> jacobian(const HexCorners& c, double xi, double eta, double zeta);
+double jacobian_determinant(const HexCorners& c, double xi, double eta, double zeta);
+
+// det J = sum_{ijk} beta_{ijk} B_i^2(xi) B_j^2(eta) B_k^2(zeta), with B_i^2 the quadratic
+// Bernstein basis. beta at i,j,k in {0,2} are the corner values of det J.
+BernsteinCoefficients bernstein_jacobian(const HexCorners& c);
+// True when every beta > 0, which proves det J > 0 everywhere on [0,1]^3 (see quality.cpp
+// for why this is strict and not the paper's min >= 0 && max > 0).
+bool bernstein_certified(const HexCorners& c);
+double min_bernstein(const HexCorners& c);
+// min beta / (mean edge length)^3: beta has units of volume, so this ratio is comparable
+// across element sizes (1 for a unit cube, det A / (mean |A e_i|)^3 for an affine element).
+double min_bernstein_scaled(const HexCorners& c);
+
+// Mean of the 12 edge lengths.
+double mean_edge_length(const HexCorners& c);
+// max / min of the 12 edge lengths; +inf when an edge has zero length.
+double edge_ratio(const HexCorners& c);
+// Exact volume of the trilinear element: the integral of det J over [0,1]^3.
+double hex_volume(const HexCorners& c);
+
+// det J at the 8 corners, in corner order: the triple product of the three edge vectors
+// leaving each corner in the +xi, +eta, +zeta directions (not normalized).
+std::array<double, 8> corner_jacobians(const HexCorners& c);
+// Scaled Jacobian at the 9 points: [0..7] the corners in corner order, [8] the centre. Each is
+// det of J's columns normalized to unit length, so a cube (of any size) gives 1, and an edge
+// of zero length gives 0.
+std::array<double, 9> scaled_jacobians(const HexCorners& c);
+double scaled_jacobian(const HexCorners& c);  // min of scaled_jacobians
+
+// Everything above that a mesh check needs, computed once per element.
+struct HexQuality {
+  double min_corner_jacobian = 0;  // min over the 8 corners of det J
+  double min_bernstein = 0;
+  double min_bernstein_scaled = 0;
+  double scaled_jacobian = 0;  // min over the 9 points
+  double edge_ratio = 0;
+  double volume = 0;
+  bool certified() const { return min_bernstein > 0; }
+};
+HexQuality hex_quality(const HexCorners& c);
+// Whether the four edges of each direction are the same vector, bit for bit (then hex_quality
+// computes each product of edge vectors once: the same results, for less work).
+bool is_parallelepiped(const HexCorners& c);
+
+namespace detail {
+// hex_quality computing every product of edge vectors, also where a parallelepiped's are equal
+// (for the test that the shortcut changes no bit).
+HexQuality hex_quality_without_shortcuts(const HexCorners& c);
+}  // namespace detail
+
+}  // namespace mchex

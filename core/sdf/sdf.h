@@ -1,0 +1,73 @@
+// Signed distance fields: the mesher's only view of the geometry. Convention: f > 0 inside.
+//
+// SurfaceSdf is the CPU reference for triangle surfaces: the closest point comes from a
+// nearest-first search of a BVH that Embree builds (core/sdf/bvh.h), O(log T) per point against the
+// paper's brute-force loop over all triangles, with every candidate measured in double (points
+// are searched in Morton order, 32 neighbours sharing one walk of the tree);
+// the sign from the angle-weighted pseudonormal of the closest feature (Baerentzen & Aanaes 2005).
+// That sign is exact for closed, consistently oriented 2-manifold surfaces. On open surfaces,
+// non-manifold edges or triangle soups it never fails but is only locally meaningful: each point
+// takes the side of the nearest triangle's feature, so the "inside" leaks out through holes and
+// flips where orientations disagree. A robust sign (winding number) is a later issue.
+#pragma once
+
+#include <memory>
+#include <span>
+#include <vector>
+#include <cstdint>
+
+#include "core/base/geometry.h"
+#include "core/mesh/surface.h"
+
+namespace mchex {
+
+class SignedDistance {
+ public:
+  virtual ~SignedDistance() = default;
+  // Batch evaluation: values[i] = f(points[i]); threaded; deterministic. Neighbouring points in
+  // the batch evaluate fastest (grid order), but any order is correct.
+  virtual void evaluate(std::span<const Vec3> points, std::span<double> values) const = 0;
+  // A box that holds the solid (f <= 0 outside it).
+  virtual Box bounds() const = 0;
+};
+
+class SurfaceSdf final : public SignedDistance {
+ public:
+  explicit SurfaceSdf(const TriangleSurface& surface);
+  ~SurfaceSdf() override;
+  SurfaceSdf(const SurfaceSdf&) = delete;
+  SurfaceSdf& operator=(const SurfaceSdf&) = delete;
+
+  void evaluate(std::span<const Vec3> points, std::span<double> values) const override;
+  Box bounds() const override;
+  // Unsigned distance to the triangles (used for Hausdorff distances and by evaluate()).
+  void distance(std::span<const Vec3> points, std::span<double> values) const;
+
+  struct Impl;
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+// The permutation that orders points along a Morton (Z-order) curve over their bounding box
+// (21 bits per axis; non-finite coordinates sort anywhere). Nearest-triangle searches run in this
+// order, here and on the devices: consecutive points are then neighbours in all three directions,
+// so one packet's answers seed the next and successive searches find the tree's nodes in cache.
+std::vector<uint32_t> morton_order(std::span<const Vec3> points);
+
+// Reference for the benchmarks and tests: the paper's method, every point against every
+// triangle, with the same sign rule. O(points x triangles).
+void brute_force_sdf(const TriangleSurface& surface, std::span<const Vec3> points,
+                     std::span<double> values);
+
+// Closest point on triangle (a, b, c) to p, and which feature it lies on, so that the caller can
+// pick the feature's pseudonormal. Region: 0..2 vertex a/b/c, 3 edge ab, 4 edge bc, 5 edge ca,
+// 6 interior.
+struct ClosestPoint {
+  Vec3 point;
+  double squared_distance;
+  int region;
+};
+ClosestPoint closest_point_on_triangle(Vec3 p, Vec3 a, Vec3 b, Vec3 c);
+
+}  // namespace mchex

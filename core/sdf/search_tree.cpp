@@ -1,0 +1,175 @@
+#include "core/sdf/search_tree.h"
+
+#include <algorithm>
+#include <array>
+#include <numbers>
+#include <stdexcept>
+#include <utility>
+
+#include "core/base/parallel.h"
+
+namespace mchex {
+
+namespace {
+
+// The box of a group of triangles. Frame: the group's mean normal when the group is nearly flat,
+// with the in-plane axes of least area (a box is only as tight sideways as its rectangle fits the
+// piece), else the coordinate axes. `seen` (one entry per surface vertex, never equal to `stamp`
+// on entry) lets each vertex be visited once (a closed mesh's vertex is in about six triangles).
+OrientedBox bound_triangles(const TriangleSurface& s, std::span<const uint32_t> triangles, std::vector<uint32_t>& seen,
+                            uint32_t stamp) {
+  Vec3 normal{};
+  double area = 0;
+  std::vector<Vec3> corners;
+  corners.reserve(triangles.size() + 2);
+  for (uint32_t t : triangles) {
+    const auto& v = s.triangles[t];
+    const Vec3 c = cross(s.vertices[v[1]] - s.vertices[v[0]], s.vertices[v[2]] - s.vertices[v[0]]);
+    normal += c;
+    area += norm(c);
+    for (uint32_t i : v)
+      if (seen[i] != stamp) seen[i] = stamp, corners.push_back(s.vertices[i]);
+  }
+  Vec3 a0{0, 0, 1}, a1{1, 0, 0};
+  if (norm(normal) > 0.5 * area && area > 0) {  // a nearly flat piece: its own frame
+    a0 = normalized(normal);
+    // The in-plane axes of least area (the thickness along a0 does not depend on them): eight
+    // turns over a quarter turn, then eight finer turns around the best of them.
+    constexpr int kTurns = 8;
+    static const auto turns = [] {
+      std::array<std::array<std::pair<double, double>, kTurns>, 2> cs;  // [coarse, fine offsets]
+      for (int k = 0; k < kTurns; ++k) {
+        const double coarse = (k + 0.5) * (std::numbers::pi / 2) / kTurns,
+                     fine = (k - 3.5) * (std::numbers::pi / 2) / (kTurns * kTurns);
+        cs[0][k] = {std::cos(coarse), std::sin(coarse)};
+        cs[1][k] = {std::cos(fine), std::sin(fine)};
+      }
+      return cs;
+    }();
+    const Vec3 u = normalized(cross(a0, std::abs(a0.x) < 0.6 ? Vec3{1, 0, 0} : Vec3{0, 1, 0}));
+    const Vec3 w = cross(a0, u);
+    std::vector<std::pair<double, double>> flat(corners.size());
+    for (std::size_t i = 0; i < corners.size(); ++i) flat[i] = {dot(u, corners[i]), dot(w, corners[i])};
+    auto least_area = [&](const std::array<std::pair<double, double>, kTurns>& dirs) {
+      double l[kTurns][2], h[kTurns][2];
+      for (int k = 0; k < kTurns; ++k) l[k][0] = l[k][1] = INFINITY, h[k][0] = h[k][1] = -INFINITY;
+      for (const auto& [x, y] : flat)
+        for (int k = 0; k < kTurns; ++k) {
+          const double p1 = dirs[k].first * x + dirs[k].second * y, p2 = dirs[k].first * y - dirs[k].second * x;
+          l[k][0] = std::min(l[k][0], p1), h[k][0] = std::max(h[k][0], p1);
+          l[k][1] = std::min(l[k][1], p2), h[k][1] = std::max(h[k][1], p2);
+        }
+      int best = 0;
+      for (int k = 1; k < kTurns; ++k)
+        if ((h[k][0] - l[k][0]) * (h[k][1] - l[k][1]) < (h[best][0] - l[best][0]) * (h[best][1] - l[best][1])) best = k;
+      return dirs[best];
+    };
+    const auto [c0, s0] = least_area(turns[0]);
+    std::array<std::pair<double, double>, kTurns> around;
+    for (int k = 0; k < kTurns; ++k) {  // the coarse turn plus each fine offset
+      const auto [c1, s1] = turns[1][k];
+      around[k] = {c0 * c1 - s0 * s1, s0 * c1 + c0 * s1};
+    }
+    const auto [c, sn] = least_area(around);
+    a1 = c * u + sn * w;
+  }
+  OrientedBox out;
+  const Vec3 a2 = cross(a0, a1);
+  for (int i = 0; i < 3; ++i) out.axis[0][i] = float(a0[i]), out.axis[1][i] = float(a1[i]), out.axis[2][i] = float(a2[i]);
+  // Extents along exactly the float axes that distance2() will use, computed in double and
+  // rounded outward, so every triangle lies inside its box.
+  Vec3 axes[3];
+  for (int a = 0; a < 3; ++a) axes[a] = {out.axis[a][0], out.axis[a][1], out.axis[a][2]};
+  double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+  for (const Vec3& c : corners)
+    for (int a = 0; a < 3; ++a) {
+      const double x = dot(axes[a], c);
+      lo[a] = std::min(lo[a], x), hi[a] = std::max(hi[a], x);
+    }
+  for (int a = 0; a < 3; ++a) {
+    out.lo[a] = std::nextafter(float(lo[a]), -INFINITY);
+    out.hi[a] = std::nextafter(float(hi[a]), INFINITY);
+  }
+  return out;
+}
+
+}  // namespace
+
+TriangleLeaf::TriangleLeaf(const TriangleSurface& s, std::span<const uint32_t> triangles, uint32_t first_slot) {
+    for (int c = 0; c < 4; ++c) {  // absent lanes: an empty plane interval, never in range
+      plane_lo[c] = INFINITY, plane_hi[c] = -INFINITY, slot[c] = 0;
+      for (int e = 0; e < 3; ++e) {
+        edge_hi[e][c] = 0;
+        for (int i = 0; i < 3; ++i) edge[e][i][c] = normal[i][c] = 0;
+      }
+    }
+    for (int c = 0; c < int(triangles.size()); ++c) {
+      const auto& tri = s.triangles[triangles[c]];
+      const Vec3 v[3] = {s.vertices[tri[0]], s.vertices[tri[1]], s.vertices[tri[2]]};
+      slot[c] = first_slot + uint32_t(c);
+      const Vec3 cr = cross(v[1] - v[0], v[2] - v[0]);
+      const bool flat = norm(cr) > 0 && std::isfinite(norm(cr));
+      const Vec3 n = flat ? normalized(cr) : Vec3{1, 0, 0};
+      // Every interval from the float vectors the query will use, in double, rounded outward.
+      auto to_float = [](Vec3 a) { return Vec3{float(a.x), float(a.y), float(a.z)}; };
+      const Vec3 nf = to_float(n);
+      double lo = INFINITY, hi = -INFINITY;
+      for (const Vec3& x : v) lo = std::min(lo, dot(nf, x)), hi = std::max(hi, dot(nf, x));
+      for (int i = 0; i < 3; ++i) normal[i][c] = float(nf[i]);
+      plane_lo[c] = std::nextafter(float(lo), -INFINITY);
+      plane_hi[c] = std::nextafter(float(hi), INFINITY);
+      if (!flat) continue;
+      for (int e = 0; e < 3; ++e) {
+        Vec3 m = normalized(cross(v[(e + 1) % 3] - v[e], n));
+        if (dot(m, v[(e + 2) % 3] - v[e]) > 0) m = -1.0 * m;
+        const Vec3 mf = to_float(m);
+        double top = -INFINITY;
+        for (const Vec3& x : v) top = std::max(top, dot(mf, x));
+        for (int i = 0; i < 3; ++i) edge[e][i][c] = float(mf[i]);
+        edge_hi[e][c] = std::nextafter(float(top), INFINITY);
+      }
+    }
+  }
+
+SearchTree::SearchTree(const TriangleSurface& s, const TriangleBvh& bvh) {
+    if (bvh.nodes.empty()) return;
+    const auto slots = bvh.subtree_slots();
+    const std::span<const uint32_t> all(bvh.leaf_triangles);
+    auto subtree = [&](uint32_t n) { return all.subspan(slots[n].first, slots[n].second - slots[n].first); };
+    std::vector<OrientedBox> boxes(bvh.nodes.size());
+    parallel_chunks(bvh.nodes.size(), 1024, [&](std::size_t b, std::size_t e) {
+      std::vector<uint32_t> seen(s.vertices.size(), UINT32_MAX);
+      for (std::size_t n = b; n < e; ++n) boxes[n] = bound_triangles(s, subtree(uint32_t(n)), seen, uint32_t(n));
+    });
+
+    auto leaf = [&](uint32_t n) {
+      const BvhNode& node = bvh.nodes[n];
+      if (node.count > 4) throw std::logic_error("SDF search tree: a leaf holds more than four triangles");
+      leaves.emplace_back(s, all.subspan(node.index, node.count), node.index);
+      return uint32_t(leaves.size() - 1);
+    };
+    auto build = [&](auto&& self, std::vector<uint32_t> kids) -> uint32_t {
+      while (kids.size() < 4) {
+        int open = -1;
+        for (int k = 0; k < int(kids.size()); ++k)
+          if (bvh.nodes[kids[k]].count == 0 && (open < 0 || subtree(kids[k]).size() > subtree(kids[open]).size())) open = k;
+        if (open < 0) break;
+        const uint32_t n = kids[open];
+        kids[open] = n + 1;
+        kids.push_back(bvh.nodes[n].index);
+      }
+      const uint32_t self_index = uint32_t(nodes.size());
+      nodes.emplace_back();
+      WideNode w = WideNode::empty();
+      for (int c = 0; c < int(kids.size()); ++c) {
+        const BvhNode& node = bvh.nodes[kids[c]];
+        w.set(c, boxes[kids[c]], node.count ? leaf(kids[c]) : self(self, {kids[c] + 1, node.index}), node.count);
+      }
+      nodes[self_index] = w;
+      return self_index;
+    };
+    if (bvh.nodes[0].count) build(build, {0});  // a single leaf
+    else build(build, {1, bvh.nodes[0].index});
+  }
+
+}  // namespace mchex
