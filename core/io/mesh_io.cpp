@@ -36,6 +36,7 @@
 
 #include "core/base/error.h"
 #include "core/base/parallel.h"
+#include "core/io/atomic_file.h"
 
 namespace mchex {
 namespace {
@@ -97,62 +98,6 @@ RealParse parse_real(std::string_view t, double& v) {
 // =============================================================================================
 // Output
 
-// A hidden temporary file beside the target that becomes the target only in commit(); if that
-// point is never reached, the destructor removes it and the target stays as it was.
-class AtomicOutput {
- public:
-  explicit AtomicOutput(const fs::path& target) : target_(target) {
-    static std::atomic<unsigned> serial{0};
-    const fs::path folder = target.parent_path();
-    temp_ = folder / ("." + target.filename().string() + ".tmp." + std::to_string(::getpid()) + "." +
-                      std::to_string(serial++));
-    // "x" (exclusive): never truncate a file that is not ours, whatever its name.
-    file_ = std::fopen(temp_.c_str(), "wbx");
-    if (file_ == nullptr) {
-      const int e = errno;
-      throw FormatError("cannot create a file in '" + (folder.empty() ? std::string(".") : folder.string()) +
-                        "': " + errno_message(e));
-    }
-  }
-  AtomicOutput(const AtomicOutput&) = delete;
-  AtomicOutput& operator=(const AtomicOutput&) = delete;
-  ~AtomicOutput() {
-    if (file_ != nullptr) std::fclose(file_);
-    if (!committed_) {
-      std::error_code ignored;
-      fs::remove(temp_, ignored);
-    }
-  }
-
-  void write(const void* data, std::size_t size) {
-    if (size != 0 && std::fwrite(data, 1, size, file_) != size) fail(errno);
-  }
-  void write(std::string_view s) { write(s.data(), s.size()); }
-
-  void commit() {
-    std::FILE* f = std::exchange(file_, nullptr);
-    // Errors of buffered or delayed writes (full disk, quota) surface only here.
-    if (std::fflush(f) != 0) {
-      const int e = errno;
-      std::fclose(f);
-      fail(e);
-    }
-    if (std::fclose(f) != 0) fail(errno);
-    std::error_code ec;
-    fs::rename(temp_, target_, ec);
-    if (ec) throw FormatError("cannot move the finished file into place: " + ec.message());
-    committed_ = true;
-  }
-
- private:
-  [[noreturn]] static void fail(int e) { throw FormatError("write failed: " + errno_message(e)); }
-
-  fs::path target_;
-  fs::path temp_;
-  std::FILE* file_ = nullptr;
-  bool committed_ = false;
-};
-
 template <class T>
 void put_number(std::string& s, T v) {
   char buf[32];
@@ -172,7 +117,7 @@ void put_line(std::string& s, std::initializer_list<T> values) {
 // Formats records [0, count) in chunks on all threads and writes the chunks in order; the tokens
 // in flight bound the memory to a few chunks per thread.
 template <class Format>
-void write_records(AtomicOutput& out, std::size_t count, const Format& format) {
+void write_records(AtomicFile& out, std::size_t count, const Format& format) {
   constexpr std::size_t kChunk = std::size_t{1} << 14;
   if (count == 0) return;
   const std::size_t chunks = (count + kChunk - 1) / kChunk;
@@ -205,7 +150,7 @@ void check_writable(const HexMesh& mesh) {
                           std::to_string(n) + " points");
 }
 
-void write_points_text(AtomicOutput& out, const std::vector<Vec3>& points, std::string_view line_end) {
+void write_points_text(AtomicFile& out, const std::vector<Vec3>& points, std::string_view line_end) {
   write_records(out, points.size(), [&](std::size_t begin, std::size_t end, std::string& s) {
     s.reserve((end - begin) * 64);
     for (std::size_t i = begin; i < end; ++i) {
@@ -219,7 +164,7 @@ void write_points_text(AtomicOutput& out, const std::vector<Vec3>& points, std::
   });
 }
 
-void write_medit(const HexMesh& mesh, AtomicOutput& out) {
+void write_medit(const HexMesh& mesh, AtomicFile& out) {
   std::string head = "MeshVersionFormatted 2\n\nDimension 3\n\nVertices\n";
   put_number(head, mesh.points.size());
   head += '\n';
@@ -245,7 +190,7 @@ void write_medit(const HexMesh& mesh, AtomicOutput& out) {
   out.write("\nEnd\n");
 }
 
-void write_vtu(const HexMesh& mesh, AtomicOutput& out) {
+void write_vtu(const HexMesh& mesh, AtomicFile& out) {
   const std::uint64_t n = mesh.points.size();
   const std::uint64_t m = mesh.hexes.size();
   constexpr std::uint8_t kVtkHexahedron = 12;
@@ -313,7 +258,7 @@ void write_vtu(const HexMesh& mesh, AtomicOutput& out) {
   out.write("\n  </AppendedData>\n</VTKFile>\n");
 }
 
-void write_gmsh(const HexMesh& mesh, AtomicOutput& out) {
+void write_gmsh(const HexMesh& mesh, AtomicFile& out) {
   // Element blocks follow runs of equal regions: one block per region would reorder the hexes
   // for every reader but ours, and Gmsh accepts several blocks of one entity.
   struct Run {
@@ -1438,7 +1383,7 @@ void write_hex_mesh(const HexMesh& mesh, const std::filesystem::path& path) {
   const MeshFormat format = mesh_format(path);
   try {
     check_writable(mesh);
-    AtomicOutput out(path);
+    AtomicFile out(path);
     switch (format) {
       case MeshFormat::kMedit: write_medit(mesh, out); break;
       case MeshFormat::kVtu: write_vtu(mesh, out); break;

@@ -36,6 +36,7 @@
 #include "core/sdf/shapes.h"
 #include "core/mesh/surface.h"
 #include "core/device/backend.h"
+#include "core/io/atomic_file.h"
 #include "core/io/surface_io.h"
 #include "host/backends/registry.h"
 #include "core/base/parallel.h"
@@ -164,20 +165,9 @@ std::string summary(const MeshCheck& c) {
 }
 
 void write_json(const fs::path& path, const json& j) {
-  // Same atomic rule as the meshes: a temporary file renamed at the end.
-  const fs::path tmp = path.parent_path() / ("." + path.filename().string() + ".tmp");
-  {
-    std::ofstream out(tmp);
-    out << j.dump(2) << '\n';
-    if (!out) {
-      std::error_code ec;
-      fs::remove(tmp, ec);
-      throw InputError(path.string() + ": cannot write the report");
-    }
-  }
-  std::error_code ec;
-  fs::rename(tmp, path, ec);
-  if (ec) throw InputError(path.string() + ": " + ec.message());
+  AtomicFile out(path);
+  out.write(j.dump(2) + "\n");
+  out.commit();
 }
 
 // The report's "grid" for the adaptive complex: levels, cells per cell type and per template.
