@@ -147,7 +147,7 @@ TEST(BackendCpu, ClassifyCellsIsCoreClassify) {
     const CellClass k = classify(f);
     ASSERT_EQ(codes[i], encode_cell(k));
     ASSERT_EQ(offsets[i], run);
-    // A cell cut directly gives 8 + 2 * cut edges hexes (notes/mc33-topology.md); one refined
+    // A cell cut directly gives 8 + 2 * cut edges hexes (docs/mc33.md); one refined
     // locally the sum over its leaves.
     if (!needs_local_refinement(k)) {
       ASSERT_EQ(local_refinement_hexes(k.subcase), 8 + 2 * std::popcount(unsigned(k.cut_edges)));

@@ -47,7 +47,7 @@ Corners affine(const double a[3][3], Vec3 t) {
   return c;
 }
 
-// One of the 3 hexes of the node template (notes/refinement-templates.md: the cell [0,1]^3 with
+// One of the 3 hexes of the node template (docs/templates.md: the cell [0,1]^3 with
 // its corner 0 refined to the cube [0,1/3]^3): the hex between the small cube's face x = 1/3
 // and the cell's face x = 1, bounded by the planes y = 0, z = 0, x = y and x = z. Planar faces,
 // not an affine image of a cube.
@@ -204,7 +204,7 @@ std::vector<Glued> glue(const std::vector<std::array<std::uint32_t, 8>>& leaves,
 }
 
 // The region of a tunnel subcase that the tunnel runs through (a solid torus): the largest
-// region of the sign opposite to the joined ones (notes/mc33-topology.md: 4.1.2 6c, 6.1.2 5c,
+// region of the sign opposite to the joined ones (docs/mc33.md: 4.1.2 6c, 6.1.2 5c,
 // 7.4.2 3c, 10.1.2 4c, 12.1.2 4c, 13.5.2 3c).
 int torus_region(const CellClass& c) {
   if (c.tunnel == 0) return -1;

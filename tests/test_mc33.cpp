@@ -1,5 +1,5 @@
 // MC33 classification of one cell (core/cutting/mc33.h), checked against references that do not share
-// its code: the facts table of notes/mc33-topology.md, the classic MC case counts, a few entries
+// its code: the facts table of docs/mc33.md, the classic MC case counts, a few entries
 // of Lewiner's cases[] table, a flood fill of the sampled trilinear interpolant (the ground truth
 // for which corners are connected), the body critical points that Custodio et al. use for 13.5,
 // and linear fields whose zero set is known.
@@ -27,7 +27,7 @@ using Cell = std::array<double, 8>;
 
 // ---- Reference facts ------------------------------------------------------------------------
 
-// notes/mc33-topology.md, one row per subcase: cut edges, the corner counts of its regions, the
+// docs/mc33.md, one row per subcase: cut edges, the corner counts of its regions, the
 // corner count of the region a tunnel runs through (the "ball"; 0 without a tunnel) and the hex
 // count (-1 for the tunnel subcases, which the table leaves open).
 struct NotesRow {
@@ -536,7 +536,7 @@ void expect_matches_notes(const CellClass& cc) {
   }
   EXPECT_EQ(cc.tunnel != 0, row.ball != 0) << row.name;
   if (cc.tunnel != 0) {
-    // The tunnel runs through the one region of its sign (the notes' ball).
+    // The tunnel runs through the one region of its sign (the table's ball, docs/mc33.md).
     int of_sign = 0;
     for (int r = 0; r < cc.num_regions; ++r)
       if (cc.regions[r].sign == cc.tunnel) {
@@ -633,7 +633,7 @@ TEST(mc33, RandomSamplingReachesEveryOutcome) {
 TEST(mc33, SampledCellsMatchNotesAndMapOntoTheirRepresentative) {
   std::map<Subcase, int> checked;
   for (const auto& [f, cc] : sampled_cells()) {
-    // All cells against the notes; the (slower) canonical round trip on the first few hundred of
+    // All cells against docs/mc33.md's table; the (slower) canonical round trip on the first few hundred of
     // each subcase.
     expect_matches_notes(cc);
     if (checked[cc.subcase]++ < 300) expect_canonical_map(f, cc);

@@ -1,5 +1,5 @@
 // Cutting cells into 3-regular polyhedra (core/cutting/polyhedra.h) and midpoint subdivision
-// (core/cutting/subdivide.h), checked on every sign pattern against the facts of notes/mc33-topology.md
+// (core/cutting/subdivide.h), checked on every sign pattern against the facts of docs/mc33.md
 // (regions, corner counts, polyhedron V/F, hexes = 8 + 2 * cut edges) and against geometry that
 // does not share their code (volumes by the divergence theorem and by the exact trilinear hex
 // volume). Then the Bernstein certificate of every hex, per subcase: every subcase that
@@ -41,7 +41,7 @@
 namespace mchex {
 namespace {
 
-// ---- notes/mc33-topology.md: per subcase, each region's (corners, V, F), sorted ---------------
+// ---- docs/mc33.md: per subcase, each region's (corners, V, F), sorted -------------------------
 
 struct RegionFact {
   int corners, v, f;
@@ -242,7 +242,7 @@ TEST(polyhedra, AllSignPatternsCutSubdivideAndCertify) {
                                     (is_unit(g) ? " unit" : " affine");
           const auto polys = cut_cell(g, c);
           ASSERT_EQ(polys.size(), c.num_regions) << where;
-          // Topology against the notes.
+          // Topology against docs/mc33.md's table.
           std::vector<RegionFact> got;
           for (std::size_t r = 0; r < polys.size(); ++r) {
             const Polyhedron& p = polys[r];

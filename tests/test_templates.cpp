@@ -1,6 +1,6 @@
 // The standard 3-refinement templates (core/grid/templates.h) and the cell-type table derived from them
 // (core/grid/cell_types.h): geometry against independent facts (volumes, face matching, the vertex
-// levels of notes/refinement-templates.md, the paper's count of 9 basic cells), the Bernstein
+// levels of docs/templates.md, the paper's count of 9 basic cells), the Bernstein
 // certificate of every template hex, and conformity of every pair of face neighbours whose marks
 // admit templates (exhaustive over the 2^12 marks of two cells).
 #include <gtest/gtest.h>
@@ -80,7 +80,7 @@ std::array<Key, 8> placed(const TemplateHex& h, int rotation, Key origin) {
 }
 
 TEST(templates, CountsAndVertexLevelsMatchTheNotes) {
-  // notes/refinement-templates.md: node 1 child + 3, edge 3 + 8, face 9 + 13, and the levels.
+  // docs/templates.md: node 1 child + 3, edge 3 + 8, face 9 + 13, and the levels.
   const std::map<TemplateKind, std::pair<int, int>> made_of = {
       {TemplateKind::kCube, {0, 1}}, {TemplateKind::kNode, {1, 3}}, {TemplateKind::kEdge, {3, 8}}, {TemplateKind::kFace, {9, 13}}};
   const std::map<TemplateKind, std::set<int>> levels = {{TemplateKind::kCube, {0, 12}},
@@ -120,7 +120,7 @@ TEST(templates, EachTemplateTilesItsCellAndEveryHexIsCertified) {
 }
 
 TEST(templates, WorstCornerScaledJacobianAsInTheNotes) {
-  // notes: node ~0.577, edge ~0.485, face ~0.48 (the classic templates' figures).
+  // docs/templates.md: node ~0.577, edge ~0.485, face ~0.48 (the classic templates' figures).
   std::map<TemplateKind, double> worst;
   for (TemplateKind k : kinds()) {
     double w = 1;

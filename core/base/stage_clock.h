@@ -1,5 +1,5 @@
 // Per-stage wall times and the progress lines of long stages, plus the process facts the JSON
-// report carries (DESIGN.md "Report JSON").
+// report carries (docs/pipeline.md, "The report").
 #pragma once
 
 #include <chrono>

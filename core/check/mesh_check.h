@@ -1,5 +1,5 @@
 // Validator for the mesher's output: one hex mesh, or an inside/outside pair that must tile a
-// box (DESIGN.md: two conforming meshes sharing one quad surface, positive Jacobian).
+// box (docs/pipeline.md: two conforming meshes sharing one quad surface, positive Jacobian).
 //
 // What is checked, and what counts as an error (MeshCheck::ok is false when any is found):
 //  - each mesh alone: finite points; every hex has 8 distinct in-range indices; no inverted or

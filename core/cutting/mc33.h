@@ -7,7 +7,7 @@
 //   corners   VTK hexahedron / paper Eq. 8 order: 0(0,0,0) 1(1,0,0) 2(1,1,0) 3(0,1,0)
 //             4(0,0,1) 5(1,0,1) 6(1,1,1) 7(0,1,1);
 //   values    f at the corners, f > 0 is INSIDE (the solid). A value of exactly 0 counts as
-//             outside; the caller perturbs zeros first (DESIGN.md), so this never decides a case;
+//             outside; the caller perturbs zeros first (docs/mc33.md), so this never decides a case;
 //   edges     paper Table 1, points 1..12 stored 0-based (kCubeEdges); the crossing parameter s
 //             is measured from the first-listed corner: s = f_a / (f_a - f_b);
 //   faces     x=0, x=1, y=0, y=1, z=0, z=1, corners cyclic as in kHexFaces.
@@ -42,7 +42,7 @@ std::array<double, 8> transform_cell(const std::array<double, 8>& f, int symmetr
 
 // ---- Subcases --------------------------------------------------------------------------------
 
-// The 31 non-empty MC33 subcases (Chernyaev 1995, as listed in notes/mc33-topology.md; 12.2/12.3
+// The 31 non-empty MC33 subcases (Chernyaev 1995, as listed in docs/mc33.md; 12.2/12.3
 // are one subcase, 11 and 14 are kept apart as mirror images) plus kEmpty (no sign change).
 enum class Subcase : std::uint8_t {
   kEmpty,

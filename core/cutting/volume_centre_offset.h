@@ -9,7 +9,7 @@
 //
 // Which polyhedra: the paper's "Case 12" is MC33 case 11 here (tests/test_polyhedra.cpp says how
 // the volume centres identify it) and 14 is its mirror image: each has two 10-vertex, 7-face
-// polyhedra (notes/mc33-topology.md), and all four are images of ONE polyhedron under the 48
+// polyhedra (docs/mc33.md), and all four are images of ONE polyhedron under the 48
 // cube symmetries - the region of corners {0,1,5,6} of case 11's representative (in 11 and 14
 // a region's polyhedron depends on its corners alone: no face of either case is ambiguous).
 //

@@ -1,4 +1,4 @@
-// The narrow interface between the mesher and the compute devices (DESIGN.md, Backends): the
+// The narrow interface between the mesher and the compute devices (docs/backends.md): the
 // data-parallel stages of the pipeline, each a batch in and a batch out. `cpu` is the reference
 // (core/, double precision, Embree + TBB); `opencl` (kernels/) and `vulkan` (shaders/) must give
 // the same answers: equal classifications, SDF values equal wherever they decide a sign or a

@@ -23,7 +23,7 @@
 //   2 (an edge)   three child squares along the edge, two points 3/4 of the way across at 1/3
 //                 and 2/3 along it, and four quads (the "2D edge" pattern);
 //   4             the 3 x 3 child squares.
-// The interior levels (1/2 and 3/4 across) are the classic ones (notes/refinement-templates.md;
+// The interior levels (1/2 and 3/4 across) are the classic ones (docs/templates.md;
 // the vanilla templates of CMU-CBML/Element-Saving-Hexahedral-3-Refinement-Templates use the
 // same points). All coordinates are exact multiples of 1/12 of the leaf's edge, so the octree
 // keys every point by integers and neighbours compute bit-identical coordinates.

@@ -1,4 +1,4 @@
-// The Vulkan boilerplate of the vulkan backend, written once (STYLE.md: Vulkan-Samples,
+// The Vulkan boilerplate of the vulkan backend, written once (as in Vulkan-Samples,
 // vk-bootstrap): instance, physical devices, one logical device with a compute queue,
 // host-visible storage buffers, compute pipelines from embedded SPIR-V with a pipeline cache kept
 // on disk, and one synchronous dispatch call. Every Vulkan call's result is checked; a failure
