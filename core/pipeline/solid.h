@@ -12,6 +12,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/base/geometry.h"
@@ -31,6 +32,23 @@ struct SolidSource {
   const TriangleSurface* surface = nullptr;  // the caller's, alive while the Solid is ...
   std::string surface_name;                  // ... and how the report names it
   std::string shape;                         // sphere, torus, rounded-box, two-holed
+
+  static SolidSource file(std::string path) {
+    SolidSource s;
+    s.path = std::move(path);
+    return s;
+  }
+  static SolidSource in_memory(const TriangleSurface& surface, std::string name) {
+    SolidSource s;
+    s.surface = &surface;
+    s.surface_name = std::move(name);
+    return s;
+  }
+  static SolidSource named_shape(std::string shape) {
+    SolidSource s;
+    s.shape = std::move(shape);
+    return s;
+  }
 };
 
 inline constexpr const char* kDefaultShape = "torus";
