@@ -1,6 +1,7 @@
 #include "core/base/stage_clock.h"
 
 #include <sys/resource.h>
+#include <time.h>
 
 #include <condition_variable>
 #include <cstdio>
@@ -60,10 +61,23 @@ double StageClock::total() const {
   return t;
 }
 
+double StageClock::seconds(const std::string& name) const {
+  double t = 0;
+  for (const auto& s : stages_)
+    if (s.first == name) t += s.second;
+  return t;
+}
+
 std::size_t peak_memory_bytes() {
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
   return std::size_t(usage.ru_maxrss) * 1024;  // Linux reports kilobytes
+}
+
+double cpu_seconds() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
 }
 
 }  // namespace mchex

@@ -32,6 +32,8 @@ class StageClock {
   }
   nlohmann::json to_json() const;
   double total() const;
+  // Seconds the named stage took (the sum, if it ran more than once; 0 if it never ran).
+  double seconds(const std::string& name) const;
 
  private:
   // Prints "mchex-gpu: NAME ..." from a helper thread once NAME has run for a second.
@@ -53,5 +55,9 @@ class StageClock {
 
 // Peak resident memory of this process in bytes.
 std::size_t peak_memory_bytes();
+
+// CPU seconds of the whole process (all threads). On a shared machine wall time depends on the
+// other users' load, CPU time much less: the benchmarks report both.
+double cpu_seconds();
 
 }  // namespace mchex

@@ -1,0 +1,185 @@
+#include "core/pipeline/pipeline.h"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdint>
+#include <span>
+#include <stdexcept>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+#include <fmt/format.h>
+
+#include "core/base/error.h"
+#include "core/base/parallel.h"
+#include "core/cutting/ro.h"
+#include "core/grid/hex_complex.h"
+#include "core/io/mesh_io.h"
+
+namespace mchex {
+namespace {
+
+double wall_seconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+// The solid's SDF with its batches timed, so that the refinement's own time can be told apart
+// from the SDF's (refine_octree evaluates one batch per level, never two at once).
+class TimedSdf final : public SignedDistance {
+ public:
+  explicit TimedSdf(const SignedDistance& s) : s_(s) {}
+  void evaluate(std::span<const Vec3> p, std::span<double> v) const override {
+    const double w = wall_seconds(), c = cpu_seconds();
+    s_.evaluate(p, v);
+    wall += wall_seconds() - w;
+    cpu += cpu_seconds() - c;
+  }
+  Box bounds() const override { return s_.bounds(); }
+  mutable double wall = 0, cpu = 0;
+
+ private:
+  const SignedDistance& s_;
+};
+
+// Memory the mesher will need for a uniform grid, against what the machine has: refuse early
+// (ResourceError, exit 2) rather than die half-way.
+// Per output hex: the hex and its label, about one point, and the checker's face records; MCHex
+// makes at least 8 hexes per cell (midpoint subdivision of the uncut cube) plus a key map entry
+// per point, RO one hex per cell.
+void check_memory_budget(const UniformGrid& grid, const std::string& method) {
+  const double hexes_per_cell = method == "mchex" ? 8 : 1, bytes_per_hex = method == "mchex" ? 200 : 80;
+  const double bytes = double(grid.vertex_count()) * (3 * 24 + 8) + double(grid.cell_count()) * hexes_per_cell * bytes_per_hex;
+  const double physical = double(sysconf(_SC_PHYS_PAGES)) * double(sysconf(_SC_PAGE_SIZE));
+  if (physical > 0 && bytes > 0.8 * physical)
+    throw ResourceError(fmt::format("depth {} needs about {:.1f} GiB, more than 80% of this machine's {:.1f} GiB; use a smaller --depth",
+                                    grid.depth(), bytes / (1 << 30), physical / (1 << 30)));
+}
+
+// The adaptive 3-refinement grid (core/grid/octree.h) as a HexComplex, each part timed.
+AdaptiveGrid build_adaptive_grid(const Solid& solid, MeshRun& run) {
+  const MeshOptions& o = run.options;
+  TimedSdf sdf(solid.sdf());
+  const double w0 = wall_seconds(), c0 = cpu_seconds();
+  Octree tree = refine_octree(sdf, run.cube, {o.threshold, o.max_depth}, &run.octree);
+  const double w1 = wall_seconds();
+  balance_octree(tree, &run.octree);
+  const double w2 = wall_seconds();
+  AdaptiveGrid grid = build_adaptive_complex(tree);
+  OctreeTimes& t = run.octree_times;
+  t.cpu = cpu_seconds() - c0 - sdf.cpu;
+  t.refine = w1 - w0 - sdf.wall;
+  t.balance = w2 - w1;
+  t.complex = wall_seconds() - w2;
+  t.sdf = sdf.wall;
+  t.sdf_cpu = sdf.cpu;
+  return grid;
+}
+
+// The SDF at every grid point, in the mesher's order. The adaptive grid already holds the values
+// the refinement sampled (bit for bit what a new evaluation gives: same points); only the points
+// it never sampled need this batch.
+std::vector<double> grid_values(MeshRun& run, Backend& backend, const SdfSource& source) {
+  if (run.adaptive) {
+    run.unsampled_points = run.adaptive->unsampled.size();
+    const std::vector<Vec3> points = unsampled_points(*run.adaptive);
+    std::vector<double> v(points.size());
+    if (!points.empty()) backend.signed_distance(source, points, v);
+    set_unsampled_values(*run.adaptive, v);
+    return std::move(run.adaptive->values);
+  }
+  const std::vector<Vec3> points = run.uniform->vertices();
+  std::vector<double> v(points.size());
+  backend.signed_distance(source, points, v);
+  return v;
+}
+
+MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock clock) {
+  MeshRun run;
+  run.options = request.options;
+  run.clock = std::move(clock);
+  const MeshOptions& o = run.options;
+  if (o.method != "mchex" && o.method != "ro") throw InputError("method must be mchex or ro, got " + o.method);
+  if ((request.backend != nullptr) == bool(request.open_backend))
+    throw std::invalid_argument("run_pipeline: give a backend or open_backend, exactly one");
+  run.input = solid.facts();
+  run.threads = hardware_threads();
+  run.cube = padded_cube(solid.sdf().bounds(), o.pad);
+  if (o.adaptive()) {
+    run.adaptive = run.clock.run("octree", [&] { return build_adaptive_grid(solid, run); });
+  } else {
+    run.uniform.emplace(run.cube, o.depth);
+    check_memory_budget(*run.uniform, o.method);
+  }
+
+  // The SDF batch runs on the chosen backend; every backend gives the cpu reference's values bit
+  // for bit, so the mesh does not depend on the choice.
+  std::unique_ptr<Backend> opened;
+  Backend& backend = request.backend ? *request.backend : *(opened = request.open_backend());
+  run.device = backend.device();
+  const SdfSource source = solid.sdf_source();
+  const std::vector<double> values = run.clock.run("sdf", [&] { return grid_values(run, backend, source); });
+
+  // Method mchex on a device backend: MC33 classification and the hex-count prefix sum run on the
+  // device too (from the values after the mesher's zero rule), and the mesher checks every cell's
+  // subcase and every chunk's hex count against it (core/cutting/mchex_mesher.h
+  // DeviceClassification). The cpu backend's classification would be core's own: not repeated.
+  std::optional<HexComplex> uniform_cx;
+  std::vector<std::uint8_t> device_subcases;
+  std::vector<std::uint64_t> device_offsets;
+  if (o.method == "mchex" && run.device.backend != "cpu") {
+    const HexComplex& cx = run.adaptive ? run.adaptive->complex : uniform_cx.emplace(uniform_complex(*run.uniform));
+    run.clock.run("classify", [&] {
+      // The device applies the zero rule itself, reads the values the SDF left on it, and computes
+      // a uniform grid's corner ids (core/device/backend.h ClassifyOptions).
+      ClassifyOptions co;
+      co.zero_tolerance = zero_tolerance_of(cx);
+      co.uniform_cells_per_axis = run.adaptive ? 0 : run.uniform->cells_per_axis();
+      co.values_from_last_sdf = true;
+      device_subcases.resize(cx.cells.size());
+      device_offsets.resize(cx.cells.size() + 1);
+      backend.classify_cells(cx, values, {device_subcases, device_offsets}, co);
+    });
+  }
+  auto run_method = [&](const auto& where) {
+    if (o.method != "mchex") return run.clock.run("ro", [&] { return mesh_remove_outside(where, values); });
+    return run.clock.run("mchex", [&] {
+      if constexpr (std::is_same_v<std::decay_t<decltype(where)>, HexComplex>)
+        return mesh_mchex(where, values, o.eps, &run.mchex, {device_subcases, device_offsets});
+      else
+        return mesh_mchex(where, values, o.eps, &run.mchex);
+    });
+  };
+  run.meshes = run.adaptive ? run_method(run.adaptive->complex)
+               : uniform_cx ? run_method(*uniform_cx)
+                            : run_method(*run.uniform);
+  run.check = run.clock.run("check", [&] { return check_mesh(run.meshes.inside, &run.meshes.outside, &run.cube); });
+  if (o.fidelity)
+    run.fidelity = run.clock.run("fidelity", [&] { return solid.fidelity(run.meshes.inside, run.cube, o.lattice); });
+  run.peak_memory_bytes = peak_memory_bytes();
+  return run;
+}
+
+}  // namespace
+
+MeshRun run_pipeline(const MeshRequest& request) {
+  StageClock clock(request.options.quiet);
+  const Solid solid(request.solid, clock, request.options.quiet);
+  return mesh_solid(request, solid, std::move(clock));
+}
+
+MeshRun run_pipeline(const MeshRequest& request, const Solid& solid) {
+  return mesh_solid(request, solid, StageClock(request.options.quiet));
+}
+
+void write_meshes(MeshRun& run, const std::filesystem::path& inside, const std::filesystem::path& outside) {
+  if (!run.check.ok) throw std::logic_error("write_meshes: the mesh fails its own check");
+  run.clock.run("write", [&] {
+    write_hex_mesh(run.meshes.inside, inside);
+    write_hex_mesh(run.meshes.outside, outside);
+  });
+  run.peak_memory_bytes = peak_memory_bytes();
+}
+
+}  // namespace mchex

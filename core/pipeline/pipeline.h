@@ -1,0 +1,100 @@
+// The mesh pipeline, one function for the command line, the benchmarks and the tests: a solid
+// (core/pipeline/solid.h) -> the grid over its padded cube (uniform 3-refinement, or the adaptive
+// 3-refinement of core/grid/octree.h) -> the SDF at the grid's points on a backend
+// (core/device/backend.h) -> the mesher (MCHex, Tong & Zhang 2025, or the paper's RO baseline) ->
+// the validator (core/check/mesh_check.h) -> fidelity (the paper's Section 6 measures) when asked.
+// core/pipeline/report.h turns a run into the report JSON.
+//
+// Guarantees: the meshes do not depend on the backend (every backend gives the cpu reference's
+// SDF values bit for bit, tests/test_opencl.cpp), nor on how many threads run. Errors are
+// exceptions: InputError (bad input: exit 1 in the CLI), ResourceError (a uniform grid beyond
+// this machine's memory, refused before any work: exit 2). A mesh that fails its own check is
+// no exception here: the run says so in `check`, and the caller decides (the CLI writes the
+// report and no mesh, and exits 3).
+#pragma once
+
+#include <cstddef>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "core/base/stage_clock.h"
+#include "core/check/fidelity.h"
+#include "core/check/mesh_check.h"
+#include "core/cutting/mchex_mesher.h"
+#include "core/device/backend.h"
+#include "core/grid/grid.h"
+#include "core/grid/octree.h"
+#include "core/pipeline/solid.h"
+
+namespace mchex {
+
+struct MeshOptions {
+  std::string method = "mchex";  // "mchex" | "ro"
+  int depth = 3;                 // uniform grid: 3^depth cells per axis (0 .. kMaxUniformDepth)
+  // > 0: the adaptive grid instead, refined while the paper's refinement error exceeds
+  // threshold x the finest cell size (core/grid/octree.h AdaptiveOptions), to max_depth.
+  double threshold = 0;
+  int max_depth = 5;
+  double pad = 0.1;    // padding around the solid, as a fraction of its largest extent
+  double eps = 1e-3;   // method mchex: crossings clamped to [eps, 1 - eps]
+  bool fidelity = false;
+  std::size_t lattice = 128;  // fidelity: IoU samples per axis
+  bool quiet = false;         // no progress lines, no warning about an open surface
+  bool adaptive() const { return threshold > 0; }
+};
+
+struct MeshRequest {
+  SolidSource solid;
+  MeshOptions options;
+  // Where the SDF runs: the caller's backend (host/backends/registry.h make_backend), or one that
+  // open_backend makes when the SDF stage starts, so that a bad input or an oversized grid fails
+  // before any device is probed. Exactly one of the two.
+  Backend* backend = nullptr;
+  std::function<std::unique_ptr<Backend>()> open_backend;
+};
+
+// Where the adaptive grid's time went (stage "octree" is their sum): the refinement's SDF batches
+// apart, wall and CPU seconds (all threads), for the benchmarks' cells-per-second figures.
+struct OctreeTimes {
+  double refine = 0;   // less its SDF batches
+  double balance = 0;
+  double complex = 0;  // the templates: build_adaptive_complex
+  double sdf = 0, sdf_cpu = 0;
+  double cpu = 0;      // refine + balance + complex, CPU seconds, SDF batches taken out
+};
+
+struct MeshRun {
+  MeshOptions options;
+  SolidFacts input;
+  Box cube;                               // the padded cube the grid fills
+  std::optional<UniformGrid> uniform;     // the grid: uniform ...
+  std::optional<AdaptiveGrid> adaptive;   // ... or adaptive (its values moved to the mesher)
+  std::size_t unsampled_points = 0;       // adaptive: points the refinement did not sample (the
+                                          // SDF stage's batch; adaptive->unsampled is empty after it)
+  OctreeStats octree;
+  OctreeTimes octree_times;
+  DeviceInfo device;                      // the backend's facts
+  int threads = 0;                        // worker threads the machine offers
+  MeshPair meshes;
+  MeshCheck check;
+  MchexStats mchex;                       // method mchex
+  std::optional<Fidelity> fidelity;       // when asked for
+  StageClock clock{true};                 // read, bvh, octree, sdf, classify, mchex | ro, check, fidelity, write
+  std::size_t peak_memory_bytes = 0;      // of the process, after the last stage
+};
+
+// The whole pipeline from request.solid.
+MeshRun run_pipeline(const MeshRequest& request);
+// The same on a solid already loaded (several runs on one surface build its BVH once);
+// request.solid is not read.
+MeshRun run_pipeline(const MeshRequest& request, const Solid& solid);
+
+// Both meshes written (core/io/mesh_io.h, atomically; the format follows each extension) as the
+// run's stage "write", the peak memory updated. A mesh that fails its check is never written:
+// std::logic_error if run.check is not ok.
+void write_meshes(MeshRun& run, const std::filesystem::path& inside, const std::filesystem::path& outside);
+
+}  // namespace mchex

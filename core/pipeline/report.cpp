@@ -1,0 +1,134 @@
+#include "core/pipeline/report.h"
+
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include "core/grid/cell_types.h"
+#include "core/grid/templates.h"
+
+namespace mchex {
+namespace {
+
+using nlohmann::json;
+
+json box_json(const Box& b) { return {{"lo", {b.lo.x, b.lo.y, b.lo.z}}, {"hi", {b.hi.x, b.hi.y, b.hi.z}}}; }
+
+json uniform_grid_json(const UniformGrid& grid) {
+  return {{"kind", "uniform"},
+          {"levels", grid.depth()},
+          {"cells_per_axis", grid.cells_per_axis()},
+          {"cells", grid.cell_count()},
+          {"cells_per_type", {{"cube", grid.cell_count()}}},
+          {"box", box_json(grid.box())},
+          {"cell_size", grid.cell_size()}};
+}
+
+// The adaptive complex: levels, cells per cell type and per template.
+json adaptive_grid_json(const AdaptiveGrid& g, std::size_t unsampled, const OctreeStats& stats, const MeshOptions& o) {
+  json per_type = json::object(), per_level = json::array(), per_template = json::object();
+  const auto types = cell_types();
+  std::vector<std::size_t> count(types.size());
+  for (std::uint8_t t : g.cell_type) ++count[t];
+  for (std::size_t t = 0; t < types.size(); ++t) per_type[types[t].name] = count[t];
+  for (int k = 0; k < kNumTemplateKinds; ++k)
+    per_template[std::string(template_name(static_cast<TemplateKind>(k)))] = g.leaves_per_template[k];
+  for (const OctreeLevelStats& l : stats.levels)
+    per_level.push_back({{"candidates", l.candidates}, {"sampled", l.sampled}, {"sdf_points", l.sdf_points}, {"refined_by_error", l.refined_by_error},
+                         {"refined_by_balance", l.refined_by_balance}, {"marks_added", l.marks_added}, {"leaves", l.leaves}});
+  const Box& cube = g.complex.box;
+  return {{"kind", "adaptive"},
+          {"threshold", o.threshold},
+          {"threshold_relative_to", "finest cell size"},
+          {"tolerance", adaptive_tolerance(cube, {o.threshold, o.max_depth})},
+          {"points_sampled_in_refinement", g.complex.points.size() - unsampled},
+          {"max_depth", o.max_depth},
+          {"levels", g.levels},
+          {"cells", g.complex.cells.size()},
+          {"points", g.complex.points.size()},
+          {"cells_per_type", per_type},
+          {"leaves_per_template", per_template},
+          {"per_level", per_level},
+          {"balance_rounds", stats.balance_rounds},
+          {"box", box_json(cube)},
+          {"finest_cell_size", (cube.hi.x - cube.lo.x) / std::pow(3.0, g.levels - 1)}};
+}
+
+json mchex_json(const MchexStats& s, double eps) {
+  return {{"eps", eps},
+          {"refined_cells", s.refined_cells},
+          {"refined_cells_two_levels", s.refined_cells_two_levels},
+          {"moved_volume_centres", s.moved_centres},
+          {"uncertified_polyhedra", s.uncertified_polyhedra},
+          {"perturbed_zero_values", s.perturbed_values},
+          {"points", s.points},
+          {"seconds", {{"topology", s.seconds_topology}, {"cells", s.seconds_cells}, {"assembly", s.seconds_assembly}}}};
+}
+
+}  // namespace
+
+json input_json(const SolidFacts& in) {
+  if (in.analytic) return {{"shape", in.name}, {"analytic", true}};
+  const SurfaceReport& r = in.surface;
+  return {{"file", in.name},
+          {"triangles", r.triangles},
+          {"vertices", r.vertices},
+          {"welded_vertices", in.welded},
+          {"closed", r.closed},
+          {"consistently_oriented", r.consistently_oriented},
+          {"boundary_edges", r.boundary_edges},
+          {"nonmanifold_edges", r.nonmanifold_edges},
+          {"degenerate_faces", r.degenerate_faces},
+          {"inconsistent_edges", r.inconsistent_edges},
+          {"components", r.components},
+          {"volume", r.volume}};
+}
+
+json fidelity_json(const Fidelity& f) {
+  return {{"iou", f.iou},
+          {"hausdorff", f.hausdorff},
+          {"hausdorff_ratio", f.hausdorff_ratio},
+          {"mesh_to_surface", f.mesh_to_surface},
+          {"surface_to_mesh", f.surface_to_mesh},
+          {"mesh_volume", f.mesh_volume},
+          {"solid_volume", f.solid_volume},
+          {"lattice", f.lattice},
+          {"unresolved_samples", f.unresolved}};
+}
+
+json report_json(const MeshRun& run, const MeshOutputs* outputs) {
+  const DeviceInfo& d = run.device;
+  json report = {
+      {"input", input_json(run.input)},
+      {"method", run.options.method},
+      {"backend",
+       {{"name", d.backend},
+        {"platform", d.platform},
+        {"device", d.name},
+        {"precision", d.precision},
+        {"kernels", d.kernels},
+        {"threads", run.threads}}},
+      {"grid", run.adaptive ? adaptive_grid_json(*run.adaptive, run.unsampled_points, run.octree, run.options) : uniform_grid_json(*run.uniform)},
+      {"elements",
+       {{"inside_hexes", run.meshes.inside.hexes.size()},
+        {"outside_hexes", run.meshes.outside.hexes.size()},
+        {"inside_vertices", run.meshes.inside.points.size()},
+        {"outside_vertices", run.meshes.outside.points.size()}}},
+      {"check", to_json(run.check)},
+  };
+  if (outputs) report["outputs"] = {{"inside", outputs->inside}, {"outside", outputs->outside}};
+  if (run.options.method == "mchex") {
+    // Cells per MC33 subcase (paper Section 5: 31 subcases), and the tunnel cells meshed with
+    // their partner's topology instead of the paper's local refinement (a known gap).
+    json cases = json::object();
+    for (int i = 0; i < kMchexCaseSlots; ++i) cases[std::string(mchex_case_name(i))] = run.mchex.cases[i];
+    report["cases"] = cases;
+    report["mchex"] = mchex_json(run.mchex, run.options.eps);
+  }
+  if (run.fidelity) report["fidelity"] = fidelity_json(*run.fidelity);
+  report["times"] = run.clock.to_json();
+  report["peak_memory_bytes"] = run.peak_memory_bytes;
+  return report;
+}
+
+}  // namespace mchex

@@ -1,0 +1,37 @@
+// The report JSON of a mesh run (`mchex-gpu mesh --report`), built here and nowhere else, and its
+// parts that `mchex-gpu check --json` shares (the input, the fidelity). Keys:
+//   input     the solid (core/pipeline/solid.h SolidFacts): a shape, or a surface's validation
+//   method    "mchex" | "ro"
+//   backend   where the SDF ran (core/device/backend.h DeviceInfo) and the worker threads
+//   grid      uniform: levels and cells; adaptive: cells per level, type and template
+//   elements  hexes and vertices of both meshes
+//   check     core/check/mesh_check.h to_json
+//   outputs   the mesh files (when the caller names them)
+//   cases, mchex   method mchex: cells per MC33 subcase (paper Section 5: 31 subcases), local
+//             refinement and the mesher's own stage times
+//   fidelity  when measured: IoU and Hausdorff distance (the paper's Section 6)
+//   times     the stages' wall seconds (core/base/stage_clock.h) and their total
+//   peak_memory_bytes
+#pragma once
+
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "core/check/fidelity.h"
+#include "core/pipeline/pipeline.h"
+#include "core/pipeline/solid.h"
+
+namespace mchex {
+
+// The files a run's meshes went to (or would have, had they passed their check).
+struct MeshOutputs {
+  std::string inside, outside;
+};
+
+nlohmann::json report_json(const MeshRun& run, const MeshOutputs* outputs = nullptr);
+
+nlohmann::json input_json(const SolidFacts& input);
+nlohmann::json fidelity_json(const Fidelity& f);
+
+}  // namespace mchex

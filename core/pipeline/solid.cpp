@@ -1,0 +1,53 @@
+#include "core/pipeline/solid.h"
+
+#include <cstdio>
+
+#include "core/base/error.h"
+#include "core/grid/grid.h"
+#include "core/io/surface_io.h"
+#include "core/sdf/shapes.h"
+
+namespace mchex {
+
+Solid::Solid(const SolidSource& source, StageClock& clock, bool quiet) {
+  if (int(!source.path.empty()) + int(source.surface != nullptr) + int(!source.shape.empty()) > 1)
+    throw InputError("give either a surface or a shape, not both");
+  if (source.path.empty() && !source.surface) {
+    facts_.name = source.shape.empty() ? kDefaultShape : source.shape;
+    facts_.analytic = true;
+    sdf_ = std::make_unique<ShapeSdf>(parse_shape(facts_.name));
+    return;
+  }
+  if (source.surface) {
+    facts_.name = source.surface_name;
+    surface_ = source.surface;
+  } else {
+    facts_.name = source.path;
+    surface_ = &read_.emplace(clock.run("read", [&] { return read_surface(source.path, &facts_.welded); }));
+  }
+  facts_.surface = validate_surface(*surface_);
+  const SurfaceReport& r = facts_.surface;
+  if (!quiet && !(r.closed && r.consistently_oriented))
+    std::fprintf(stderr,
+                 "mchex-gpu: warning: %s is not a closed, consistently oriented surface (%zu boundary, "
+                 "%zu non-manifold, %zu inconsistent edges); inside/outside follows the nearest triangle\n",
+                 facts_.name.c_str(), r.boundary_edges, r.nonmanifold_edges, r.inconsistent_edges);
+  sdf_ = clock.run("bvh", [&] { return std::make_unique<SurfaceSdf>(*surface_); });
+}
+
+SdfSource Solid::sdf_source() const {
+  SdfSource s;
+  s.reference = sdf_.get();
+  if (surface_) s.surface = surface_;
+  else s.shape = static_cast<const ShapeSdf&>(*sdf_).kind();
+  return s;
+}
+
+Fidelity Solid::fidelity(const HexMesh& inside, const Box& box, std::size_t lattice) const {
+  const double spacing = box.diagonal() / 400;
+  const std::vector<Vec3> samples =
+      surface_ ? sample_surface(*surface_, spacing) : sample_surface(*sdf_, padded_cube(sdf_->bounds(), 0.05), spacing);
+  return measure_fidelity(inside, *sdf_, samples, box, lattice, spacing);
+}
+
+}  // namespace mchex

@@ -1,0 +1,31 @@
+// The subcommands of mchex-gpu (host/cli/main.cpp parses the command line into these and maps
+// the exceptions they throw to exit codes: InputError 1, ResourceError 2, any other 3).
+#pragma once
+
+#include <cstddef>
+#include <string>
+
+#include "core/pipeline/pipeline.h"
+
+namespace mchex::cli {
+
+// mesh: a surface or shape -> inside and outside all-hex meshes (+ JSON report), through
+// core/pipeline/pipeline.h run_pipeline.
+struct MeshCommand {
+  std::string input, shape, inside = "inside.mesh", outside, report, backend = "auto";
+  MeshOptions options;
+};
+int run_mesh(const MeshCommand& command, bool quiet);
+
+// check: validate hex meshes (structure, quality, conformity), and their fidelity to a solid.
+struct CheckCommand {
+  std::string mesh, outside, input, shape;
+  bool json = false;
+  std::size_t lattice = 128;
+};
+int run_check(const CheckCommand& command, bool quiet);
+
+// devices: the compute backends and devices found (host/backends/registry.h list_devices).
+int run_devices(bool as_json);
+
+}  // namespace mchex::cli

@@ -1,0 +1,80 @@
+// mchex-gpu mesh: checks the output names, runs the pipeline (core/pipeline/pipeline.h), writes
+// the meshes (only ones that pass their check) and the report, prints the summary.
+#include <filesystem>
+#include <stdexcept>
+
+#include <fmt/format.h>
+
+#include "core/base/error.h"
+#include "core/io/atomic_file.h"
+#include "core/io/mesh_io.h"
+#include "core/pipeline/report.h"
+#include "host/backends/registry.h"
+#include "host/cli/commands.h"
+#include "host/cli/summary.h"
+
+namespace fs = std::filesystem;
+
+namespace mchex::cli {
+namespace {
+
+fs::path default_outside(const fs::path& inside) {
+  return inside.parent_path() / ("outside" + inside.extension().string());
+}
+
+void write_json(const fs::path& path, const nlohmann::json& j) {
+  AtomicFile out(path);
+  out.write(j.dump(2) + "\n");
+  out.commit();
+}
+
+void print_summary(const MeshRun& run, const MeshOutputs& outputs) {
+  const MeshOptions& o = run.options;
+  if (run.adaptive)
+    fmt::print("mchex-gpu: {} -> adaptive grid of {} cells, {} levels (threshold {}, max depth {}), method {}\n",
+               run.input.name, run.adaptive->complex.cells.size(), run.adaptive->levels, o.threshold, o.max_depth, o.method);
+  else
+    fmt::print("mchex-gpu: {} -> {} grid of {}^3 cells (depth {}), method {}\n", run.input.name, "uniform",
+               run.uniform->cells_per_axis(), run.uniform->depth(), o.method);
+  fmt::print("  inside : {:>10} hexes {:>10} vertices -> {}\n", run.meshes.inside.hexes.size(),
+             run.meshes.inside.points.size(), outputs.inside);
+  fmt::print("  outside: {:>10} hexes {:>10} vertices -> {}\n", run.meshes.outside.hexes.size(),
+             run.meshes.outside.points.size(), outputs.outside);
+  fmt::print("{}", summary(run.check));
+  if (run.fidelity) fmt::print("{}", fidelity_line(*run.fidelity));
+  fmt::print("  time: {:.2f} s, peak memory {:.0f} MiB\n", run.clock.total(), run.peak_memory_bytes / 1048576.0);
+}
+
+}  // namespace
+
+int run_mesh(const MeshCommand& o, bool quiet) {
+  if (!o.input.empty() && !o.shape.empty()) throw InputError("give either INPUT or --shape, not both");
+  const fs::path inside_path = o.inside;
+  const fs::path outside_path = o.outside.empty() ? default_outside(inside_path) : fs::path(o.outside);
+  // Reject bad output names before any work.
+  for (const fs::path& out : {inside_path, outside_path}) {
+    mesh_format(out);
+    if (!out.parent_path().empty() && !fs::is_directory(out.parent_path()))
+      throw InputError(out.string() + ": the folder " + out.parent_path().string() + " does not exist");
+  }
+  if (fs::weakly_canonical(inside_path) == fs::weakly_canonical(outside_path))
+    throw InputError("the inside and outside meshes need different file names");
+
+  MeshRequest request;
+  request.solid.path = o.input;
+  request.solid.shape = o.shape;
+  request.options = o.options;
+  request.options.quiet = quiet;
+  request.open_backend = [&] { return make_backend(o.backend); };
+  MeshRun run = run_pipeline(request);
+  // A mesh that fails its own check is never written: the report (if asked for) says why.
+  if (run.check.ok) write_meshes(run, inside_path, outside_path);
+  const MeshOutputs outputs{inside_path.string(), outside_path.string()};
+  if (!o.report.empty()) write_json(o.report, report_json(run, &outputs));
+  if (!quiet) print_summary(run, outputs);
+  if (!run.check.ok)
+    throw std::runtime_error("the mesh fails its own check, so nothing was written: " + first_error(run.check));
+  return 0;
+}
+
+}  // namespace mchex::cli

@@ -1,0 +1,19 @@
+// The human-readable lines of a mesh check (core/check/mesh_check.h), which `mesh` and `check`
+// print alike.
+#pragma once
+
+#include <string>
+
+#include "core/check/fidelity.h"
+#include "core/check/mesh_check.h"
+
+namespace mchex::cli {
+
+// The check's first error message ("unknown error" when it kept none).
+std::string first_error(const MeshCheck& check);
+// Quality and boundary of each mesh, conformity of the pair, structure: one line each.
+std::string summary(const MeshCheck& check);
+// IoU and Hausdorff distance, one line.
+std::string fidelity_line(const Fidelity& f);
+
+}  // namespace mchex::cli
