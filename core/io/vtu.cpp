@@ -343,6 +343,7 @@ void write_vtu(const HexMesh& mesh, AtomicFile& out) {
   for (std::size_t i = 1; i < offset.size(); ++i) offset[i] = offset[i - 1] + sizeof(std::uint64_t) + bytes[i - 1];
   auto off = [&](std::size_t i) { return std::to_string(offset[i]); };
 
+  // clang-format off: one line of the file per line here
   std::string xml =
       "<?xml version=\"1.0\"?>\n"
       "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n"
@@ -365,6 +366,7 @@ void write_vtu(const HexMesh& mesh, AtomicFile& out) {
       // meshio finds the raw bytes between the '_' and the last newline before </AppendedData>.
       "  <AppendedData encoding=\"raw\">\n"
       "   _";
+  // clang-format on
   out.write(xml);
 
   auto block_header = [&](std::uint64_t size) { out.write(&size, sizeof size); };
