@@ -343,7 +343,8 @@ void write_vtu(const HexMesh& mesh, AtomicFile& out) {
   for (std::size_t i = 1; i < offset.size(); ++i) offset[i] = offset[i - 1] + sizeof(std::uint64_t) + bytes[i - 1];
   auto off = [&](std::size_t i) { return std::to_string(offset[i]); };
 
-  // clang-format off: one line of the file per line here
+  // One line of the file per line here (clang-format 14 knows only the bare off/on markers).
+  // clang-format off
   std::string xml =
       "<?xml version=\"1.0\"?>\n"
       "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n"
