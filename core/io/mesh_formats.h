@@ -1,0 +1,29 @@
+// The per-format readers and writers behind mesh_io.h (medit.cpp, vtu.cpp, gmsh.cpp).
+//
+// A writer gets a mesh that check_writable (mesh_io.cpp) has accepted: a region per hex, indices in
+// range, finite coordinates, at most kMaxPoints points. A reader gets the whole file as text and
+// returns a mesh with those same properties or throws FormatError with the reason; mesh_io.cpp
+// puts the path in front. Neither ever sees a partial file: AtomicFile and MappedFile see to that.
+#pragma once
+
+#include <cstdint>
+#include <limits>
+#include <string_view>
+
+#include "core/io/atomic_file.h"
+#include "core/mesh/hex_mesh.h"
+
+namespace mchex::io_detail {
+
+// Point indices are 32-bit (Hex holds uint32_t), so 2^32 points can be addressed.
+inline constexpr std::uint64_t kMaxPoints = std::uint64_t{std::numeric_limits<uint32_t>::max()} + 1;
+
+void write_medit(const HexMesh& mesh, AtomicFile& out);
+void write_vtu(const HexMesh& mesh, AtomicFile& out);
+void write_gmsh(const HexMesh& mesh, AtomicFile& out);
+
+HexMesh read_medit(std::string_view text);
+HexMesh read_vtu(std::string_view text);
+HexMesh read_gmsh(std::string_view text);
+
+}  // namespace mchex::io_detail
