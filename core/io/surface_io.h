@@ -1,4 +1,5 @@
-// Reading triangle surfaces from files (core/io/surface_io.cpp: Assimp, with our own prechecks).
+// Reading triangle surfaces from files: our own precheck per format (stl.cpp, obj.cpp, off.cpp,
+// ply.cpp), the import through Assimp (assimp_scene.cpp), then the weld (surface_io.cpp).
 #pragma once
 
 #include <cstddef>
