@@ -42,8 +42,12 @@
 #include "core/sdf/shapes.h"
 #include "core/device/backend.h"
 #include "host/backends/cpu.h"
+#if MCHEX_WITH_OPENCL
 #include "host/backends/opencl.h"
+#endif
+#if MCHEX_WITH_VULKAN
 #include "host/backends/vulkan.h"
+#endif
 #include "perf/bench_common.h"
 #include "core/base/parallel.h"
 
@@ -147,14 +151,21 @@ int main(int argc, char** argv) {
     std::unique_ptr<Backend> backend;
   };
   std::vector<Named> backends;
+#if MCHEX_WITH_OPENCL
   std::map<std::string, OpenclBackend*> ocls;
+#endif
+#if MCHEX_WITH_VULKAN
   std::map<std::string, VulkanBackend*> vks;
+#endif
   nlohmann::json unavailable = nlohmann::json::object();
   for (const std::string& name : split(wanted)) {
     try {
       if (name == "cpu") {
         backends.push_back({name, make_cpu_backend()});
       } else if (name == "opencl" || name == "opencl-fp32") {
+#if !MCHEX_WITH_OPENCL
+        throw std::runtime_error("not built into this binary (-DMCHEX_WITH_OPENCL=OFF)");
+#else
         // opencl-fp32: the single-precision path (kernels/sdf_fp32.h) forced on the same device.
         OpenclOptions o;
         o.platform = platform;
@@ -162,7 +173,11 @@ int main(int argc, char** argv) {
         auto b = std::make_unique<OpenclBackend>(o);
         ocls[name] = b.get();
         backends.push_back({name, std::move(b)});
+#endif
       } else if (name == "vulkan" || name == "vulkan-subgroup" || name == "vulkan-fp32") {
+#if !MCHEX_WITH_VULKAN
+        throw std::runtime_error("not built into this binary (-DMCHEX_WITH_VULKAN=OFF)");
+#else
         // vulkan-subgroup: the surface SDF's subgroup-shared walk forced (kernels/sdf.h), to
         // compare with the one walk per invocation that every device takes by default.
         VulkanOptions o;
@@ -172,6 +187,7 @@ int main(int argc, char** argv) {
         auto b = std::make_unique<VulkanBackend>(o);
         vks[name] = b.get();
         backends.push_back({name, std::move(b)});
+#endif
       } else {
         std::fprintf(stderr, "bench_backends: unknown backend %s\n", name.c_str());
         return 1;
@@ -222,15 +238,20 @@ int main(int argc, char** argv) {
       const bool cold_equal = name == "cpu" || out == reference[kernel];
       m.best = 1e300;
       for (int r = 0; r < repeat; ++r) {
+#if MCHEX_WITH_OPENCL
         OpenclBackend* ocl = ocls.count(name) ? ocls[name] : nullptr;
         if (ocl) ocl->reset_profile();
+#endif
+#if MCHEX_WITH_VULKAN
         VulkanBackend* vk = vks.count(name) ? vks[name] : nullptr;
         const VulkanBackend::Profile before = vk ? vk->profile() : VulkanBackend::Profile{};
         const Fp32Stats fp32_before = vk ? vk->fp32_stats() : Fp32Stats{};
+#endif
         const double s = seconds_of([&] { run(out); });
         if (s >= m.best) continue;
         m.best = s;
         m.profile.clear();
+#if MCHEX_WITH_OPENCL
         if (ocl) {
           for (const auto& [k, e] : ocl->profile().kernels) m.profile[k] = e.seconds;
           const Fp32Stats& st = ocl->fp32_stats();
@@ -239,6 +260,8 @@ int main(int argc, char** argv) {
             m.profile["fp32: candidates per point (mean)"] = double(st.candidates) / double(st.points - st.host_points);
           }
         }
+#endif
+#if MCHEX_WITH_VULKAN
         if (vk) {
           const VulkanBackend::Profile after = vk->profile();
           m.profile["upload"] = after.upload - before.upload;
@@ -255,6 +278,7 @@ int main(int argc, char** argv) {
                 double(st.candidates - fp32_before.candidates) / double(points - host);
           }
         }
+#endif
       }
       if (name == "cpu") reference[kernel] = out;
       else m.equal = cold_equal && out == reference[kernel];
@@ -323,7 +347,9 @@ int main(int argc, char** argv) {
     std::printf("%-7s %s / %s\n", name.c_str(), b->device().platform.c_str(), b->device().name.c_str());
     j["devices"][name] = b->device().platform + " / " + b->device().name;
   }
+#if MCHEX_WITH_VULKAN
   for (const auto& [name, vk] : vks) j[name + "_pipeline_seconds"] = vk->pipeline_seconds();
+#endif
 
   // Rates in M items/s; "x cpu" is the backend's time over the cpu's (the targets: SDF
   // within 2x on PoCL, 4x on lavapipe).

@@ -39,8 +39,28 @@ TEST(Backend, NamesAndErrors) {
   }
   // The program cache goes to $XDG_CACHE_HOME/mchex-gpu: keep it out of the user's home.
   setenv("XDG_CACHE_HOME", (std::filesystem::temp_directory_path() / "mchex_test_backend_cache").c_str(), 1);
+  // A backend configured out (CMake MCHEX_WITH_OPENCL / MCHEX_WITH_VULKAN OFF) is a known name
+  // that says it is not built, as one InputError line.
+  auto expect_not_built = [](const std::string& name) {
+    try {
+      make_backend(name);
+      ADD_FAILURE() << name << ": expected InputError";
+    } catch (const InputError& e) {
+      EXPECT_EQ(std::string(e.what()).find("backend '" + name + "' is not built into this binary"), 0u) << e.what();
+      EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << e.what();
+    }
+  };
+#if MCHEX_WITH_OPENCL
   EXPECT_EQ(make_backend("opencl")->device().backend, "opencl");
+#else
+  expect_not_built("opencl");
+#endif
+#if MCHEX_WITH_VULKAN
   EXPECT_EQ(make_backend("vulkan")->device().backend, "vulkan");
+#else
+  expect_not_built("vulkan");
+#endif
+  (void)expect_not_built;
 }
 
 TEST(Backend, DeviceListStartsWithTheReference) {
@@ -48,7 +68,16 @@ TEST(Backend, DeviceListStartsWithTheReference) {
   ASSERT_FALSE(list.empty());
   EXPECT_EQ(list[0].backend, "cpu");
   EXPECT_TRUE(list[0].fp64);
+  std::size_t not_built = 0;
   for (const DeviceInfo& d : list) {
+    if (d.note.find("not built into this binary") != std::string::npos) {
+      // The one entry of a backend configured out: no device, never usable.
+      EXPECT_TRUE((d.backend == "opencl" && !MCHEX_WITH_OPENCL) || (d.backend == "vulkan" && !MCHEX_WITH_VULKAN))
+          << d.backend;
+      EXPECT_TRUE(d.name.empty());
+      ++not_built;
+      continue;
+    }
     EXPECT_FALSE(d.name.empty());
     EXPECT_TRUE(d.type == "cpu" || d.type == "gpu" || d.type == "other");
     // A device without fp64 is usable: the fp32 path (host/backends/fp32_path.h).
@@ -57,6 +86,7 @@ TEST(Backend, DeviceListStartsWithTheReference) {
       EXPECT_EQ(d.precision, "fp32") << d.name;
     }
   }
+  EXPECT_EQ(not_built, std::size_t(!MCHEX_WITH_OPENCL) + std::size_t(!MCHEX_WITH_VULKAN));
 }
 
 // The word layout of core/device/device_scene.h, packed here by hand from its comment, decodes to the

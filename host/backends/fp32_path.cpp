@@ -7,6 +7,7 @@
 #include <string>
 
 #include "core/base/parallel.h"
+#include "host/backends/device_front.h"
 
 namespace mchex {
 
@@ -92,13 +93,7 @@ void Fp32Surface::values_from_records(std::span<const Vec3> points, std::span<co
   });
   stats.points += count;
   stats.host_points += whole.size();
-  if (whole.empty()) return;
-  if (!whole_) whole_ = std::make_unique<SurfaceSdf>(*surface_);
-  std::vector<Vec3> wp(whole.size());
-  std::vector<double> wv(whole.size());
-  for (std::size_t k = 0; k < whole.size(); ++k) wp[k] = points[whole[k]];
-  whole_->evaluate(wp, wv);
-  for (std::size_t k = 0; k < whole.size(); ++k) values[whole[k]] = wv[k];
+  host_values_at(whole_, *surface_, points, whole, values);
 }
 
 }  // namespace mchex

@@ -22,7 +22,6 @@
 #include "core/grid/refinement_error.h"
 #include "core/sdf/sdf.h"
 #include "core/sdf/shapes.h"
-#include "host/backends/cpu.h"
 #include "core/device/cell_words.h"
 
 namespace mchex::embedded {
@@ -164,11 +163,9 @@ struct OpenclBackend::Impl {
   std::size_t max_alloc() const { return std::size_t(info.max_buffer_bytes); }
 
   // Items per chunk when each item needs `bytes` bytes in its largest buffer.
+  // (At most 2^30: 32-bit indices in the kernels.)
   std::size_t chunk(std::size_t bytes) const {
-    std::size_t n = std::max<std::size_t>(1, max_alloc() / bytes);
-    n = std::min<std::size_t>(n, std::size_t(1) << 30);  // 32-bit indices in the kernels
-    if (options.max_chunk) n = std::min(n, options.max_chunk);
-    return n;
+    return items_per_chunk(info.max_buffer_bytes, bytes, std::size_t(1) << 30, options.max_chunk);
   }
 
   void pick_device() {
@@ -441,72 +438,70 @@ void OpenclBackend::reset_profile() {
   impl_->fp32_stats = {};
 }
 
-void OpenclBackend::signed_distance(const SdfSource& source, std::span<const Vec3> points, std::span<double> values) {
-  if (points.size() != values.size()) throw std::invalid_argument("signed_distance: batch size mismatch");
-  Impl& m = *impl_;
-  m.resident_data = nullptr;
-  if (points.empty()) return;
-  if (source.surface && source.surface->triangles.empty()) {
-    // As core/sdf/sdf.cpp: no triangle, nothing is inside.
-    std::fill(values.begin(), values.end(), -INFINITY);
-    return;
-  }
+bool OpenclBackend::fp32_path() const { return impl_->fp32; }
+void OpenclBackend::forget_resident_values() { impl_->resident_data = nullptr; }
+
+void OpenclBackend::device_surface_sdf32(const TriangleSurface& surface, std::span<const Vec3> points,
+                                         std::span<double> values) {
   try {
-    const bool surface = source.surface != nullptr;
-    if (m.fp32) {
-      // Analytic shapes cost a few operations per point, all of which decide the value: there is
-      // nothing a float kernel could leave out, so the fp32 path evaluates them on the host.
-      if (surface) m.surface_sdf32(*source.surface, points, values);
-      else ShapeSdf(source.shape).evaluate(points, values);
-      return;
+    impl_->surface_sdf32(surface, points, values);
+  } catch (const cl::Error& e) {
+    fail(e, "signed distance");
+  }
+}
+
+void OpenclBackend::device_surface_sdf(const TriangleSurface& surface, const MortonBatch& points,
+                                       std::span<double> values) {
+  Impl& m = *impl_;
+  try {
+    m.upload_scene(surface);
+    // The values come back in search order and are scattered; they are not left resident (the
+    // device copy is permuted).
+    const std::size_t total = points.size();
+    const std::size_t n = m.chunk(3 * sizeof(double));
+    std::vector<double> staged(3 * std::min(n, total)), chunk_values(std::min(n, total));
+    cl::Buffer in(m.context, CL_MEM_READ_ONLY, 3 * sizeof(double) * std::min(n, total));
+    cl::Buffer out(m.context, CL_MEM_WRITE_ONLY, sizeof(double) * std::min(n, total));
+    const cl_uint per_item = m.sdf_points_per_item();
+    cl::Kernel& k = m.kernel("sdf_surface");
+    for (std::size_t first = 0; first < total; first += n) {
+      const std::size_t count = std::min(n, total - first);
+      points.gather(first, count, staged.data());
+      m.write(in, staged.data(), 3 * count);
+      cl_uint arg = 0;
+      for (const cl::Buffer& b : m.scene) k.setArg(arg++, b);
+      k.setArg(arg++, in);
+      k.setArg(arg++, out);
+      k.setArg(arg++, cl_uint(count));
+      k.setArg(arg++, per_item);
+      k.setArg(arg++, m.scene_scale);
+      m.run("sdf_surface", k, (count + per_item - 1) / per_item, 8);
+      m.read(out, chunk_values.data(), count);
+      points.scatter(first, std::span(chunk_values).first(count), values);
     }
-    if (surface) m.upload_scene(*source.surface);
-    // Surface points go to the device in Morton order, as core searches them (core/sdf/sdf.h): each
-    // work item's run of points, and each group's, is then a compact cluster whose searches seed
-    // one another and share the tree's nodes in cache. The values come back in that order and are
-    // scattered; they are not left resident (the device copy is permuted).
-    std::vector<uint32_t> order;
-    std::vector<Vec3> sorted;
-    if (surface) {
-      order = morton_order(points);
-      sorted.resize(points.size());
-      parallel_for(points.size(), [&](std::size_t i) { sorted[i] = points[order[i]]; });
-    }
-    const std::span<const Vec3> queries = surface ? std::span<const Vec3>(sorted) : points;
-    std::vector<double> chunk_values;
+  } catch (const cl::Error& e) {
+    fail(e, "signed distance");
+  }
+}
+
+void OpenclBackend::device_shape_sdf(ShapeKind shape, std::span<const Vec3> points, std::span<double> values) {
+  Impl& m = *impl_;
+  try {
     const std::size_t n = m.chunk(3 * sizeof(double));
     cl::Buffer in(m.context, CL_MEM_READ_ONLY, 3 * sizeof(double) * std::min(n, points.size()));
     cl::Buffer out(m.context, CL_MEM_WRITE_ONLY, sizeof(double) * std::min(n, points.size()));
-    const cl_uint per_item = m.sdf_points_per_item();
-    cl::Kernel& k = m.kernel(surface ? "sdf_surface" : "sdf_shape");
+    cl::Kernel& k = m.kernel("sdf_shape");
     for (std::size_t first = 0; first < points.size(); first += n) {
       const std::size_t count = std::min(n, points.size() - first);
-      m.write(in, &queries[first].x, 3 * count);
-      cl_uint arg = 0;
-      if (surface) {
-        for (const cl::Buffer& b : m.scene) k.setArg(arg++, b);
-        k.setArg(arg++, in);
-        k.setArg(arg++, out);
-        k.setArg(arg++, cl_uint(count));
-        k.setArg(arg++, per_item);
-        k.setArg(arg++, m.scene_scale);
-        m.run("sdf_surface", k, (count + per_item - 1) / per_item, 8);
-      } else {
-        k.setArg(arg++, cl_int(source.shape));
-        k.setArg(arg++, in);
-        k.setArg(arg++, out);
-        k.setArg(arg++, cl_uint(count));
-        m.run("sdf_shape", k, count);
-      }
-      if (surface) {
-        chunk_values.resize(count);
-        m.read(out, chunk_values.data(), count);
-        for (std::size_t i = 0; i < count; ++i) values[order[first + i]] = chunk_values[i];
-      } else {
-        m.read(out, &values[first], count);
-      }
+      m.write(in, &points[first].x, 3 * count);
+      k.setArg(0, cl_int(shape));
+      k.setArg(1, in);
+      k.setArg(2, out);
+      k.setArg(3, cl_uint(count));
+      m.run("sdf_shape", k, count);
+      m.read(out, &values[first], count);
     }
-    if (!surface && points.size() <= n && !m.host_unified) {
+    if (points.size() <= n && !m.host_unified) {
       m.resident = out;
       m.resident_data = values.data();
       m.resident_size = values.size();
@@ -516,18 +511,9 @@ void OpenclBackend::signed_distance(const SdfSource& source, std::span<const Vec
   }
 }
 
-void OpenclBackend::refinement_error(std::span<const std::array<double, kChildLatticePoints>> lattice,
-                                     std::span<const double> sizes, std::span<double> errors) {
-  if (lattice.size() != sizes.size() || lattice.size() != errors.size())
-    throw std::invalid_argument("refinement_error: batch size mismatch");
-  if (lattice.empty()) return;
+void OpenclBackend::device_refinement_error(std::span<const std::array<double, kChildLatticePoints>> lattice,
+                                            std::span<const double> sizes, std::span<double> errors) {
   Impl& m = *impl_;
-  if (m.fp32) {
-    // Every operation of the error measure decides its value (it is compared with a threshold):
-    // on the fp32 path it is core's, on the host.
-    parallel_for(lattice.size(), [&](std::size_t i) { errors[i] = mchex::refinement_error(lattice[i], sizes[i]); });
-    return;
-  }
   try {
     const std::size_t n = std::min(m.chunk(sizeof(lattice[0])), lattice.size());
     cl::Buffer in(m.context, CL_MEM_READ_ONLY, sizeof(lattice[0]) * n);
@@ -550,18 +536,10 @@ void OpenclBackend::refinement_error(std::span<const std::array<double, kChildLa
   }
 }
 
-void OpenclBackend::classify_cells(const HexComplex& complex, std::span<const double> values,
-                                   const CellClassification& out, const ClassifyOptions& options) {
-  check_classify_sizes(complex, values, out, options);
+void OpenclBackend::device_classify_cells(const HexComplex& complex, std::span<const double> values,
+                                          const CellClassification& out, const ClassifyOptions& options) {
   const std::size_t cells = complex.cells.size();
-  out.offsets[0] = 0;
-  if (cells == 0) return;
   Impl& m = *impl_;
-  if (m.fp32) {
-    // Not yet on the device in single precision: core's classification on the host.
-    make_cpu_backend()->classify_cells(complex, values, out, options);
-    return;
-  }
   constexpr cl_uint kBlock = 256;  // cells per work item of the prefix sum
   const bool uniform = options.uniform_cells_per_axis > 0;
   const bool want_words = !out.words.empty();

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/device/backend.h"
+#include "host/backends/device_front.h"
 #include "host/backends/fp32_path.h"  // Fp32Stats
 
 namespace mchex {
@@ -48,7 +49,7 @@ struct OpenclProfile {
   std::map<std::string, Entry> kernels;  // by kernel name, plus "write" and "read"
 };
 
-class OpenclBackend : public Backend {
+class OpenclBackend : public DeviceBackend {
  public:
   // Throws InputError when no platform/device matches or none has fp64.
   explicit OpenclBackend(const OpenclOptions& options = {});
@@ -57,11 +58,6 @@ class OpenclBackend : public Backend {
   OpenclBackend& operator=(const OpenclBackend&) = delete;
 
   const DeviceInfo& device() const override;
-  void signed_distance(const SdfSource& source, std::span<const Vec3> points, std::span<double> values) override;
-  void refinement_error(std::span<const std::array<double, kChildLatticePoints>> lattice,
-                        std::span<const double> sizes, std::span<double> errors) override;
-  void classify_cells(const HexComplex& complex, std::span<const double> values, const CellClassification& out,
-                      const ClassifyOptions& options = {}) override;
 
   // Whether the program came from the binary cache, and the cache file ("" when not caching).
   bool program_from_cache() const;
@@ -71,6 +67,19 @@ class OpenclBackend : public Backend {
   const Fp32Stats& fp32_stats() const;
 
   struct Impl;
+
+ protected:
+  // host/backends/device_front.h
+  bool fp32_path() const override;
+  void forget_resident_values() override;
+  void device_surface_sdf(const TriangleSurface& surface, const MortonBatch& points, std::span<double> values) override;
+  void device_shape_sdf(ShapeKind shape, std::span<const Vec3> points, std::span<double> values) override;
+  void device_surface_sdf32(const TriangleSurface& surface, std::span<const Vec3> points,
+                            std::span<double> values) override;
+  void device_refinement_error(std::span<const std::array<double, kChildLatticePoints>> lattice,
+                               std::span<const double> sizes, std::span<double> errors) override;
+  void device_classify_cells(const HexComplex& complex, std::span<const double> values, const CellClassification& out,
+                             const ClassifyOptions& options) override;
 
  private:
   std::unique_ptr<Impl> impl_;

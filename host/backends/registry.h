@@ -11,10 +11,12 @@ namespace mchex {
 
 // "cpu", "opencl", "vulkan" or "auto" (the first GPU device with fp64 found by OpenCL or Vulkan,
 // else cpu). Throws InputError (exit 1, one line) for an unknown name or a backend asked for by name
-// that has no device here.
+// that has no device here or is not built into this binary.
 std::unique_ptr<Backend> make_backend(const std::string& name);
 
-// Every platform and device each backend finds (for `mchex-gpu devices`).
+// Every platform and device each backend finds (for `mchex-gpu devices`); a backend this binary
+// was configured without (CMake MCHEX_WITH_OPENCL / MCHEX_WITH_VULKAN OFF) is one entry with no
+// device whose note says "not built into this binary".
 std::vector<DeviceInfo> list_devices();
 
 }  // namespace mchex

@@ -18,7 +18,6 @@
 #include "core/base/parallel.h"
 #include "core/grid/refinement_error.h"
 #include "core/sdf/shapes.h"
-#include "host/backends/cpu.h"
 #include "host/backends/vk_context.h"
 #include "host/backends/vk_spirv.h"
 #include "core/device/cell_words.h"
@@ -367,10 +366,8 @@ struct VulkanBackend::Impl {
   // maxStorageBufferRange, the workgroups within maxComputeWorkGroupCount[0], and the test cap.
   std::size_t chunk_for(std::size_t largest_bytes_per_element, std::uint32_t group) const {
     const vk::PhysicalDevice& d = device->physical();
-    std::size_t n = d.max_storage_buffer_range / largest_bytes_per_element;
-    n = std::min<std::size_t>(n, std::size_t(d.max_work_group_count[0]) * group);
-    if (max_chunk) n = std::min(n, max_chunk);
-    return std::max<std::size_t>(n, 1);
+    return items_per_chunk(d.max_storage_buffer_range, largest_bytes_per_element,
+                           std::size_t(d.max_work_group_count[0]) * group, max_chunk);
   }
 
   // The fp32 path of signed_distance for a surface: kernels/sdf_fp32.h's candidate records on the
@@ -384,14 +381,10 @@ struct VulkanBackend::Impl {
     vk::Buffer in = device->make_buffer(chunk * 3 * sizeof(float));
     vk::Buffer out = device->make_buffer(chunk * kFp32RecordWords * sizeof(std::uint32_t));
     std::vector<std::uint32_t> records(chunk * kFp32RecordWords);
-    const std::vector<std::uint32_t> order = morton_order(points);
+    const MortonBatch sorted(points);
     for (std::size_t begin = 0; begin < n; begin += chunk) {
       const std::size_t count = std::min(chunk, n - begin);
-      timed(profile.upload, [&] {
-        float* dst = mapped<float>(in);
-        for (std::size_t i = 0; i < count; ++i)
-          for (int c = 0; c < 3; ++c) dst[3 * i + c] = float(points[order[begin + i]][c]);
-      });
+      timed(profile.upload, [&] { sorted.gather(begin, count, mapped<float>(in)); });
       struct {
         std::uint32_t n, per_item, loop_budget;
         float scale;
@@ -402,7 +395,7 @@ struct VulkanBackend::Impl {
       timed(profile.download, [&] {
         const std::span<std::uint32_t> chunk_records = std::span(records).first(count * kFp32RecordWords);
         std::memcpy(chunk_records.data(), out.data(), chunk_records.size_bytes());
-        sc.host->values_from_records(points, order, begin, chunk_records, values, fp32_stats);
+        sc.host->values_from_records(points, sorted.order(), begin, chunk_records, values, fp32_stats);
       });
     }
   }
@@ -437,108 +430,82 @@ VulkanBackend::Profile VulkanBackend::profile() const { return impl_->profile; }
 std::uint32_t VulkanBackend::sdf_loop_budget() const { return impl_->sdf_loop_budget; }
 Fp32Stats VulkanBackend::fp32_stats() const { return impl_->fp32_stats; }
 
-void VulkanBackend::signed_distance(const SdfSource& source, std::span<const Vec3> points,
-                                    std::span<double> values) {
-  if (points.size() != values.size()) throw std::invalid_argument("SDF batch size mismatch");
+bool VulkanBackend::fp32_path() const { return impl_->fp32; }
+void VulkanBackend::forget_resident_values() {
+  impl_->resident.reset();
+  impl_->resident_data = nullptr;
+}
+
+void VulkanBackend::device_surface_sdf32(const TriangleSurface& surface, std::span<const Vec3> points,
+                                         std::span<double> values) {
+  impl_->surface_sdf_fp32(surface, points, values);
+}
+
+void VulkanBackend::device_surface_sdf(const TriangleSurface& surface, const MortonBatch& points,
+                                       std::span<double> values) {
   Impl& m = *impl_;
   const std::size_t n = points.size();
-  m.resident.reset();
-  m.resident_data = nullptr;
-  if (n == 0) return;
-  if (source.surface && source.surface->triangles.empty()) {
-    // core/sdf/sdf.cpp: an empty surface has nothing inside.
-    std::fill(values.begin(), values.end(), -std::numeric_limits<double>::infinity());
-    return;
-  }
-  if (m.fp32) {
-    // Analytic shapes cost a few operations per point, all of which decide the value: nothing a
-    // float shader could leave out, so the fp32 path evaluates them on the host (as opencl's).
-    if (source.surface) m.surface_sdf_fp32(*source.surface, points, values);
-    else ShapeSdf(source.shape).evaluate(points, values);
-    return;
-  }
-  const std::size_t per_item = source.surface ? m.sdf_points_per_invocation : 1;
+  const std::size_t per_item = m.sdf_points_per_invocation;
   const std::size_t chunk = std::min(n, m.chunk_for(sizeof(Vec3), kGroup * per_item));
   vk::Buffer in = m.device->make_buffer(chunk * sizeof(Vec3));
   vk::Buffer out = m.device->make_buffer(chunk * sizeof(double));
-  const Impl::Scene* scene = source.surface ? &m.scene_of(*source.surface) : nullptr;
-  // Surface points go to the device in Morton order, as core searches them (core/sdf/sdf.h): each
-  // invocation's run of points, and each group's, is then a compact cluster whose searches seed
-  // one another and share the tree's nodes in cache. The values come back in that order and are
-  // scattered; they are not left resident (the device copy is permuted).
-  std::vector<uint32_t> order;
-  if (scene) order = morton_order(points);
+  const Impl::Scene& scene = m.scene_of(surface);
+  // The values come back in search order and are scattered; they are not left resident (the
+  // device copy is permuted).
   for (std::size_t begin = 0; begin < n; begin += chunk) {
     const std::size_t count = std::min(chunk, n - begin);
-    timed(m.profile.upload, [&] {
-      if (!scene) {
-        std::memcpy(in.data(), points.data() + begin, count * sizeof(Vec3));
-        return;
-      }
-      Vec3* dst = static_cast<Vec3*>(in.data());
-      for (std::size_t i = 0; i < count; ++i) dst[i] = points[order[begin + i]];
-    });
-    if (scene) {
-      struct {
-        std::uint32_t n, per_item, loop_budget, pad;
-        double scale;
-      } push{static_cast<std::uint32_t>(count), static_cast<std::uint32_t>(per_item), m.sdf_loop_budget, 0,
-             scene->scale};
-      const bool texel = m.surface_sdf_texel.pipeline != VK_NULL_HANDLE && scene->texel_fits;
-      m.run(texel ? m.surface_sdf_texel : m.surface_sdf,
-            {{&scene->wide_boxes}, {&scene->wide_links}, {&scene->leaf_bounds}, {&scene->leaf_slot}, {&scene->slot_triangle}, {&scene->slot_corners}, {&scene->slot_features},
-             {&scene->face_normals}, {&scene->edge_normals}, {&scene->vertex_normals}, {&in}, {&out}},
-            &push, (count + per_item - 1) / per_item, kGroup);
-    } else {
-      const std::int32_t push[2] = {static_cast<std::int32_t>(count), static_cast<std::int32_t>(source.shape)};
-      m.run(m.shape_sdf, {{&in}, {&out}}, push, count, kGroup);
-    }
-    timed(m.profile.download, [&] {
-      if (!scene) {
-        std::memcpy(values.data() + begin, out.data(), count * sizeof(double));
-        return;
-      }
-      const double* src = static_cast<const double*>(out.data());
-      for (std::size_t i = 0; i < count; ++i) values[order[begin + i]] = src[i];
-    });
+    static_assert(sizeof(Vec3) == 3 * sizeof(double));
+    timed(m.profile.upload, [&] { points.gather(begin, count, mapped<double>(in)); });
+    struct {
+      std::uint32_t n, per_item, loop_budget, pad;
+      double scale;
+    } push{static_cast<std::uint32_t>(count), static_cast<std::uint32_t>(per_item), m.sdf_loop_budget, 0,
+           scene.scale};
+    const bool texel = m.surface_sdf_texel.pipeline != VK_NULL_HANDLE && scene.texel_fits;
+    m.run(texel ? m.surface_sdf_texel : m.surface_sdf,
+          {{&scene.wide_boxes}, {&scene.wide_links}, {&scene.leaf_bounds}, {&scene.leaf_slot}, {&scene.slot_triangle},
+           {&scene.slot_corners}, {&scene.slot_features}, {&scene.face_normals}, {&scene.edge_normals},
+           {&scene.vertex_normals}, {&in}, {&out}},
+          &push, (count + per_item - 1) / per_item, kGroup);
+    timed(m.profile.download,
+          [&] { points.scatter(begin, std::span(mapped<const double>(out), count), values); });
   }
-  if (scene && m.sdf_loop_budget != 0) {
+  if (m.sdf_loop_budget != 0) {
     // Points whose search ran out of the loop budget came back NaN (shaders/surface_sdf.glsl); a
     // finite point never has a NaN value, so core evaluates exactly those (and non-finite points,
     // whose value core decides anyway).
     std::vector<std::size_t> redo;
     for (std::size_t i = 0; i < n; ++i)
       if (std::isnan(values[i])) redo.push_back(i);
-    if (!redo.empty()) {
-      if (!m.host_sdf) m.host_sdf = std::make_unique<SurfaceSdf>(*source.surface);
-      std::vector<Vec3> p(redo.size());
-      std::vector<double> v(redo.size());
-      for (std::size_t k = 0; k < redo.size(); ++k) p[k] = points[redo[k]];
-      m.host_sdf->evaluate(p, v);
-      for (std::size_t k = 0; k < redo.size(); ++k) values[redo[k]] = v[k];
-      m.profile.host_points += redo.size();
-    }
+    host_values_at(m.host_sdf, surface, points.points(), redo, values);
+    m.profile.host_points += redo.size();
   }
-  if (!scene && chunk == n) {
+}
+
+void VulkanBackend::device_shape_sdf(ShapeKind shape, std::span<const Vec3> points, std::span<double> values) {
+  Impl& m = *impl_;
+  const std::size_t n = points.size();
+  const std::size_t chunk = std::min(n, m.chunk_for(sizeof(Vec3), kGroup));
+  vk::Buffer in = m.device->make_buffer(chunk * sizeof(Vec3));
+  vk::Buffer out = m.device->make_buffer(chunk * sizeof(double));
+  for (std::size_t begin = 0; begin < n; begin += chunk) {
+    const std::size_t count = std::min(chunk, n - begin);
+    timed(m.profile.upload, [&] { std::memcpy(in.data(), points.data() + begin, count * sizeof(Vec3)); });
+    const std::int32_t push[2] = {static_cast<std::int32_t>(count), static_cast<std::int32_t>(shape)};
+    m.run(m.shape_sdf, {{&in}, {&out}}, push, count, kGroup);
+    timed(m.profile.download, [&] { std::memcpy(values.data() + begin, out.data(), count * sizeof(double)); });
+  }
+  if (chunk == n) {
     m.resident.emplace(std::move(out));
     m.resident_data = values.data();
     m.resident_size = n;
   }
 }
 
-void VulkanBackend::refinement_error(std::span<const std::array<double, kChildLatticePoints>> lattice,
-                                     std::span<const double> sizes, std::span<double> errors) {
-  if (lattice.size() != sizes.size() || lattice.size() != errors.size())
-    throw std::invalid_argument("refinement_error: batch size mismatch");
+void VulkanBackend::device_refinement_error(std::span<const std::array<double, kChildLatticePoints>> lattice,
+                                            std::span<const double> sizes, std::span<double> errors) {
   Impl& m = *impl_;
   const std::size_t n = lattice.size();
-  if (n == 0) return;
-  if (m.fp32) {
-    // Every operation of the error measure decides its value (it is compared with a threshold):
-    // on the fp32 path it is core's, on the host.
-    parallel_for(n, [&](std::size_t i) { errors[i] = mchex::refinement_error(lattice[i], sizes[i]); });
-    return;
-  }
   const std::size_t chunk = std::min(n, m.chunk_for(sizeof(lattice[0]), kGroup));
   vk::Buffer in = m.device->make_buffer(chunk * sizeof(lattice[0]));
   vk::Buffer size = m.device->make_buffer(chunk * sizeof(double));
@@ -555,19 +522,10 @@ void VulkanBackend::refinement_error(std::span<const std::array<double, kChildLa
   }
 }
 
-void VulkanBackend::classify_cells(const HexComplex& complex, std::span<const double> values,
-                                   const CellClassification& out, const ClassifyOptions& options) {
+void VulkanBackend::device_classify_cells(const HexComplex& complex, std::span<const double> values,
+                                          const CellClassification& out, const ClassifyOptions& options) {
   Impl& m = *impl_;
-  check_classify_sizes(complex, values, out, options);
   const std::size_t cells = complex.cells.size();
-  out.offsets[0] = 0;
-  if (cells == 0) return;
-  if (m.fp32) {
-    // Not on the device in single precision (a float classification with a double filter is not
-    // built): core's classification on the host, as opencl's fp32 path.
-    make_cpu_backend()->classify_cells(complex, values, out, options);
-    return;
-  }
   const bool uniform = options.uniform_cells_per_axis > 0;
   const bool want_words = !out.words.empty();
   const bool want_crossings = !out.crossings.empty();

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "core/device/backend.h"
+#include "host/backends/device_front.h"
 #include "host/backends/fp32_path.h"
 
 namespace mchex {
@@ -54,7 +55,7 @@ struct VulkanOptions {
   static std::filesystem::path default_pipeline_cache_dir();
 };
 
-class VulkanBackend : public Backend {
+class VulkanBackend : public DeviceBackend {
  public:
   // Throws InputError (exit 1, one line) when Vulkan has no usable device here (below Vulkan 1.2,
   // or no compute queue).
@@ -62,12 +63,6 @@ class VulkanBackend : public Backend {
   ~VulkanBackend() override;
 
   const DeviceInfo& device() const override;
-  void signed_distance(const SdfSource& source, std::span<const Vec3> points,
-                       std::span<double> values) override;
-  void refinement_error(std::span<const std::array<double, kChildLatticePoints>> lattice,
-                        std::span<const double> sizes, std::span<double> errors) override;
-  void classify_cells(const HexComplex& complex, std::span<const double> values, const CellClassification& out,
-                      const ClassifyOptions& options = {}) override;
 
   // The pipeline cache: its file, how many bytes of it were loaded at creation, and the seconds
   // spent creating the pipelines (compilation, or a cache hit).
@@ -101,6 +96,19 @@ class VulkanBackend : public Backend {
   Fp32Stats fp32_stats() const;
 
   struct Impl;
+
+ protected:
+  // host/backends/device_front.h
+  bool fp32_path() const override;
+  void forget_resident_values() override;
+  void device_surface_sdf(const TriangleSurface& surface, const MortonBatch& points, std::span<double> values) override;
+  void device_shape_sdf(ShapeKind shape, std::span<const Vec3> points, std::span<double> values) override;
+  void device_surface_sdf32(const TriangleSurface& surface, std::span<const Vec3> points,
+                            std::span<double> values) override;
+  void device_refinement_error(std::span<const std::array<double, kChildLatticePoints>> lattice,
+                               std::span<const double> sizes, std::span<double> errors) override;
+  void device_classify_cells(const HexComplex& complex, std::span<const double> values, const CellClassification& out,
+                             const ClassifyOptions& options) override;
 
  private:
   std::unique_ptr<Impl> impl_;
