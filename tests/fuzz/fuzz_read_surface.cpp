@@ -1,9 +1,7 @@
 // libFuzzer target for the surface reader: any bytes under any of the four extensions must give
 // a surface with triangles and finite coordinates, or an InputError of one line; never a crash,
-// a hang or an allocation out of proportion to the input. Built with -DMCHEX_FUZZ=ON and clang:
-//   cmake -S . -B build-fuzz -G Ninja -DCMAKE_CXX_COMPILER=clang++ -DMCHEX_FUZZ=ON
-//   cmake --build build-fuzz --target fuzz_read_surface
-//   build-fuzz/tests/fuzz_read_surface -max_len=20000 -rss_limit_mb=2048 corpus/
+// a hang or an allocation out of proportion to the input. Built with -DMCHEX_FUZZ=ON and clang;
+// .ci/sanitize.sh seeds and runs it.
 #include <unistd.h>
 
 #include <cstdint>
