@@ -55,7 +55,7 @@ void WindingNumber::build(const TriangleSurface& s, const TriangleBvh& bvh) {
     for (std::size_t k = 3 * std::size_t(first); k < 3 * std::size_t(last); ++k) box.extend(corners_[k]);
     node.centre = box.center();
     node.radius = 0;
-    node.area = 0;
+    node.second_moment = 0;
     node.normal = {};
     for (auto& row : node.moment)
       for (double& m : row) m = 0;
@@ -64,7 +64,11 @@ void WindingNumber::build(const TriangleSurface& s, const TriangleBvh& bvh) {
       for (Vec3 v : {a, b, c}) node.radius = std::max(node.radius, norm(v - node.centre));
       const Vec3 av = 0.5 * cross(b - a, c - a);
       const Vec3 g = (1.0 / 3) * (a + b + c) - node.centre;
-      node.area += norm(av);
+      // The second moment of the triangle about the centre, int |x - c|^2 dA =
+      // area / 6 (sum |v_i|^2 + sum_{i<j} v_i . v_j), v the corners from the centre.
+      const Vec3 va = a - node.centre, vb = b - node.centre, vc = c - node.centre;
+      node.second_moment += norm(av) / 6 *
+                            (squared_norm(va) + squared_norm(vb) + squared_norm(vc) + dot(va, vb) + dot(vb, vc) + dot(vc, va));
       node.normal += av;
       for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j) node.moment[i][j] += av[i] * g[j];
@@ -74,14 +78,15 @@ void WindingNumber::build(const TriangleSurface& s, const TriangleBvh& bvh) {
   });
 }
 
-WindingNumber::Estimate WindingNumber::estimate(Vec3 p, double beta) const {
-  Estimate e{0, 0};
-  if (nodes_.empty()) return e;
+template <class Far>
+double WindingNumber::descend(uint32_t root, Vec3 p, double beta, Far&& far) const {
+  double exact = 0;
   uint32_t stack[128];
   int top = 0;
-  stack[top++] = 0;
+  stack[top++] = root;
   while (top > 0) {
-    const Node& node = nodes_[stack[--top]];
+    const uint32_t id = stack[--top];
+    const Node& node = nodes_[id];
     const Vec3 D = node.centre - p;
     const double d2 = squared_norm(D), d = std::sqrt(d2);
     if (d > beta * node.radius) {
@@ -93,33 +98,73 @@ WindingNumber::Estimate WindingNumber::estimate(Vec3 p, double beta) const {
       for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j) uMu += u[i] * M[i][j] * u[j];
       const double trace = M[0][0] + M[1][1] + M[2][2];
-      e.value += (dot(u, node.normal) + (trace - 3 * uMu) / d) / d2 * kInv4Pi;
       const double q = node.radius / d, r = 1 - q;
       const double taylor = 3 / (r * r * r * r);
       const double legendre = (2 - q) / (r * r) + 1.5 / r;
-      e.bound += node.area / d2 * q * q * std::min(taylor, legendre) * kInv4Pi;
+      far(id, (dot(u, node.normal) + (trace - 3 * uMu) / d) / d2 * kInv4Pi,
+          node.second_moment / (d2 * d2) * std::min(taylor, legendre) * kInv4Pi);
       continue;
     }
     if (node.count) {
       for (uint32_t k = node.index; k < node.index + node.count; ++k)
-        e.value += solid_angle_over_4pi(p, corners_[3 * k], corners_[3 * k + 1], corners_[3 * k + 2]);
+        exact += solid_angle_over_4pi(p, corners_[3 * k], corners_[3 * k + 1], corners_[3 * k + 2]);
       continue;
     }
     // Left child (the next node) popped first, so the sum's order is the hierarchy's.
     if (top + 2 > 128) throw std::logic_error("winding number hierarchy deeper than its stack");
     stack[top++] = node.index;
-    stack[top++] = uint32_t(&node - nodes_.data()) + 1;
+    stack[top++] = id + 1;
   }
+  return exact;
+}
+
+WindingNumber::Estimate WindingNumber::estimate(Vec3 p, double beta) const {
+  Estimate e{0, 0};
+  if (nodes_.empty()) return e;
+  double far_sum = 0;
+  e.value = descend(0, p, beta, [&](uint32_t, double value, double bound) { far_sum += value, e.bound += bound; });
+  e.value += far_sum;
   return e;
 }
 
 double WindingNumber::at(Vec3 p) const {
-  double beta = kBeta;
-  for (int pass = 0; pass < kPasses; ++pass, beta *= 2) {
-    const Estimate e = estimate(p, beta);
-    if (std::abs(e.value - 0.5) > e.bound + kRoundingAllowance) return e.value;
+  if (nodes_.empty()) return 0;
+  // The far nodes in use, and the next round's list.
+  struct Far {
+    uint32_t node;
+    double value, bound;
+  };
+  thread_local std::vector<Far> far, next;
+  far.clear();
+  double exact = descend(0, p, kBeta, [](uint32_t node, double value, double bound) { far.push_back({node, value, bound}); });
+  for (;;) {
+    // Sums in the list's order, which depends on the point alone.
+    double w = exact, bound = 0;
+    for (const Far& f : far) w += f.value, bound += f.bound;
+    const double margin = std::abs(w - 0.5) - kRoundingAllowance;
+    if (bound < margin || far.empty()) return w;
+    // Deeper descent: a round refines every far node whose bound is above an equal share of the
+    // margin (were all at most that, their sum would decide), each into its children at the same
+    // beta (nearer in angle, so their bounds sum to a fraction of the node's), a leaf into its
+    // exact solid angles. Refining the largest bound alone costs a pass over the list per node.
+    const double share = std::max(margin, 0.0) / double(far.size());
+    next.clear();
+    auto keep = [](uint32_t node, double value, double bound) { next.push_back({node, value, bound}); };
+    for (const Far& f : far) {
+      if (f.bound <= share) {
+        next.push_back(f);
+        continue;
+      }
+      const Node& n = nodes_[f.node];
+      if (n.count) {
+        exact += descend(f.node, p, std::numeric_limits<double>::infinity(), keep);
+      } else {
+        exact += descend(f.node + 1, p, kBeta, keep);
+        exact += descend(n.index, p, kBeta, keep);
+      }
+    }
+    std::swap(far, next);
   }
-  return estimate(p, std::numeric_limits<double>::infinity()).value;
 }
 
 void WindingNumber::at(std::span<const Vec3> points, std::span<double> values) const {
