@@ -259,6 +259,25 @@ TEST(WindingNumber, DeterministicOnAnyThreadCount) {
   for (std::size_t i = 0; i < pts.size(); i += 97) ASSERT_EQ(wn.at(pts[i]), all[i]);
 }
 
+TEST(WindingNumber, PointsOnTheSurfaceAndDegenerateTrianglesTerminate) {
+  // At a vertex in the middle of a cube face its own triangles subtend nothing (Van Oosterom &
+  // Strackee's atan2(0, 0)) and the rest half a turn: w is 1/2 up to rounding, so no bound
+  // decides. Far away, zero-area triangles (no bound to refine). The query still ends, at 1/2.
+  TriangleSurface s = folded_spike();
+  const uint32_t o = uint32_t(s.vertices.size());
+  for (int k = 0; k < 40; ++k) {
+    s.vertices.push_back({50.0 + k, 0, 0});
+    s.vertices.push_back({50.0 + k, 1, 0});
+    s.triangles.push_back({o + 2 * k, o + 2 * k + 1, o + 2 * k});
+  }
+  const WindingNumber wn(s);
+  const Vec3 on_face{-0.25, -1, 0.25};
+  EXPECT_NEAR(wn.at(on_face), 0.5, 1e-9);
+  EXPECT_NEAR(winding_number_exact(s, on_face), 0.5, 1e-9);
+  EXPECT_TRUE(std::isnan(wn.at({std::nan(""), 0, 0})));
+  EXPECT_FALSE(wn.inside({INFINITY, 0, 0}));
+}
+
 TEST(WindingNumber, EmptySurfaceIsOutsideEverywhere) {
   const WindingNumber wn{TriangleSurface{}};
   EXPECT_EQ(wn.at({0, 0, 0}), 0);

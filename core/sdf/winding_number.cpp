@@ -129,6 +129,7 @@ WindingNumber::Estimate WindingNumber::estimate(Vec3 p, double beta) const {
 
 double WindingNumber::at(Vec3 p) const {
   if (nodes_.empty()) return 0;
+  if (!is_finite(p)) return std::numeric_limits<double>::quiet_NaN();
   // The far nodes in use, and the next round's list.
   struct Far {
     uint32_t node;
@@ -149,12 +150,14 @@ double WindingNumber::at(Vec3 p) const {
     // exact solid angles. Refining the largest bound alone costs a pass over the list per node.
     const double share = std::max(margin, 0.0) / double(far.size());
     next.clear();
+    bool refined = false;
     auto keep = [](uint32_t node, double value, double bound) { next.push_back({node, value, bound}); };
     for (const Far& f : far) {
       if (f.bound <= share) {
         next.push_back(f);
         continue;
       }
+      refined = true;
       const Node& n = nodes_[f.node];
       if (n.count) {
         exact += descend(f.node, p, std::numeric_limits<double>::infinity(), keep);
@@ -164,6 +167,8 @@ double WindingNumber::at(Vec3 p) const {
       }
     }
     std::swap(far, next);
+    // Within rounding of 1/2 with only bound-free far nodes left (no area: nothing to refine).
+    if (!refined) return w;
   }
 }
 
