@@ -171,8 +171,7 @@ std::vector<Vec3> sample_points(const TriangleSurface& s, std::size_t per_kind, 
 
 // The fast query's decision equals the definition's (but within rounding of 1/2), and every
 // single pass stays within its stated bound of the definition.
-void expect_matches_definition(const TriangleSurface& s, std::size_t per_kind, unsigned seed) {
-  const WindingNumber wn(s);
+void expect_matches_definition(const TriangleSurface& s, const WindingNumber& wn, std::size_t per_kind, unsigned seed) {
   const auto pts = sample_points(s, per_kind, seed);
   std::vector<double> fast(pts.size());
   wn.at(pts, fast);
@@ -192,8 +191,19 @@ void expect_matches_definition(const TriangleSurface& s, std::size_t per_kind, u
   EXPECT_LT(near_half, 5);
 }
 
+void expect_matches_definition(const TriangleSurface& s, std::size_t per_kind, unsigned seed) {
+  expect_matches_definition(s, WindingNumber(s), per_kind, seed);
+}
+
+// Coarse enough that the tree is built over bisected triangles (edges above a 64th of the box's
+// diagonal).
 TEST(WindingNumber, FastEqualsDefinitionOnBumpyTorus) { expect_matches_definition(bumpy_torus(96, 40), 1200, 1); }
 TEST(WindingNumber, FastEqualsDefinitionOnSphere) { expect_matches_definition(sphere({0.1, -0.2, 0.3}, 1.3), 1200, 2); }
+// Fine enough that nothing is bisected and the tree is the one given (SurfaceSdf shares its own).
+TEST(WindingNumber, FastEqualsDefinitionOnAFineBumpyTorusOverAGivenTree) {
+  const TriangleSurface s = bumpy_torus(320, 84);
+  expect_matches_definition(s, WindingNumber(s, TriangleBvh::build(s)), 300, 12);
+}
 
 TEST(WindingNumber, FastEqualsDefinitionOnASoup) {
   // The torus's triangles unwelded, a fifth dropped, a quarter flipped, all jittered: no edge is

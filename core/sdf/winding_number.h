@@ -12,7 +12,9 @@
 // lie within radius R of its centre c is "far" from p when d = |c - p| > beta * R, and then
 // contributes its Taylor expansion about c to second order (the area-weighted normal sum N, a
 // dipole, and the first moment M = sum_t a_t (g_t - c)^T with a_t the area vector and g_t the
-// centroid of triangle t) instead of its triangles' exact solid angles.
+// centroid of triangle t) instead of its triangles' exact solid angles. The tree is built over
+// the triangles with those longer than a 64th of the box's diagonal bisected (the solid angles
+// add up; a long sliver is otherwise near every point along it and summed exactly everywhere).
 //
 // Error bound of a far node (stated here, checked by tests/test_winding_number.cpp): with
 // I = sum_t int_t |x - c|^2 dA the node's second moment of area about c (at most A R^2) and
@@ -53,7 +55,8 @@ class WindingNumber {
   static constexpr double kRoundingAllowance = 1e-9;
 
   explicit WindingNumber(const TriangleSurface& surface);
-  // Shares a hierarchy that was built for the surface (SurfaceSdf has one).
+  // Shares a hierarchy that was built for the surface (SurfaceSdf has one), unless the surface
+  // has triangles to bisect.
   WindingNumber(const TriangleSurface& surface, const TriangleBvh& bvh);
 
   // w(p), accurate enough to be on the right side of 1/2: at(p) > 1/2 exactly when inside(p).
