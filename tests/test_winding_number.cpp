@@ -11,7 +11,9 @@
 #include <map>
 #include <numbers>
 #include <random>
+#include <stdexcept>
 #include <tuple>
+#include <vector>
 
 #include "core/base/parallel.h"
 #include "core/sdf/sdf.h"

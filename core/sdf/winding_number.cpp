@@ -72,8 +72,6 @@ TriangleSurface split_long_triangles(const TriangleSurface& s) {
 
 }  // namespace
 
-double triangle_winding_number(Vec3 p, Vec3 a, Vec3 b, Vec3 c) { return solid_angle_over_4pi(p, a, b, c); }
-
 double winding_number_exact(const TriangleSurface& s, Vec3 p) {
   double w = 0;
   for (const auto& t : s.triangles) w += solid_angle_over_4pi(p, s.vertices[t[0]], s.vertices[t[1]], s.vertices[t[2]]);

@@ -59,7 +59,8 @@ class WindingNumber {
   // has triangles to bisect.
   WindingNumber(const TriangleSurface& surface, const TriangleBvh& bvh);
 
-  // w(p), accurate enough to be on the right side of 1/2: at(p) > 1/2 exactly when inside(p).
+  // w(p), accurate enough to lie on the same side of 1/2 as the exact value (but within rounding
+  // of 1/2): its error is below its distance from 1/2, not small in itself.
   double at(Vec3 p) const;
   bool inside(Vec3 p) const { return at(p) > 0.5; }
   // Batch at(); threaded, deterministic.
@@ -93,12 +94,10 @@ class WindingNumber {
   std::vector<Vec3> corners_;  // three per leaf slot, in the hierarchy's order
 };
 
-// The signed solid angle of triangle (a, b, c) seen from p, over 4 pi (Van Oosterom & Strackee,
-// "The solid angle of a plane triangle", 1983): positive when p sees the triangle's back (the
-// side its normal (b - a) x (c - a) points away from).
-double triangle_winding_number(Vec3 p, Vec3 a, Vec3 b, Vec3 c);
-
-// The definition, every triangle in index order: the reference of the tests. O(triangles).
+// The definition, every triangle in index order: the reference of the tests. O(triangles). A
+// triangle's share is its signed solid angle over 4 pi (Van Oosterom & Strackee, "The solid
+// angle of a plane triangle", 1983), positive where p sees its back (the side its normal
+// (b - a) x (c - a) points away from).
 double winding_number_exact(const TriangleSurface& surface, Vec3 p);
 
 // Re-signs a batch of signed (or unsigned) distances computed by any backend with the winding
