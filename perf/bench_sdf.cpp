@@ -1,6 +1,8 @@
 // Reference SDF throughput: signed queries per second per core on a closed 50k+ triangle model
 // for the points of a grid over its box, and the speed-up over the paper's brute-force loop
-// (every point against every triangle) on a small model. Prints a table and one JSON line.
+// (every point against every triangle) on a small model; next to it the generalized winding
+// number's query rate on the same points (core/sdf/winding_number.h: the sign of
+// SignRule::kWindingNumber). Prints a table and one JSON line.
 //   bench_sdf [--grid N] [--segments S] [--model FILE]   (default model: the tessellated torus)
 #include <cstdio>
 #include <cstring>
@@ -12,6 +14,7 @@
 #include "perf/bench_common.h"
 #include "core/sdf/sdf.h"
 #include "core/sdf/shapes.h"
+#include "core/sdf/winding_number.h"
 #include "core/mesh/surface.h"
 #include "core/io/surface_io.h"
 #include "core/base/parallel.h"
@@ -64,6 +67,27 @@ int main(int argc, char** argv) {
   }
   tn = seconds_of([&] { sdf.evaluate(pts, f); });
 
+  // The winding number on the same points: its build (1 thread, on top of the BVH's) and queries.
+  double twbuild = 0, tw1 = 0, twn = 0;
+  {
+    ThreadLimit one(1);
+    twbuild = seconds_of([&] { const WindingNumber once(big); });
+  }
+  const WindingNumber winding(big);
+  std::vector<double> w(pts.size());
+  {
+    ThreadLimit one(1);
+    tw1 = seconds_of([&] { winding.at(pts, w); });
+  }
+  twn = seconds_of([&] { winding.at(pts, w); });
+  // The signed distance with the winding number's sign: the search plus the winding number.
+  double ts1 = 0;
+  {
+    const SurfaceSdf signed_by_winding(big, SignRule::kWindingNumber);
+    ThreadLimit one(1);
+    ts1 = seconds_of([&] { signed_by_winding.evaluate(pts, w); });
+  }
+
   // Brute force against the BVH on a model small enough for the loop to finish.
   const TriangleSurface small = tessellate(ShapeKind::kTorus, 48);
   const SurfaceSdf small_sdf(small);
@@ -85,12 +109,19 @@ int main(int argc, char** argv) {
   std::printf("  build    : %10.3f s (1 thread)\n", tbuild);
   std::printf("  1 thread : %10.3f M queries/s\n", per_core / 1e6);
   std::printf("  %d threads: %10.3f M queries/s (%.2fx of 1 thread)\n", cores, pts.size() / tn / 1e6, t1 / tn);
+  std::printf("generalized winding number (far field to second order, exact sign), same points\n");
+  std::printf("  build    : %10.3f s (1 thread, BVH included)\n", twbuild);
+  std::printf("  1 thread : %10.3f M queries/s (%.2fx the distance query's time)\n", pts.size() / tw1 / 1e6, tw1 / t1);
+  std::printf("  %d threads: %10.3f M queries/s\n", cores, pts.size() / twn / 1e6);
+  std::printf("  SurfaceSdf(SignRule::kWindingNumber), 1 thread: %.3f M queries/s\n", pts.size() / ts1 / 1e6);
   std::printf("brute force (paper's method) vs BVH, 1 thread, %zu triangles, %zu points\n", small.triangles.size(), small_pts.size());
   std::printf("  brute force %.3f s, BVH %.4f s: BVH is %.1fx faster; max |difference| %.2e\n", tb, tv, tb / tv, max_diff);
   std::printf("{\"bench\":\"sdf\",\"model\":\"%s\",\"triangles\":%zu,\"points\":%zu,\"queries_per_s_per_core\":%.0f,"
               "\"queries_per_s_all_cores\":%.0f,\"cores\":%d,\"brute_force_ratio\":%.2f,\"brute_triangles\":%zu,"
-              "\"build_s\":%.4f}\n",
+              "\"build_s\":%.4f,\"winding_queries_per_s_per_core\":%.0f,\"winding_queries_per_s_all_cores\":%.0f,"
+              "\"winding_build_s\":%.4f,\"winding_signed_queries_per_s_per_core\":%.0f}\n",
               model.empty() ? "torus" : model.c_str(), big.triangles.size(), pts.size(), per_core, pts.size() / tn, cores,
-              tb / tv, small.triangles.size(), tbuild);
+              tb / tv, small.triangles.size(), tbuild, pts.size() / tw1, pts.size() / twn, twbuild,
+              pts.size() / ts1);
   return 0;
 }

@@ -7,6 +7,7 @@
 #include <limits>
 #include <numbers>
 #include <numeric>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -18,6 +19,7 @@
 #include "core/sdf/pseudonormals.h"
 #include "core/base/parallel.h"
 #include "core/sdf/search_tree.h"
+#include "core/sdf/winding_number.h"
 
 namespace mchex {
 
@@ -133,9 +135,12 @@ struct SurfaceSdf::Impl {
   std::vector<std::array<Vec3, 3>> leaf_corners;  // corners of each leaf slot's triangle, for locality
   Box box;
   double scale = 0;  // largest coordinate magnitude of the surface
+  SignRule sign;
+  std::optional<WindingNumber> winding;  // under SignRule::kWindingNumber
 
-  explicit Impl(const TriangleSurface& s)
-      : surface(s), normals(s), bvh(TriangleBvh::build(s)), tree(s, bvh), box(s.bounds()) {
+  Impl(const TriangleSurface& s, SignRule rule)
+      : surface(s), normals(s), bvh(TriangleBvh::build(s)), tree(s, bvh), box(s.bounds()), sign(rule) {
+    if (sign == SignRule::kWindingNumber) winding.emplace(s, bvh);
     if (bvh.leaf_triangles.size() >= (1u << 29)) throw std::length_error("too many triangles for the SDF search tree");
     scale = std::max({std::abs(box.lo.x), std::abs(box.lo.y), std::abs(box.lo.z), std::abs(box.hi.x),
                       std::abs(box.hi.y), std::abs(box.hi.z)});
@@ -319,13 +324,22 @@ struct SurfaceSdf::Impl {
   }
 };
 
-SurfaceSdf::SurfaceSdf(const TriangleSurface& surface) : impl_(std::make_unique<Impl>(surface)) {}
+SurfaceSdf::SurfaceSdf(const TriangleSurface& surface, SignRule sign)
+    : impl_(std::make_unique<Impl>(surface, sign)) {}
 SurfaceSdf::~SurfaceSdf() = default;
 
 Box SurfaceSdf::bounds() const { return impl_->box; }
+SignRule SurfaceSdf::sign_rule() const { return impl_->sign; }
 
 void SurfaceSdf::evaluate(std::span<const Vec3> points, std::span<double> values) const {
   const Impl& m = *impl_;
+  if (m.winding) {
+    m.run(points, values, [&m](Vec3 p, const Impl::Query& q) {
+      const double d = std::sqrt(q.best.squared_distance);
+      return d == 0 ? 0 : m.winding->inside(p) ? d : -d;
+    });
+    return;
+  }
   m.run(points, values, [&m](Vec3 p, const Impl::Query& q) {
     return signed_value(p, q.best, m.normals.of(q.best_triangle, q.best.region, m.surface));
   });

@@ -4,11 +4,16 @@
 // nearest-first search of a BVH that Embree builds (core/sdf/bvh.h), O(log T) per point against the
 // paper's brute-force loop over all triangles, with every candidate measured in double (points
 // are searched in Morton order, 32 neighbours sharing one walk of the tree);
-// the sign from the angle-weighted pseudonormal of the closest feature (Baerentzen & Aanaes 2005).
-// That sign is exact for closed, consistently oriented 2-manifold surfaces. On open surfaces,
-// non-manifold edges or triangle soups it never fails but is only locally meaningful: each point
-// takes the side of the nearest triangle's feature, so the "inside" leaks out through holes and
-// flips where orientations disagree. A robust sign (winding number) is a later issue.
+// the sign by one of two rules (SignRule):
+// - kPseudonormal (the default): the angle-weighted pseudonormal of the closest feature
+//   (Baerentzen & Aanaes 2005). Exact for closed, consistently oriented 2-manifold surfaces. On
+//   open surfaces, non-manifold edges, soups or folded spikes it never fails but is only locally
+//   meaningful: each point takes the side of the nearest triangle's feature, so the "inside"
+//   leaks out through holes and flips where orientations disagree.
+// - kWindingNumber: inside where the generalized winding number exceeds 1/2 (Jacobson et al.
+//   2013; core/sdf/winding_number.h), decided exactly however it is approximated. The same as
+//   the pseudonormal on clean closed surfaces, and robust on the others.
+// Either way |f| is the exact closest-point distance and a point on the surface gets 0.
 #pragma once
 
 #include <memory>
@@ -20,6 +25,8 @@
 #include "core/mesh/surface.h"
 
 namespace mchex {
+
+enum class SignRule { kPseudonormal, kWindingNumber };
 
 class SignedDistance {
  public:
@@ -33,13 +40,14 @@ class SignedDistance {
 
 class SurfaceSdf final : public SignedDistance {
  public:
-  explicit SurfaceSdf(const TriangleSurface& surface);
+  explicit SurfaceSdf(const TriangleSurface& surface, SignRule sign = SignRule::kPseudonormal);
   ~SurfaceSdf() override;
   SurfaceSdf(const SurfaceSdf&) = delete;
   SurfaceSdf& operator=(const SurfaceSdf&) = delete;
 
   void evaluate(std::span<const Vec3> points, std::span<double> values) const override;
   Box bounds() const override;
+  SignRule sign_rule() const;
   // Unsigned distance to the triangles (used for Hausdorff distances and by evaluate()).
   void distance(std::span<const Vec3> points, std::span<double> values) const;
 

@@ -1,0 +1,244 @@
+#include "core/sdf/winding_number.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <stdexcept>
+
+#include "core/base/parallel.h"
+
+namespace mchex {
+
+namespace {
+
+constexpr double kInv4Pi = 0.25 * std::numbers::inv_pi;
+
+// Van Oosterom & Strackee: tan(Omega / 2) = a . (b x c) / (|a||b||c| + (a.b)|c| + (a.c)|b| +
+// (b.c)|a|), with a, b, c the corners seen from p; atan2 keeps the quadrant (|Omega| up to 2 pi).
+inline double solid_angle_over_4pi(Vec3 p, Vec3 a, Vec3 b, Vec3 c) {
+  a -= p, b -= p, c -= p;
+  const double la = norm(a), lb = norm(b), lc = norm(c);
+  const double num = triple(a, b, c);
+  const double den = la * lb * lc + dot(a, b) * lc + dot(a, c) * lb + dot(b, c) * la;
+  return 2 * std::atan2(num, den) * kInv4Pi;
+}
+
+// Longest-edge bisection of every triangle until no edge is longer than max_edge, orientation
+// kept ((a, b, c) with ab longest -> (a, m, c), (m, b, c)): the solid angles add up to the
+// triangle's, and no piece is much longer than it is wide. for_piece(a, b, c) in a fixed order.
+template <class F>
+void bisect(Vec3 a, Vec3 b, Vec3 c, double max_edge, const F& for_piece) {
+  const double ab = squared_norm(b - a), bc = squared_norm(c - b), ca = squared_norm(a - c);
+  const double longest = std::max({ab, bc, ca});
+  if (!(longest > max_edge * max_edge)) return for_piece(a, b, c);
+  if (ab == longest) {
+    const Vec3 m = 0.5 * (a + b);
+    bisect(a, m, c, max_edge, for_piece), bisect(m, b, c, max_edge, for_piece);
+  } else if (bc == longest) {
+    bisect(b, c, a, max_edge, for_piece);
+  } else {
+    bisect(c, a, b, max_edge, for_piece);
+  }
+}
+
+// The triangles the tree is built over: the surface's, with those longer than a 64th of the box's
+// diagonal bisected. A long sliver is near every point along it, so without this it is summed
+// exactly almost everywhere (on the gearwheel model, 2,444 triangles spanning the part, most of
+// them per query). The length doubles while the pieces would outnumber
+// max(4 T, 2^20), so that memory stays linear. Empty when nothing is split.
+TriangleSurface split_long_triangles(const TriangleSurface& s) {
+  TriangleSurface out;
+  if (s.triangles.empty()) return out;
+  const std::size_t cap = std::max<std::size_t>(4 * s.triangles.size(), std::size_t(1) << 20);
+  double max_edge = s.bounds().diagonal() / 64;
+  auto corner = [&](uint32_t t, int k) { return s.vertices[s.triangles[t][k]]; };
+  for (;; max_edge *= 2) {
+    if (!(max_edge > 0)) return out;
+    std::size_t pieces = 0;
+    for (uint32_t t = 0; t < s.triangles.size() && pieces <= cap; ++t)
+      bisect(corner(t, 0), corner(t, 1), corner(t, 2), max_edge, [&](Vec3, Vec3, Vec3) { ++pieces; });
+    if (pieces == s.triangles.size()) return out;
+    if (pieces <= cap) break;
+  }
+  for (uint32_t t = 0; t < s.triangles.size(); ++t)
+    bisect(corner(t, 0), corner(t, 1), corner(t, 2), max_edge, [&](Vec3 a, Vec3 b, Vec3 c) {
+      const uint32_t o = uint32_t(out.vertices.size());
+      out.vertices.insert(out.vertices.end(), {a, b, c});
+      out.triangles.push_back({o, o + 1, o + 2});
+    });
+  return out;
+}
+
+}  // namespace
+
+double winding_number_exact(const TriangleSurface& s, Vec3 p) {
+  double w = 0;
+  for (const auto& t : s.triangles) w += solid_angle_over_4pi(p, s.vertices[t[0]], s.vertices[t[1]], s.vertices[t[2]]);
+  return w;
+}
+
+WindingNumber::WindingNumber(const TriangleSurface& surface) {
+  const TriangleSurface split = split_long_triangles(surface);
+  const TriangleSurface& s = split.triangles.empty() ? surface : split;
+  build(s, TriangleBvh::build(s));
+}
+WindingNumber::WindingNumber(const TriangleSurface& surface, const TriangleBvh& bvh) {
+  const TriangleSurface split = split_long_triangles(surface);
+  if (split.triangles.empty()) {
+    build(surface, bvh);
+  } else {
+    build(split, TriangleBvh::build(split));
+  }
+}
+
+void WindingNumber::build(const TriangleSurface& s, const TriangleBvh& bvh) {
+  corners_.resize(3 * bvh.leaf_triangles.size());
+  for (std::size_t k = 0; k < bvh.leaf_triangles.size(); ++k)
+    for (int c = 0; c < 3; ++c) corners_[3 * k + c] = s.vertices[s.triangles[bvh.leaf_triangles[k]][c]];
+  const auto slots = bvh.subtree_slots();
+  nodes_.resize(bvh.nodes.size());
+  // Each node from its own triangles (not its children's summaries): the centre is the middle of
+  // the corners' box in double, the radius the farthest corner from it (a triangle lies within
+  // the ball of its corners), so the bound's R is exact for the ball used. O(T log T) in all.
+  parallel_for(bvh.nodes.size(), [&](std::size_t n) {
+    Node& node = nodes_[n];
+    node.index = bvh.nodes[n].index;
+    node.count = bvh.nodes[n].count;
+    const auto [first, last] = slots[n];
+    Box box;
+    for (std::size_t k = 3 * std::size_t(first); k < 3 * std::size_t(last); ++k) box.extend(corners_[k]);
+    node.centre = box.center();
+    node.radius = 0;
+    node.second_moment = 0;
+    node.normal = {};
+    for (auto& row : node.moment)
+      for (double& m : row) m = 0;
+    for (std::size_t k = first; k < last; ++k) {
+      const Vec3 a = corners_[3 * k], b = corners_[3 * k + 1], c = corners_[3 * k + 2];
+      for (Vec3 v : {a, b, c}) node.radius = std::max(node.radius, norm(v - node.centre));
+      const Vec3 av = 0.5 * cross(b - a, c - a);
+      const Vec3 g = (1.0 / 3) * (a + b + c) - node.centre;
+      // The second moment of the triangle about the centre, int |x - c|^2 dA =
+      // area / 6 (sum |v_i|^2 + sum_{i<j} v_i . v_j), v the corners from the centre.
+      const Vec3 va = a - node.centre, vb = b - node.centre, vc = c - node.centre;
+      node.second_moment += norm(av) / 6 *
+                            (squared_norm(va) + squared_norm(vb) + squared_norm(vc) + dot(va, vb) + dot(vb, vc) + dot(vc, va));
+      node.normal += av;
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) node.moment[i][j] += av[i] * g[j];
+    }
+    // Rounding of the corners' distances: a hair more keeps the ball around every corner.
+    node.radius *= 1 + 1e-12;
+  });
+}
+
+template <class Far>
+double WindingNumber::descend(uint32_t root, Vec3 p, double beta, Far&& far) const {
+  double exact = 0;
+  uint32_t stack[128];
+  int top = 0;
+  stack[top++] = root;
+  while (top > 0) {
+    const uint32_t id = stack[--top];
+    const Node& node = nodes_[id];
+    const Vec3 D = node.centre - p;
+    const double d2 = squared_norm(D), d = std::sqrt(d2);
+    if (d > beta * node.radius) {
+      // Far (Barill et al., eq. 8 to second order): the integrand (x - p) / |x - p|^3 expanded
+      // about the centre, K = D / d^3 and its derivative (I - 3 D^ D^T) / d^3, against N and M.
+      const Vec3 u = D / d;
+      const auto& M = node.moment;
+      double uMu = 0;
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) uMu += u[i] * M[i][j] * u[j];
+      const double trace = M[0][0] + M[1][1] + M[2][2];
+      const double q = node.radius / d, r = 1 - q;
+      const double taylor = 3 / (r * r * r * r);
+      const double legendre = (2 - q) / (r * r) + 1.5 / r;
+      far(id, (dot(u, node.normal) + (trace - 3 * uMu) / d) / d2 * kInv4Pi,
+          node.second_moment / (d2 * d2) * std::min(taylor, legendre) * kInv4Pi);
+      continue;
+    }
+    if (node.count) {
+      for (uint32_t k = node.index; k < node.index + node.count; ++k)
+        exact += solid_angle_over_4pi(p, corners_[3 * k], corners_[3 * k + 1], corners_[3 * k + 2]);
+      continue;
+    }
+    // Left child (the next node) popped first, so the sum's order is the hierarchy's.
+    if (top + 2 > 128) throw std::logic_error("winding number hierarchy deeper than its stack");
+    stack[top++] = node.index;
+    stack[top++] = id + 1;
+  }
+  return exact;
+}
+
+WindingNumber::Estimate WindingNumber::estimate(Vec3 p, double beta) const {
+  Estimate e{0, 0};
+  if (nodes_.empty()) return e;
+  double far_sum = 0;
+  e.value = descend(0, p, beta, [&](uint32_t, double value, double bound) { far_sum += value, e.bound += bound; });
+  e.value += far_sum;
+  return e;
+}
+
+double WindingNumber::at(Vec3 p) const {
+  if (nodes_.empty()) return 0;
+  if (!is_finite(p)) return std::numeric_limits<double>::quiet_NaN();
+  // The far nodes in use, and the next round's list.
+  struct Far {
+    uint32_t node;
+    double value, bound;
+  };
+  thread_local std::vector<Far> far, next;
+  far.clear();
+  double exact = descend(0, p, kBeta, [](uint32_t node, double value, double bound) { far.push_back({node, value, bound}); });
+  for (;;) {
+    // Sums in the list's order, which depends on the point alone.
+    double w = exact, bound = 0;
+    for (const Far& f : far) w += f.value, bound += f.bound;
+    const double margin = std::abs(w - 0.5) - kRoundingAllowance;
+    if (bound < margin || far.empty()) return w;
+    // Deeper descent: a round refines every far node whose bound is above an equal share of the
+    // margin (were all at most that, their sum would decide), each into its children at the same
+    // beta (nearer in angle, so their bounds sum to a fraction of the node's), a leaf into its
+    // exact solid angles. Refining the largest bound alone costs a pass over the list per node.
+    const double share = std::max(margin, 0.0) / double(far.size());
+    next.clear();
+    bool refined = false;
+    auto keep = [](uint32_t node, double value, double bound) { next.push_back({node, value, bound}); };
+    for (const Far& f : far) {
+      if (f.bound <= share) {
+        next.push_back(f);
+        continue;
+      }
+      refined = true;
+      const Node& n = nodes_[f.node];
+      if (n.count) {
+        exact += descend(f.node, p, std::numeric_limits<double>::infinity(), keep);
+      } else {
+        exact += descend(f.node + 1, p, kBeta, keep);
+        exact += descend(n.index, p, kBeta, keep);
+      }
+    }
+    std::swap(far, next);
+    // Within rounding of 1/2 with only bound-free far nodes left (no area: nothing to refine).
+    if (!refined) return w;
+  }
+}
+
+void WindingNumber::at(std::span<const Vec3> points, std::span<double> values) const {
+  if (points.size() != values.size()) throw std::invalid_argument("winding number batch size mismatch");
+  parallel_for(points.size(), [&](std::size_t i) { values[i] = at(points[i]); });
+}
+
+void apply_winding_sign(const WindingNumber& winding, std::span<const Vec3> points, std::span<double> values) {
+  if (points.size() != values.size()) throw std::invalid_argument("winding sign batch size mismatch");
+  parallel_for(points.size(), [&](std::size_t i) {
+    const double v = values[i];
+    if (v == 0) return;
+    values[i] = winding.inside(points[i]) ? std::abs(v) : -std::abs(v);
+  });
+}
+
+}  // namespace mchex
