@@ -332,15 +332,32 @@ TEST(orientation, MoebiusBandIsNonOrientable) {
   EXPECT_EQ(r.self_intersecting_pairs, 0u);
 }
 
-TEST(orientation, NonManifoldEdgesSeparateComponents) {
-  // Two boxes that share only an edge: four triangles on it.
-  TriangleSurface s = join({box({0, 0, 0}, {1, 1, 1}), box({1, 1, 0}, {2, 2, 1})});
-  weld_vertices(s);
+TEST(orientation, ShellsTouchingAlongAnEdgeStayClosed) {
+  // Two boxes that share only an edge (four triangles on it), the second inside out.
+  const TriangleSurface a = box({0, 0, 0}, {1, 1, 1}), b = box({1, 1, 0}, {2, 2, 1});
+  TriangleSurface s = join({a, inside_out(b)});
+  ASSERT_EQ(weld_vertices(s), 2u);
+  TriangleSurface expected = join({a, b});
+  weld_vertices(expected);
+  const OrientationReport r = repair_orientation(s);
+  EXPECT_EQ(r.nonmanifold_edges, 1u);
+  EXPECT_EQ(r.components, 2u);  // the non-manifold edge separates them
+  EXPECT_EQ(r.closed_components, 2u);
+  EXPECT_EQ(r.reversed_components, 1u);
+  EXPECT_TRUE(same(s, expected));
+}
+
+TEST(orientation, FinOnAClosedBoxOpensIt) {
+  // A third triangle on one of the box's edges: the box uses that edge twice still, the fin once.
+  TriangleSurface s = box({0, 0, 0}, {1, 1, 1});
+  s.vertices.push_back({0.5, -1, -0.5});
+  s.triangles.push_back({0, 1, 8});  // on the edge of corners 0 and 1
   const OrientationReport r = repair_orientation(s);
   EXPECT_EQ(r.nonmanifold_edges, 1u);
   EXPECT_EQ(r.components, 2u);
-  EXPECT_EQ(r.closed_components, 0u);  // each box has a non-manifold edge
-  EXPECT_FALSE(r.changed());
+  EXPECT_EQ(r.closed_components, 1u);
+  EXPECT_EQ(r.boundary_edges, 2u);
+  EXPECT_EQ(r.boundary_loops, 1u);
 }
 
 TEST(orientation, OverlappingShellsSelfIntersect) {

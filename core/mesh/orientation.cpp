@@ -91,14 +91,13 @@ void remove_degenerate_and_duplicate_faces(TriangleSurface& surface, Orientation
 // Step 2: components through manifold edges and their consistent orientation.
 
 struct Components {
-  std::vector<uint32_t> of;             // triangle -> component
-  std::vector<std::size_t> first;       // component c's triangles are members[first[c], first[c+1])
-  std::vector<uint32_t> members;        // by increasing triangle within a component
-  std::vector<uint32_t> root;           // the lowest triangle (smallest sorted key)
-  std::vector<uint8_t> closed;          // orientable and every edge manifold
+  std::vector<uint32_t> of;     // triangle -> component
+  KeyGroups groups;             // component c's triangles: groups.items[groups.start[c], groups.start[c + 1])
+  std::vector<uint32_t> root;   // the lowest triangle (smallest sorted key)
+  std::vector<uint8_t> closed;  // step 3's closed: orientable, each edge used twice, opposite ways
   std::size_t size() const { return root.size(); }
   std::span<const uint32_t> triangles_of(std::size_t c) const {
-    return {members.data() + first[c], members.data() + first[c + 1]};
+    return {groups.items.data() + groups.start[c], groups.items.data() + groups.start[c + 1]};
   }
 };
 
@@ -108,35 +107,32 @@ struct Link {
   bool same_direction = false;
 };
 
-Components orient_consistently(TriangleSurface& surface, OrientationReport& report) {
-  auto& triangles = surface.triangles;
-  const std::size_t n = triangles.size();
-  const SurfaceEdges edges = surface_edges(surface);
+// What the edge table says about each triangle and the surface's boundary.
+struct EdgeClasses {
+  std::vector<std::array<Link, 3>> links;  // in increasing edge order, so walks depend on indices only
+  std::vector<uint8_t> open;               // has a boundary edge
+  std::vector<std::size_t> nonmanifold;    // edge indices
+};
 
-  // Up to three links per triangle, in increasing edge order: the walk below then visits
-  // neighbours in an order fixed by the vertex indices alone.
-  std::vector<std::array<Link, 3>> links(n);
-  std::vector<uint8_t> open(n, 0);
-  DisjointSets sets(n);
+EdgeClasses classify_edges(const TriangleSurface& surface, const SurfaceEdges& edges, OrientationReport& report) {
+  const std::size_t n = surface.triangles.size();
+  EdgeClasses classes{std::vector<std::array<Link, 3>>(n), std::vector<uint8_t>(n, 0), {}};
   DisjointSets boundary(surface.vertices.size());
   std::vector<uint8_t> on_boundary(surface.vertices.size(), 0);
   for (std::size_t e = 0; e < edges.size(); ++e) {
     const auto uses = edges.uses_of(e);
     if (uses.size() == 2) {
-      const EdgeUse a = uses[0], b = uses[1];
-      const bool same = a.forward == b.forward;
-      for (auto [from, to] : {std::pair{a, b}, std::pair{b, a}}) {
-        auto& slot = *std::find_if(links[from.triangle].begin(), links[from.triangle].end(),
-                                   [](const Link& l) { return l.triangle == kNone; });
-        slot = {to.triangle, same};
+      const bool same = uses[0].forward == uses[1].forward;
+      for (auto [from, to] : {std::pair{uses[0], uses[1]}, std::pair{uses[1], uses[0]}}) {
+        auto& links = classes.links[from.triangle];
+        *std::find_if(links.begin(), links.end(), [](const Link& l) { return l.triangle == kNone; }) = {to.triangle,
+                                                                                                         same};
       }
-      sets.unite(a.triangle, b.triangle);
-      continue;
-    }
-    for (const EdgeUse& use : uses) open[use.triangle] = 1;
-    if (uses.size() >= 3) {
+    } else if (uses.size() >= 3) {
       ++report.nonmanifold_edges;
+      classes.nonmanifold.push_back(e);
     } else {
+      classes.open[uses[0].triangle] = 1;
       ++report.boundary_edges;
       const auto [lo, hi] = edges.vertices[e];
       boundary.unite(lo, hi);
@@ -146,8 +142,17 @@ Components orient_consistently(TriangleSurface& surface, OrientationReport& repo
   for (std::size_t v = 0; v < on_boundary.size(); ++v) {
     if (on_boundary[v] && boundary.find(static_cast<uint32_t>(v)) == v) ++report.boundary_loops;
   }
+  return classes;
+}
 
-  // Group the triangles by component (a counting sort keeps each group in triangle order).
+Components group_components(const TriangleSurface& surface, const EdgeClasses& classes) {
+  const std::size_t n = surface.triangles.size();
+  DisjointSets sets(n);
+  for (std::size_t t = 0; t < n; ++t) {
+    for (const Link& link : classes.links[t]) {
+      if (link.triangle != kNone) sets.unite(static_cast<uint32_t>(t), link.triangle);
+    }
+  }
   Components comps;
   comps.of.assign(n, kNone);
   std::vector<uint32_t> index_of_root(n, kNone);
@@ -159,57 +164,87 @@ Components orient_consistently(TriangleSurface& surface, OrientationReport& repo
     }
     comps.of[t] = index_of_root[r];
   }
-  const std::size_t count = comps.root.size();
-  comps.first.assign(count + 1, 0);
-  for (uint32_t c : comps.of) ++comps.first[c + 1];
-  std::partial_sum(comps.first.begin(), comps.first.end(), comps.first.begin());
-  comps.members.resize(n);
-  {
-    std::vector<std::size_t> cursor(comps.first.begin(), comps.first.end() - 1);
-    for (std::size_t t = 0; t < n; ++t) comps.members[cursor[comps.of[t]]++] = static_cast<uint32_t>(t);
-  }
-  comps.closed.assign(count, 1);
-  report.components = count;
-
-  std::vector<int8_t> parity(n, -1);
-  std::vector<uint32_t> queue;
-  for (std::size_t c = 0; c < count; ++c) {
-    const auto members = comps.triangles_of(c);
-    uint32_t root = members.front();
-    for (uint32_t t : members) {
-      if (sorted_key(triangles[t]) < sorted_key(triangles[root])) root = t;
-      if (open[t]) comps.closed[c] = 0;
+  // Grouped serially, so each group's order is fixed (decreasing triangle).
+  comps.groups = group_by_key(
+      comps.root.size(),
+      [&](const auto& f) {
+        for (std::size_t t = 0; t < n; ++t) f(static_cast<uint32_t>(t));
+      },
+      [&](uint32_t t) { return comps.of[t]; });
+  comps.closed.assign(comps.root.size(), 1);
+  for (std::size_t c = 0; c < comps.size(); ++c) {
+    uint32_t& root = comps.root[c];
+    for (uint32_t t : comps.triangles_of(c)) {
+      if (sorted_key(surface.triangles[t]) < sorted_key(surface.triangles[root])) root = t;
+      if (classes.open[t]) comps.closed[c] = 0;
     }
-    comps.root[c] = root;
+  }
+  return comps;
+}
 
-    bool orientable = true;
-    std::size_t odd = 0;
-    queue.assign(1, root);
-    parity[root] = 0;
-    for (std::size_t head = 0; head < queue.size(); ++head) {
-      const uint32_t t = queue[head];
-      odd += static_cast<std::size_t>(parity[t]);
-      for (const Link& link : links[t]) {
-        if (link.triangle == kNone) continue;
-        const int8_t want = static_cast<int8_t>(parity[t] ^ (link.same_direction ? 1 : 0));
-        if (parity[link.triangle] < 0) {
-          parity[link.triangle] = want;
-          queue.push_back(link.triangle);
-        } else if (parity[link.triangle] != want) {
-          orientable = false;
-        }
+// The walk of step 2 over one component; returns whether it was orientable.
+bool walk_and_flip_minority(TriangleSurface& surface, const EdgeClasses& classes, const Components& comps,
+                            std::size_t c, std::vector<int8_t>& parity, std::vector<uint8_t>& was_flipped,
+                            OrientationReport& report) {
+  const auto members = comps.triangles_of(c);
+  bool orientable = true;
+  std::size_t odd = 0;
+  std::vector<uint32_t> queue(1, comps.root[c]);
+  parity[comps.root[c]] = 0;
+  for (std::size_t head = 0; head < queue.size(); ++head) {
+    const uint32_t t = queue[head];
+    odd += static_cast<std::size_t>(parity[t]);
+    for (const Link& link : classes.links[t]) {
+      if (link.triangle == kNone) continue;
+      const auto want = static_cast<int8_t>(parity[t] ^ (link.same_direction ? 1 : 0));
+      if (parity[link.triangle] < 0) {
+        parity[link.triangle] = want;
+        queue.push_back(link.triangle);
+      } else if (parity[link.triangle] != want) {
+        orientable = false;
       }
     }
-    if (!orientable) {
-      ++report.nonorientable_components;
-      comps.closed[c] = 0;
+  }
+  // Flip the minority; a tie keeps the root's orientation (parity 0).
+  const int8_t flipped = odd * 2 > members.size() ? 0 : 1;
+  for (uint32_t t : members) {
+    if (parity[t] != flipped) continue;
+    flip(surface.triangles[t]);
+    was_flipped[t] = 1;
+    ++report.flipped_triangles;
+  }
+  return orientable;
+}
+
+Components orient_consistently(TriangleSurface& surface, OrientationReport& report) {
+  const std::size_t n = surface.triangles.size();
+  const SurfaceEdges edges = surface_edges(surface);
+  const EdgeClasses classes = classify_edges(surface, edges, report);
+  Components comps = group_components(surface, classes);
+  report.components = comps.size();
+
+  std::vector<int8_t> parity(n, -1);
+  std::vector<uint8_t> was_flipped(n, 0);
+  for (std::size_t c = 0; c < comps.size(); ++c) {
+    if (walk_and_flip_minority(surface, classes, comps, c, parity, was_flipped, report)) continue;
+    ++report.nonorientable_components;
+    comps.closed[c] = 0;
+  }
+
+  // A component that meets a non-manifold edge is still closed there when it uses the edge
+  // exactly twice, in opposite directions (two shells touching along an edge are each closed).
+  std::vector<std::pair<uint32_t, bool>> by_component;  // (component, forward) of each use
+  for (std::size_t e : classes.nonmanifold) {
+    by_component.clear();
+    for (const EdgeUse& use : edges.uses_of(e)) {
+      by_component.push_back({comps.of[use.triangle], use.forward != (was_flipped[use.triangle] != 0)});
     }
-    // Flip the minority; a tie keeps the root's orientation (parity 0).
-    const int8_t flipped = odd * 2 > members.size() ? 0 : 1;
-    for (uint32_t t : members) {
-      if (parity[t] != flipped) continue;
-      flip(triangles[t]);
-      ++report.flipped_triangles;
+    std::sort(by_component.begin(), by_component.end());
+    for (std::size_t i = 0; i < by_component.size();) {
+      std::size_t end = i + 1;
+      while (end < by_component.size() && by_component[end].first == by_component[i].first) ++end;
+      if (end - i != 2 || by_component[i].second == by_component[i + 1].second) comps.closed[by_component[i].first] = 0;
+      i = end;
     }
   }
   return comps;

@@ -21,14 +21,16 @@
 //     parity. The minority parity is flipped, so the larger part keeps its orientation (a tie
 //     keeps the lowest triangle's). An edge that contradicts the walk makes the component
 //     non-orientable (a Moebius band); such a component is left as the walk made it.
-//  3. Outward. A closed component (orientable, every edge of it manifold) is oriented so that
-//     its signed volume is positive, unless it is a cavity: a component inside an odd number of
-//     other closed components is oriented inward. "Inside" is the winding number of the other
-//     component, a solid-angle sum (Van Oosterom and Strackee) rounded to an integer, at the
-//     centroid of the component's lowest triangle; two components that intersect each other
-//     (step 4) are never nested. Bounding-box containment selects the candidates, and the
-//     brute-force sums are bounded (kNestingBudget); past the bound every closed component is
-//     oriented outward and nesting_checked is false. Open components keep step 2's orientation.
+//  3. Outward. A closed component (orientable, and using each of its edges exactly twice, in
+//     opposite directions, so shells that touch along a non-manifold edge stay closed) is
+//     oriented so that its signed volume is positive, unless it is a cavity: a component inside
+//     an odd number of other closed components is oriented inward. "Inside" is the winding
+//     number of the other component, a solid-angle sum (Van Oosterom and Strackee) rounded to
+//     an integer, at the centroid of the component's lowest triangle; two components that
+//     intersect each other (step 4) are never nested. Bounding-box containment selects the
+//     candidates, and the brute-force sums are bounded (kNestingBudget); past the bound every
+//     closed component is oriented outward and nesting_checked is false. Open components keep
+//     step 2's orientation: without an inside they have no outward.
 //  4. Self-intersection (reported, nothing changed). Candidate pairs come from a uniform grid
 //     over the triangles' bounding boxes; two triangles intersect when an edge of one properly
 //     crosses the other, decided with orientation predicates in double (for non-coplanar
@@ -36,7 +38,9 @@
 //     an edge are adjacent and skipped; pairs that share one vertex are tested (a crossing away
 //     from the vertex is found). Touching contacts (an orientation exactly zero) and coplanar
 //     overlaps are not counted. Beyond kSelfIntersectionMaxTriangles triangles, or a grid that
-//     would exceed its candidate budget, the test is not run.
+//     would exceed its candidate budget, the test is not run. It runs before step 3, which
+//     needs to know which components cross each other. The count is exact, not capped: the
+//     budgets bound the work, and counting every pair found costs nothing more.
 //
 // The result depends only on the input: every step is serial or writes per-index outputs, the
 // walks and tie-breaks use the vertex indices, and the surviving triangles keep their input
@@ -65,7 +69,7 @@ struct OrientationReport {
   std::size_t boundary_loops = 0;            // connected pieces of the boundary-edge graph
   std::size_t nonmanifold_edges = 0;         // three or more triangles
   // Step 3.
-  std::size_t closed_components = 0;
+  std::size_t closed_components = 0;         // see step 3
   std::size_t cavities = 0;                  // closed components oriented inward (odd nesting)
   std::size_t reversed_components = 0;       // closed components turned over to face the right way
   std::size_t reversed_triangles = 0;        // the triangles of those components
