@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "core/base/error.h"
+#include "core/base/parallel.h"
 #include "core/io/surface_io.h"
 #include "core/mesh/orientation.h"
 #include "core/mesh/surface.h"
@@ -418,6 +419,38 @@ TEST(orientation, PermutedInputGivesTheSameResult) {
   EXPECT_EQ(a.degenerate_faces_removed, 1u);
   EXPECT_EQ(a.duplicate_faces_removed, 3u);
   EXPECT_GT(a.self_intersecting_pairs, 0u);
+}
+
+TEST(orientation, ThreadCountDoesNotChangeTheResult) {
+  TriangleSurface soup = join({inside_out(sphere({}, 3, 40, 60)), sphere({0.2, 0, 0}, 2, 40, 60),
+                               sphere({2.5, 0, 0}, 1, 40, 60)});
+  for (std::size_t t = 0; t < soup.triangles.size(); t += 3) soup.triangles[t] = flipped(soup.triangles[t]);
+  TriangleSurface threaded = soup, serial = soup;
+  const OrientationReport a = repair_orientation(threaded);
+  OrientationReport b;
+  {
+    ThreadLimit one(1);
+    b = repair_orientation(serial);
+  }
+  EXPECT_TRUE(a == b) << describe(a) << "\n vs " << describe(b);
+  EXPECT_TRUE(same(threaded, serial));
+  EXPECT_GT(a.self_intersecting_pairs, 0u);  // the r = 1 sphere crosses both others
+}
+
+TEST(orientation, StackedTrianglesExceedTheCandidateBudget) {
+  // 30000 parallel triangles over one another: every pair is a candidate (4.5e8 pairs), more
+  // than the self-intersection test's budget, so it reports that it did not check.
+  TriangleSurface s;
+  for (uint32_t i = 0; i < 30000; ++i) {
+    const double z = 1e-6 * i;
+    s.vertices.insert(s.vertices.end(), {{0, 0, z}, {1, 0, z}, {0, 1, z}});
+    s.triangles.push_back({3 * i, 3 * i + 1, 3 * i + 2});
+  }
+  const OrientationReport r = repair_orientation(s);
+  EXPECT_FALSE(r.self_intersection_checked);
+  EXPECT_EQ(r.self_intersecting_pairs, 0u);
+  EXPECT_EQ(r.components, 30000u);
+  EXPECT_FALSE(r.changed());
 }
 
 TEST(orientation, BadIndexThrowsAndLeavesTheSurface) {

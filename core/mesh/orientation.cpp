@@ -297,6 +297,7 @@ std::vector<uint64_t> find_self_intersections(const TriangleSurface& surface, co
   double extent = 0;
   for (std::size_t t = 0; t < n; ++t) {
     for (uint32_t v : triangles[t]) boxes[t].extend(surface.vertices[v]);
+    if (!is_finite(boxes[t].lo) || !is_finite(boxes[t].hi)) return {};  // no grid can hold it
     all.extend(boxes[t].lo);
     all.extend(boxes[t].hi);
     const Vec3 s = boxes[t].size();
@@ -310,6 +311,7 @@ std::vector<uint64_t> find_self_intersections(const TriangleSurface& surface, co
   // cell small; at most 2^20 cells an axis keeps a cell's id in 60 bits.
   constexpr double kMaxCellsPerAxis = double(1 << 20);
   const Vec3 size = all.size();
+  if (!is_finite(size)) return {};
   const double cell = std::max({extent / double(n), size.x / kMaxCellsPerAxis, size.y / kMaxCellsPerAxis,
                                 size.z / kMaxCellsPerAxis, std::numeric_limits<double>::min()});
   std::array<uint64_t, 3> dims;
@@ -321,7 +323,8 @@ std::vector<uint64_t> find_self_intersections(const TriangleSurface& surface, co
   };
   const auto id = [&](const std::array<uint64_t, 3>& c) { return (c[2] * dims[1] + c[1]) * dims[0] + c[0]; };
 
-  // Grid entries (cell id, triangle), within a budget that a few huge triangles cannot exceed.
+  // Grid entries (cell id, triangle), within a budget: a few huge triangles among many small
+  // ones could otherwise ask for any number of cells.
   const std::size_t entry_budget = 32 * n + (std::size_t{1} << 20);
   std::size_t entries_needed = 0;
   for (std::size_t t = 0; t < n && entries_needed <= entry_budget; ++t) {
@@ -350,8 +353,7 @@ std::vector<uint64_t> find_self_intersections(const TriangleSurface& surface, co
     }
     i = end;
   }
-  constexpr std::size_t kCandidateBudget = 400'000'000;
-  if (candidates > kCandidateBudget) return {};
+  if (candidates > kSelfIntersectionCandidates) return {};
   report.self_intersection_checked = true;
 
   const auto run_end = [&](std::size_t i) {
@@ -472,7 +474,8 @@ void orient_outward(TriangleSurface& surface, const Components& comps, const std
 }  // namespace
 
 OrientationReport repair_orientation(TriangleSurface& surface) {
-  surface_edges(surface);  // the index and size checks, before anything changes
+  check_surface_indices(surface);  // before anything changes
+  check_edge_table_size(surface);
   OrientationReport report;
   remove_degenerate_and_duplicate_faces(surface, report);
   const Components comps = orient_consistently(surface, report);

@@ -37,8 +37,9 @@
 //     triangles an edge of one meets the other exactly when they intersect). Pairs that share
 //     an edge are adjacent and skipped; pairs that share one vertex are tested (a crossing away
 //     from the vertex is found). Touching contacts (an orientation exactly zero) and coplanar
-//     overlaps are not counted. Beyond kSelfIntersectionMaxTriangles triangles, or a grid that
-//     would exceed its candidate budget, the test is not run. It runs before step 3, which
+//     overlaps are not counted. Beyond kSelfIntersectionMaxTriangles triangles, a grid that would
+//     need more than about 32 entries a triangle or hand over more than
+//     kSelfIntersectionCandidates pairs, or a non-finite coordinate, the test is not run. It runs before step 3, which
 //     needs to know which components cross each other. The count is exact, not capped: the
 //     budgets bound the work, and counting every pair found costs nothing more.
 //
@@ -75,7 +76,7 @@ struct OrientationReport {
   std::size_t reversed_triangles = 0;        // the triangles of those components
   bool nesting_checked = true;               // false: kNestingBudget exceeded, all oriented outward
   // Step 4.
-  bool self_intersection_checked = false;    // false: past kSelfIntersectionMaxTriangles or the budget
+  bool self_intersection_checked = false;    // false: past a bound (see step 4)
   std::size_t self_intersecting_pairs = 0;   // exact count of intersecting pairs when checked
 
   friend bool operator==(const OrientationReport&, const OrientationReport&) = default;
@@ -84,9 +85,12 @@ struct OrientationReport {
   }
 };
 
-// Work bounds: winding-number terms summed for nesting, and the self-intersection test's size.
+// Work bounds. Nesting: at most this many pairs of closed components whose boxes are compared,
+// and as many winding-number terms summed. Self-intersection: the triangle count, and the
+// candidate pairs its grid may hand to the exact test.
 inline constexpr std::size_t kNestingBudget = 200'000'000;
 inline constexpr std::size_t kSelfIntersectionMaxTriangles = std::size_t{1} << 22;
+inline constexpr std::size_t kSelfIntersectionCandidates = 400'000'000;
 
 // Repairs `surface` in place (steps 1 to 3 above) and reports what it found and did. Throws
 // InputError for a vertex index out of range, ResourceError from 2^30 triangles.

@@ -44,18 +44,6 @@ bool same_position(const Vec3& a, const Vec3& b) {
          weld_bits(a.z) == weld_bits(b.z);
 }
 
-void check_indices(const TriangleSurface& surface) {
-  const std::size_t n = surface.vertices.size();
-  for (std::size_t t = 0; t < surface.triangles.size(); ++t) {
-    for (uint32_t v : surface.triangles[t]) {
-      if (v >= n) {
-        throw InputError("surface: triangle " + std::to_string(t) + " refers to vertex " + std::to_string(v) +
-                         ", but there are only " + std::to_string(n) + " vertices");
-      }
-    }
-  }
-}
-
 // Neumaier's compensated sum: a closed mesh's volume is a sum of many terms of both signs that
 // cancel, and plain summation loses the digits the caller compares against.
 struct CompensatedSum {
@@ -68,7 +56,7 @@ struct CompensatedSum {
   double value() const { return sum + compensation; }
 };
 
-// Six times the signed volume of triangles index(0..count-1) about `origin`.
+// Signed volume of triangles index(0), ..., index(count - 1) about `origin`.
 template <class Index>
 double signed_volume_of(const TriangleSurface& surface, std::size_t count, Index index, Vec3 origin) {
   CompensatedSum six_volume;
@@ -85,7 +73,6 @@ double signed_volume_of(const TriangleSurface& surface, std::size_t count, Index
 // bits 63..32 the larger vertex, 31..2 the triangle, bit 1 set when the triangle has a repeated
 // index, bit 0 set when the triangle runs from smaller to larger. Sorting a bucket groups uses
 // of the same edge together, ordered by triangle.
-constexpr std::size_t kMaxTriangles = std::size_t{1} << 30;
 constexpr uint64_t kCollapsedBit = 2;
 constexpr uint64_t kForwardBit = 1;
 
@@ -93,8 +80,27 @@ constexpr uint64_t kForwardBit = 1;
 
 DisjointSets::DisjointSets(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0u); }
 
+void check_surface_indices(const TriangleSurface& surface) {
+  const std::size_t n = surface.vertices.size();
+  for (std::size_t t = 0; t < surface.triangles.size(); ++t) {
+    for (uint32_t v : surface.triangles[t]) {
+      if (v >= n) {
+        throw InputError("surface: triangle " + std::to_string(t) + " refers to vertex " + std::to_string(v) +
+                         ", but there are only " + std::to_string(n) + " vertices");
+      }
+    }
+  }
+}
+
+void check_edge_table_size(const TriangleSurface& surface) {
+  if (surface.triangles.size() >= kMaxEdgeTableTriangles) {
+    throw ResourceError("surface: " + std::to_string(surface.triangles.size()) +
+                        " triangles is more than the validator supports (2^30)");
+  }
+}
+
 std::size_t weld_vertices(TriangleSurface& surface) {
-  check_indices(surface);
+  check_surface_indices(surface);
   const std::size_t n = surface.vertices.size();
   if (n == 0) return 0;
 
@@ -129,12 +135,9 @@ std::size_t weld_vertices(TriangleSurface& surface) {
 }
 
 SurfaceEdges surface_edges(const TriangleSurface& surface) {
-  check_indices(surface);
+  check_surface_indices(surface);
+  check_edge_table_size(surface);
   const auto& triangles = surface.triangles;
-  if (triangles.size() >= kMaxTriangles) {
-    throw ResourceError("surface: " + std::to_string(triangles.size()) +
-                        " triangles is more than the validator supports (2^30)");
-  }
 
   // Pass 1: size the buckets.
   std::vector<std::size_t> bucket_start(surface.vertices.size() + 1, 0);

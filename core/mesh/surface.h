@@ -79,8 +79,12 @@ struct SurfaceEdges {
   }
 };
 
-// Throws InputError for a vertex index out of range and ResourceError from 2^30 triangles.
+// Throws InputError for a vertex index out of range and ResourceError from
+// kMaxEdgeTableTriangles (the packing of its sort keys).
 SurfaceEdges surface_edges(const TriangleSurface& surface);
+inline constexpr std::size_t kMaxEdgeTableTriangles = std::size_t{1} << 30;
+void check_surface_indices(const TriangleSurface& surface);  // the InputError above
+void check_edge_table_size(const TriangleSurface& surface);  // the ResourceError above
 
 // Union-find; the smaller index becomes the root so the forest (and anything derived from it
 // later) does not depend on the order the unions come in.
