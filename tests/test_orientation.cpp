@@ -106,20 +106,22 @@ bool same(const TriangleSurface& a, const TriangleSurface& b) {
 
 double sphere_volume(double r, int stacks = 12, int slices = 16) { return validate_surface(sphere({}, r, stacks, slices)).volume; }
 
-std::string describe(const OrientationReport& r) {
-  return "components " + std::to_string(r.components) + " closed " + std::to_string(r.closed_components) +
-         " cavities " + std::to_string(r.cavities) + " flipped " + std::to_string(r.flipped_triangles) +
-         " reversed " + std::to_string(r.reversed_components) + " duplicates " +
-         std::to_string(r.duplicate_faces_removed) + " (pairs " + std::to_string(r.cancelled_pairs) + ")" +
-         " degenerate " + std::to_string(r.degenerate_faces_removed) + " zero-area " +
-         std::to_string(r.zero_area_faces) + " boundary " + std::to_string(r.boundary_edges) + " in " +
-         std::to_string(r.boundary_loops) + " loops, non-manifold " + std::to_string(r.nonmanifold_edges) +
-         ", non-orientable " + std::to_string(r.nonorientable_components) + ", self-intersecting " +
-         (r.self_intersection_checked ? std::to_string(r.self_intersecting_pairs) : std::string("not checked"));
-}
-
 // ---------------------------------------------------------------------------------------------
 // Repairs
+
+TEST(orientation, DescribeSaysWhatWasFoundAndDone) {
+  TriangleSurface s = join({sphere({}, 2), inside_out(sphere({}, 1))});
+  EXPECT_EQ(describe(repair_orientation(s)),
+            "2 components (2 closed, 1 cavity), no boundary, no non-manifold edge, self-intersections: none");
+  TriangleSurface t = inside_out(box({}, {1, 1, 1}));
+  t.triangles.erase(t.triangles.begin());
+  t.triangles.push_back(t.triangles[0]);
+  t.triangles.push_back({0, 0, 1});
+  t.triangles[2] = flipped(t.triangles[2]);
+  EXPECT_EQ(describe(repair_orientation(t)),
+            "1 component (0 closed), 3 boundary edges in 1 loop, no non-manifold edge, self-intersections: none; "
+            "removed 1 degenerate face, removed 1 duplicate face, flipped 1 triangle");
+}
 
 TEST(orientation, ConstructedShapesAreOutward) {
   // The oracle for every test below: the shapes as built are closed, consistent and outward.

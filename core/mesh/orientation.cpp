@@ -9,6 +9,7 @@
 #include <numbers>
 #include <numeric>
 #include <span>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -471,7 +472,45 @@ void orient_outward(TriangleSurface& surface, const Components& comps, const std
   }
 }
 
+std::string count(std::size_t n, const char* one, const char* many) {
+  return std::to_string(n) + " " + (n == 1 ? one : many);
+}
+
 }  // namespace
+
+std::string describe(const OrientationReport& r) {
+  std::string line = count(r.components, "component", "components") + " (" + std::to_string(r.closed_components) +
+                     " closed";
+  if (r.cavities > 0) line += ", " + count(r.cavities, "cavity", "cavities");
+  if (r.nonorientable_components > 0) line += ", " + std::to_string(r.nonorientable_components) + " non-orientable";
+  line += "), ";
+  line += r.boundary_edges == 0 ? std::string("no boundary")
+                                : count(r.boundary_edges, "boundary edge", "boundary edges") + " in " +
+                                      count(r.boundary_loops, "loop", "loops");
+  line += ", " + (r.nonmanifold_edges == 0 ? std::string("no non-manifold edge")
+                                           : count(r.nonmanifold_edges, "non-manifold edge", "non-manifold edges"));
+  if (r.zero_area_faces > 0) line += ", " + count(r.zero_area_faces, "zero-area face", "zero-area faces");
+  line += ", self-intersections: ";
+  line += !r.self_intersection_checked   ? std::string("not checked")
+          : r.self_intersecting_pairs == 0 ? std::string("none")
+                                           : count(r.self_intersecting_pairs, "pair", "pairs");
+  std::vector<std::string> done;
+  if (r.degenerate_faces_removed > 0) {
+    done.push_back("removed " + count(r.degenerate_faces_removed, "degenerate face", "degenerate faces"));
+  }
+  if (r.duplicate_faces_removed > 0) {
+    done.push_back("removed " + count(r.duplicate_faces_removed, "duplicate face", "duplicate faces") +
+                   (r.cancelled_pairs > 0 ? " (" + count(r.cancelled_pairs, "opposite pair", "opposite pairs") + ")"
+                                          : std::string()));
+  }
+  if (r.flipped_triangles > 0) done.push_back("flipped " + count(r.flipped_triangles, "triangle", "triangles"));
+  if (r.reversed_components > 0) {
+    done.push_back("reversed " + count(r.reversed_components, "component", "components"));
+  }
+  if (!r.nesting_checked) done.push_back("nesting not checked (all closed components outward)");
+  for (std::size_t i = 0; i < done.size(); ++i) line += (i == 0 ? "; " : ", ") + done[i];
+  return line;
+}
 
 OrientationReport repair_orientation(TriangleSurface& surface) {
   check_surface_indices(surface);  // before anything changes

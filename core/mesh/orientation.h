@@ -51,6 +51,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <string>
 
 #include "core/mesh/surface.h"
 
@@ -95,5 +96,10 @@ inline constexpr std::size_t kSelfIntersectionCandidates = 400'000'000;
 // Repairs `surface` in place (steps 1 to 3 above) and reports what it found and did. Throws
 // InputError for a vertex index out of range, ResourceError from 2^30 triangles.
 OrientationReport repair_orientation(TriangleSurface& surface);
+
+// The report in one line for a log: what was found, then only what was done, e.g.
+// "2 components (2 closed, 1 cavity), no boundary, no non-manifold edge, self-intersections:
+// none; flipped 12 triangles, reversed 1 component".
+std::string describe(const OrientationReport& report);
 
 }  // namespace mchex
