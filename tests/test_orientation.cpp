@@ -455,6 +455,30 @@ TEST(orientation, StackedTrianglesExceedTheCandidateBudget) {
   EXPECT_FALSE(r.changed());
 }
 
+TEST(orientation, ManyShellsSkipNestingAndGoOutward) {
+  // 22 x 22 x 21 disjoint tetrahedra: more closed components than the nesting bound allows
+  // pairs of, so nesting is not checked; every shell still comes out outward.
+  TriangleSurface tet;
+  tet.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  tet.triangles = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+  std::vector<TriangleSurface> parts;
+  for (int i = 0; i < 22 * 22 * 21; ++i) {
+    TriangleSurface t = tet;
+    for (Vec3& v : t.vertices) v += 2.0 * Vec3{double(i % 22), double(i / 22 % 22), double(i / 484)};
+    parts.push_back(i % 7 == 0 ? inside_out(t) : t);
+  }
+  TriangleSurface s = join(parts);
+  const OrientationReport r = repair_orientation(s);
+  ASSERT_GT(r.closed_components * r.closed_components, kNestingBudget);
+  EXPECT_FALSE(r.nesting_checked);
+  EXPECT_EQ(r.reversed_components, (parts.size() + 6) / 7);
+  EXPECT_EQ(r.self_intersecting_pairs, 0u);
+  for (uint32_t c = 0; c < parts.size(); ++c) {
+    const std::array<uint32_t, 4> piece = {4 * c, 4 * c + 1, 4 * c + 2, 4 * c + 3};
+    ASSERT_NEAR(signed_volume(s, piece, s.vertices[4 * c]), 1.0 / 6, 1e-12) << c;
+  }
+}
+
 TEST(orientation, BadIndexThrowsAndLeavesTheSurface) {
   TriangleSurface s = box({}, {1, 1, 1});
   s.triangles.push_back({0, 1, 99});

@@ -439,6 +439,7 @@ void orient_outward(TriangleSurface& surface, const Components& comps, const std
   report.nesting_checked = k * k <= kNestingBudget;
   if (report.nesting_checked) {
     for (uint32_t inner : closed) {
+      if (terms > kNestingBudget) break;  // no more candidates: they would not be used
       for (uint32_t shell : closed) {
         if (shell == inner) continue;
         const Box &bs = boxes[shell], &bi = boxes[inner];

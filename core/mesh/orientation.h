@@ -1,9 +1,9 @@
 // Orientation repair of a triangle surface before meshing.
 //
-// The mesher's inside/outside comes from the surface's orientation (the reference SDF's sign and
-// the winding number both read it), and real "closed" models are often oriented inconsistently,
-// inside out, or are soups with duplicated faces and nested shells. repair_orientation() makes
-// the orientation what the solid means, in four steps:
+// The mesher's inside/outside comes from the surface's orientation (the reference SDF takes its
+// sign from the angle-weighted pseudonormal, core/sdf/sdf.h), and real "closed" models are often
+// oriented inconsistently, inside out, or are soups with duplicated faces and nested shells.
+// repair_orientation() makes the orientation what the solid means, in four steps:
 //
 //  1. Cleaning. Faces with a repeated vertex index are removed. Exact duplicate faces (the same
 //     three vertices) are grouped; within a group, a face and an opposite-orientation copy cancel
@@ -25,12 +25,13 @@
 //     opposite directions, so shells that touch along a non-manifold edge stay closed) is
 //     oriented so that its signed volume is positive, unless it is a cavity: a component inside
 //     an odd number of other closed components is oriented inward. "Inside" is the winding
-//     number of the other component, a solid-angle sum (Van Oosterom and Strackee) rounded to
-//     an integer, at the centroid of the component's lowest triangle; two components that
-//     intersect each other (step 4) are never nested. Bounding-box containment selects the
-//     candidates, and the brute-force sums are bounded (kNestingBudget); past the bound every
-//     closed component is oriented outward and nesting_checked is false. Open components keep
-//     step 2's orientation: without an inside they have no outward.
+//     number of the other component, a solid-angle sum (Van Oosterom and Strackee, "The solid
+//     angle of a plane triangle", IEEE Trans. Biomed. Eng. 1983) rounded to an integer, at the
+//     centroid of the component's lowest triangle; two components that intersect each other
+//     (step 4) are never nested. Bounding-box containment selects the candidates, and the
+//     brute-force sums are bounded (kNestingBudget); past the bound every closed component is
+//     oriented outward and nesting_checked is false. Open components keep step 2's
+//     orientation: without an inside they have no outward.
 //  4. Self-intersection (reported, nothing changed). Candidate pairs come from a uniform grid
 //     over the triangles' bounding boxes; two triangles intersect when an edge of one properly
 //     crosses the other, decided with orientation predicates in double (for non-coplanar
@@ -89,7 +90,7 @@ struct OrientationReport {
 // Work bounds. Nesting: at most this many pairs of closed components whose boxes are compared,
 // and as many winding-number terms summed. Self-intersection: the triangle count, and the
 // candidate pairs its grid may hand to the exact test.
-inline constexpr std::size_t kNestingBudget = 200'000'000;
+inline constexpr std::size_t kNestingBudget = 100'000'000;
 inline constexpr std::size_t kSelfIntersectionMaxTriangles = std::size_t{1} << 22;
 inline constexpr std::size_t kSelfIntersectionCandidates = 400'000'000;
 
