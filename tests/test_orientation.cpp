@@ -287,6 +287,21 @@ TEST(orientation, ZeroAreaFacesAreKeptAndCounted) {
   EXPECT_FALSE(r.changed());
 }
 
+TEST(orientation, NothingLeftAfterCleaning) {
+  TriangleSurface s;
+  s.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  s.triangles = {{0, 0, 1}, {0, 1, 2}, {0, 2, 1}};  // a repeated index, then an opposite pair
+  const OrientationReport r = repair_orientation(s);
+  EXPECT_TRUE(s.triangles.empty());
+  EXPECT_EQ(s.vertices.size(), 3u);  // vertices are never touched
+  EXPECT_EQ(r.degenerate_faces_removed, 1u);
+  EXPECT_EQ(r.cancelled_pairs, 1u);
+  EXPECT_EQ(r.components, 0u);
+  EXPECT_TRUE(r.self_intersection_checked);
+  TriangleSurface empty;
+  EXPECT_FALSE(repair_orientation(empty).changed());
+}
+
 TEST(orientation, SurfaceWithHolesIsMadeConsistent) {
   const TriangleSurface whole = sphere({}, 1);
   TriangleSurface original = whole;
