@@ -121,6 +121,12 @@ TEST(orientation, DescribeSaysWhatWasFoundAndDone) {
   EXPECT_EQ(describe(repair_orientation(t)),
             "1 component (0 closed), 3 boundary edges in 1 loop, no non-manifold edge, self-intersections: none; "
             "removed 1 degenerate face, removed 1 duplicate face, flipped 1 triangle");
+  TriangleSurface u = box({}, {1, 1, 1});
+  u.vertices.insert(u.vertices.end(), {{5, 5, 5}, {6, 5, 5}, {5, 6, 5}});
+  u.triangles.insert(u.triangles.end(), {{8, 9, 10}, {8, 10, 9}});
+  EXPECT_EQ(describe(repair_orientation(u)),
+            "1 component (1 closed), no boundary, no non-manifold edge, self-intersections: none; "
+            "removed 2 duplicate faces (1 opposite pair), removed 3 orphaned vertices");
 }
 
 TEST(orientation, ConstructedShapesAreOutward) {
@@ -277,6 +283,24 @@ TEST(orientation, OppositeDuplicatesCancelAsAZeroThicknessSheet) {
   EXPECT_NEAR(v.volume, 2, 1e-12);
 }
 
+TEST(orientation, VerticesOnlyRemovedFacesUsedGoToo) {
+  // A box, a lone opposite pair far away (a sheet that bounds nothing) and an unused vertex.
+  const TriangleSurface cube = box({}, {1, 1, 1});
+  TriangleSurface s = cube;
+  s.vertices.insert(s.vertices.begin() + 4, {{10, 10, 10}, {11, 10, 10}, {10, 11, 10}});
+  for (auto& t : s.triangles)
+    for (uint32_t& v : t) v += v >= 4 ? 3 : 0;
+  s.triangles.insert(s.triangles.begin() + 5, {{4, 5, 6}, {4, 6, 5}});
+  s.vertices.push_back({-5, -5, -5});  // used by no face before: stays
+  const OrientationReport r = repair_orientation(s);
+  EXPECT_EQ(r.cancelled_pairs, 1u);
+  EXPECT_EQ(r.orphaned_vertices_removed, 3u);
+  TriangleSurface expected = cube;
+  expected.vertices.push_back({-5, -5, -5});
+  EXPECT_TRUE(same(s, expected));
+  EXPECT_EQ(s.bounds().hi, (Vec3{1, 1, 1}));
+}
+
 TEST(orientation, ZeroAreaFacesAreKeptAndCounted) {
   TriangleSurface s;
   s.vertices = {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}};
@@ -293,7 +317,8 @@ TEST(orientation, NothingLeftAfterCleaning) {
   s.triangles = {{0, 0, 1}, {0, 1, 2}, {0, 2, 1}};  // a repeated index, then an opposite pair
   const OrientationReport r = repair_orientation(s);
   EXPECT_TRUE(s.triangles.empty());
-  EXPECT_EQ(s.vertices.size(), 3u);  // vertices are never touched
+  EXPECT_TRUE(s.vertices.empty());  // only removed faces used them
+  EXPECT_EQ(r.orphaned_vertices_removed, 3u);
   EXPECT_EQ(r.degenerate_faces_removed, 1u);
   EXPECT_EQ(r.cancelled_pairs, 1u);
   EXPECT_EQ(r.components, 0u);

@@ -39,6 +39,35 @@ void flip(Triangle& t) { std::swap(t[1], t[2]); }
 // ---------------------------------------------------------------------------------------------
 // Step 1: degenerate and duplicate faces.
 
+// Drops the faces not kept and then the vertices that only they used, keeping the order of the
+// rest, so that bounds() is still the surface's. Vertices no face used are left alone.
+void remove_faces(TriangleSurface& surface, const std::vector<uint8_t>& keep, OrientationReport& report) {
+  auto& triangles = surface.triangles;
+  constexpr uint8_t kUsedByRemoved = 1, kUsedByKept = 2;
+  std::vector<uint8_t> use(surface.vertices.size(), 0);
+  std::size_t out = 0;
+  for (std::size_t t = 0; t < triangles.size(); ++t) {
+    for (uint32_t v : triangles[t]) use[v] |= keep[t] ? kUsedByKept : kUsedByRemoved;
+    if (keep[t]) triangles[out++] = triangles[t];
+  }
+  if (out == triangles.size()) return;
+  triangles.resize(out);
+
+  std::vector<uint32_t> remap(surface.vertices.size(), kNone);
+  std::size_t kept = 0;
+  for (std::size_t v = 0; v < use.size(); ++v) {
+    if (use[v] == kUsedByRemoved) continue;
+    remap[v] = static_cast<uint32_t>(kept);
+    surface.vertices[kept++] = surface.vertices[v];
+  }
+  report.orphaned_vertices_removed = surface.vertices.size() - kept;
+  if (kept == surface.vertices.size()) return;
+  surface.vertices.resize(kept);
+  for (auto& tri : triangles) {
+    for (uint32_t& v : tri) v = remap[v];
+  }
+}
+
 void remove_degenerate_and_duplicate_faces(TriangleSurface& surface, OrientationReport& report) {
   auto& triangles = surface.triangles;
   const std::size_t n = triangles.size();
@@ -77,11 +106,7 @@ void remove_degenerate_and_duplicate_faces(TriangleSurface& surface, Orientation
     g = end;
   }
 
-  std::size_t out = 0;
-  for (std::size_t t = 0; t < n; ++t) {
-    if (keep[t]) triangles[out++] = triangles[t];
-  }
-  triangles.resize(out);
+  remove_faces(surface, keep, report);
   for (const auto& [a, b, c] : triangles) {
     const auto& v = surface.vertices;
     if (cross(v[b] - v[a], v[c] - v[a]) == Vec3{}) ++report.zero_area_faces;
@@ -503,6 +528,9 @@ std::string describe(const OrientationReport& r) {
     done.push_back("removed " + count(r.duplicate_faces_removed, "duplicate face", "duplicate faces") +
                    (r.cancelled_pairs > 0 ? " (" + count(r.cancelled_pairs, "opposite pair", "opposite pairs") + ")"
                                           : std::string()));
+  }
+  if (r.orphaned_vertices_removed > 0) {
+    done.push_back("removed " + count(r.orphaned_vertices_removed, "orphaned vertex", "orphaned vertices"));
   }
   if (r.flipped_triangles > 0) done.push_back("flipped " + count(r.flipped_triangles, "triangle", "triangles"));
   if (r.reversed_components > 0) {

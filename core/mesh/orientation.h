@@ -46,8 +46,10 @@
 //
 // The result depends only on the input: every step is serial or writes per-index outputs, the
 // walks and tie-breaks use the vertex indices, and the surviving triangles keep their input
-// order. Vertices are not touched (a removed face may leave unused vertices). A surface that
-// needs nothing (closed, consistent, outward, no duplicates) comes back bit for bit unchanged.
+// order. Vertices that only removed faces used are removed too (bounds() stays the surface's);
+// the others keep their order and values, and vertices no face used are left alone. A surface
+// that needs nothing (closed, consistent, outward, no duplicates) comes back bit for bit
+// unchanged.
 #pragma once
 
 #include <cstddef>
@@ -64,6 +66,7 @@ struct OrientationReport {
   std::size_t duplicate_faces_removed = 0;   // includes both faces of each cancelled pair
   std::size_t cancelled_pairs = 0;           // opposite-orientation duplicate pairs (zero-thickness sheets)
   std::size_t zero_area_faces = 0;           // distinct vertices, zero area: kept
+  std::size_t orphaned_vertices_removed = 0; // used only by removed faces
   // Step 2, over the cleaned surface.
   std::size_t components = 0;                // connected through manifold edges
   std::size_t nonorientable_components = 0;
