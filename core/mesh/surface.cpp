@@ -44,39 +44,6 @@ bool same_position(const Vec3& a, const Vec3& b) {
          weld_bits(a.z) == weld_bits(b.z);
 }
 
-void check_indices(const TriangleSurface& surface) {
-  const std::size_t n = surface.vertices.size();
-  for (std::size_t t = 0; t < surface.triangles.size(); ++t) {
-    for (uint32_t v : surface.triangles[t]) {
-      if (v >= n) {
-        throw InputError("surface: triangle " + std::to_string(t) + " refers to vertex " + std::to_string(v) +
-                         ", but there are only " + std::to_string(n) + " vertices");
-      }
-    }
-  }
-}
-
-// Union-find over triangles; the smaller index becomes the root so the forest (and anything
-// derived from it later) does not depend on the order edges are visited.
-struct DisjointSets {
-  std::vector<uint32_t> parent;
-  explicit DisjointSets(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0u); }
-  uint32_t find(uint32_t x) {
-    while (parent[x] != x) {
-      parent[x] = parent[parent[x]];
-      x = parent[x];
-    }
-    return x;
-  }
-  void unite(uint32_t a, uint32_t b) {
-    a = find(a);
-    b = find(b);
-    if (a == b) return;
-    if (a < b) std::swap(a, b);
-    parent[a] = b;
-  }
-};
-
 // Neumaier's compensated sum: a closed mesh's volume is a sum of many terms of both signs that
 // cancel, and plain summation loses the digits the caller compares against.
 struct CompensatedSum {
@@ -89,18 +56,51 @@ struct CompensatedSum {
   double value() const { return sum + compensation; }
 };
 
-// One triangle's use of an edge, stored in the bucket of the edge's smaller vertex:
+// Signed volume of triangles index(0), ..., index(count - 1) about `origin`.
+template <class Index>
+double signed_volume_of(const TriangleSurface& surface, std::size_t count, Index index, Vec3 origin) {
+  CompensatedSum six_volume;
+  for (std::size_t i = 0; i < count; ++i) {
+    const auto [a, b, c] = surface.triangles[index(i)];
+    if (a == b || b == c || c == a) continue;
+    const auto& v = surface.vertices;
+    six_volume.add(triple(v[a] - origin, v[b] - origin, v[c] - origin));
+  }
+  return six_volume.value() / 6.0;
+}
+
+// One triangle's use of an edge, packed for sorting in the bucket of the edge's smaller vertex:
 // bits 63..32 the larger vertex, 31..2 the triangle, bit 1 set when the triangle has a repeated
-// index (it only connects components), bit 0 set when the triangle runs from smaller to larger.
-// Sorting a bucket groups uses of the same edge together, ordered by triangle.
-constexpr std::size_t kMaxTriangles = std::size_t{1} << 30;
+// index, bit 0 set when the triangle runs from smaller to larger. Sorting a bucket groups uses
+// of the same edge together, ordered by triangle.
 constexpr uint64_t kCollapsedBit = 2;
 constexpr uint64_t kForwardBit = 1;
 
 }  // namespace
 
+DisjointSets::DisjointSets(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0u); }
+
+void check_surface_indices(const TriangleSurface& surface) {
+  const std::size_t n = surface.vertices.size();
+  for (std::size_t t = 0; t < surface.triangles.size(); ++t) {
+    for (uint32_t v : surface.triangles[t]) {
+      if (v >= n) {
+        throw InputError("surface: triangle " + std::to_string(t) + " refers to vertex " + std::to_string(v) +
+                         ", but there are only " + std::to_string(n) + " vertices");
+      }
+    }
+  }
+}
+
+void check_edge_table_size(const TriangleSurface& surface) {
+  if (surface.triangles.size() >= kMaxEdgeTableTriangles) {
+    throw ResourceError("surface: " + std::to_string(surface.triangles.size()) +
+                        " triangles is more than the validator supports (2^30)");
+  }
+}
+
 std::size_t weld_vertices(TriangleSurface& surface) {
-  check_indices(surface);
+  check_surface_indices(surface);
   const std::size_t n = surface.vertices.size();
   if (n == 0) return 0;
 
@@ -134,88 +134,97 @@ std::size_t weld_vertices(TriangleSurface& surface) {
   return merged;
 }
 
+SurfaceEdges surface_edges(const TriangleSurface& surface) {
+  check_surface_indices(surface);
+  check_edge_table_size(surface);
+  const auto& triangles = surface.triangles;
+
+  // Pass 1: size the buckets.
+  std::vector<std::size_t> bucket_start(surface.vertices.size() + 1, 0);
+  for (const auto& tri : triangles) {
+    for (int k = 0; k < 3; ++k) {
+      if (tri[k] != tri[(k + 1) % 3]) ++bucket_start[std::min(tri[k], tri[(k + 1) % 3]) + 1];
+    }
+  }
+  std::partial_sum(bucket_start.begin(), bucket_start.end(), bucket_start.begin());
+
+  // Pass 2: fill them.
+  std::vector<uint64_t> packed(bucket_start.back());
+  {
+    std::vector<std::size_t> cursor(bucket_start.begin(), bucket_start.end() - 1);
+    for (std::size_t t = 0; t < triangles.size(); ++t) {
+      const auto& tri = triangles[t];
+      const bool repeated = tri[0] == tri[1] || tri[1] == tri[2] || tri[2] == tri[0];
+      const uint64_t flags = (static_cast<uint64_t>(t) << 2) | (repeated ? kCollapsedBit : 0);
+      for (int k = 0; k < 3; ++k) {
+        const uint32_t from = tri[k], to = tri[(k + 1) % 3];
+        if (from == to) continue;
+        const uint32_t lo = std::min(from, to), hi = std::max(from, to);
+        packed[cursor[lo]++] = (static_cast<uint64_t>(hi) << 32) | flags | (from < to ? kForwardBit : 0);
+      }
+    }
+  }
+
+  // Pass 3: each run of equal larger vertex in a sorted bucket is one edge.
+  SurfaceEdges edges;
+  edges.uses.reserve(packed.size());
+  edges.first_use.reserve(packed.size() / 2 + 1);
+  for (std::size_t lo = 0; lo + 1 < bucket_start.size(); ++lo) {
+    const auto first = packed.begin() + static_cast<std::ptrdiff_t>(bucket_start[lo]);
+    const auto last = packed.begin() + static_cast<std::ptrdiff_t>(bucket_start[lo + 1]);
+    std::sort(first, last);
+    for (auto use = first; use != last; ++use) {
+      const auto hi = static_cast<uint32_t>(*use >> 32);
+      if (use == first || (*(use - 1) >> 32) != hi) {
+        edges.vertices.push_back({static_cast<uint32_t>(lo), hi});
+        edges.first_use.push_back(edges.uses.size());
+      }
+      edges.uses.push_back({static_cast<uint32_t>((*use & 0xffffffffu) >> 2), (*use & kForwardBit) != 0,
+                            (*use & kCollapsedBit) != 0});
+    }
+  }
+  edges.first_use.push_back(edges.uses.size());
+  return edges;
+}
+
+double signed_volume(const TriangleSurface& surface, std::span<const uint32_t> triangles, Vec3 origin) {
+  return signed_volume_of(surface, triangles.size(), [&](std::size_t i) { return triangles[i]; }, origin);
+}
+
 SurfaceReport validate_surface(const TriangleSurface& surface, std::size_t welded_vertices) {
-  check_indices(surface);
+  const SurfaceEdges edges = surface_edges(surface);
   const auto& vertices = surface.vertices;
   const auto& triangles = surface.triangles;
-  if (triangles.size() >= kMaxTriangles) {
-    throw ResourceError("surface: " + std::to_string(triangles.size()) +
-                        " triangles is more than the validator supports (2^30)");
-  }
 
   SurfaceReport report;
   report.vertices = vertices.size();
   report.triangles = triangles.size();
   report.welded_vertices = welded_vertices;
 
-  const Box box = surface.bounds();
-  const Vec3 origin = box.empty() ? Vec3{} : box.center();
-  CompensatedSum six_volume;
-
-  // Pass 1: classify triangles, accumulate the volume and size the edge buckets.
-  std::vector<uint8_t> collapsed(triangles.size(), 0);
-  std::vector<std::size_t> bucket_start(vertices.size() + 1, 0);
-  for (std::size_t t = 0; t < triangles.size(); ++t) {
-    const auto [a, b, c] = triangles[t];
+  for (const auto& [a, b, c] : triangles) {
     const bool repeated = a == b || b == c || c == a;
-    collapsed[t] = repeated;
-    const Vec3 va = vertices[a], vb = vertices[b], vc = vertices[c];
-    if (repeated || cross(vb - va, vc - va) == Vec3{}) ++report.degenerate_faces;
-    if (repeated) {
-      // Only its distinct-vertex edges are recorded, for connectivity.
-      if (a != b) ++bucket_start[std::min(a, b) + 1];
-      if (b != c) ++bucket_start[std::min(b, c) + 1];
-      if (c != a) ++bucket_start[std::min(c, a) + 1];
-      continue;
-    }
-    six_volume.add(triple(va - origin, vb - origin, vc - origin));
-    ++bucket_start[std::min(a, b) + 1];
-    ++bucket_start[std::min(b, c) + 1];
-    ++bucket_start[std::min(c, a) + 1];
+    if (repeated || cross(vertices[b] - vertices[a], vertices[c] - vertices[a]) == Vec3{}) ++report.degenerate_faces;
   }
-  report.volume = six_volume.value() / 6.0;
-  std::partial_sum(bucket_start.begin(), bucket_start.end(), bucket_start.begin());
+  // About the centre of the bounds, to keep far-off models accurate.
+  const Box box = surface.bounds();
+  report.volume = signed_volume_of(surface, triangles.size(), [](std::size_t t) { return t; },
+                                   box.empty() ? Vec3{} : box.center());
 
-  // Pass 2: fill the buckets.
-  std::vector<uint64_t> uses(bucket_start.back());
-  {
-    std::vector<std::size_t> cursor(bucket_start.begin(), bucket_start.end() - 1);
-    for (std::size_t t = 0; t < triangles.size(); ++t) {
-      const auto& tri = triangles[t];
-      const uint64_t flags = (static_cast<uint64_t>(t) << 2) | (collapsed[t] ? kCollapsedBit : 0);
-      for (int k = 0; k < 3; ++k) {
-        const uint32_t from = tri[k], to = tri[(k + 1) % 3];
-        if (from == to) continue;
-        const uint32_t lo = std::min(from, to), hi = std::max(from, to);
-        uses[cursor[lo]++] = (static_cast<uint64_t>(hi) << 32) | flags | (from < to ? kForwardBit : 0);
-      }
-    }
-  }
-
-  // Pass 3: each run of equal larger-vertex in a bucket is one edge.
   DisjointSets components(triangles.size());
-  for (std::size_t lo = 0; lo < vertices.size(); ++lo) {
-    const auto first = uses.begin() + static_cast<std::ptrdiff_t>(bucket_start[lo]);
-    const auto last = uses.begin() + static_cast<std::ptrdiff_t>(bucket_start[lo + 1]);
-    std::sort(first, last);
-    for (auto run = first; run != last;) {
-      const uint64_t hi = *run >> 32;
-      auto run_end = run;
-      std::size_t count = 0, forward = 0;
-      const auto triangle_of = [](uint64_t use) { return static_cast<uint32_t>((use & 0xffffffffu) >> 2); };
-      for (; run_end != last && (*run_end >> 32) == hi; ++run_end) {
-        components.unite(triangle_of(*run), triangle_of(*run_end));
-        if (*run_end & kCollapsedBit) continue;
-        ++count;
-        forward += (*run_end & kForwardBit) ? 1 : 0;
-      }
-      run = run_end;
-      if (count == 0) continue;
-      ++report.edges;
-      if (count == 1) ++report.boundary_edges;
-      if (count >= 3) ++report.nonmanifold_edges;
-      if (count == 2 && forward != 1) ++report.inconsistent_edges;
+  for (std::size_t e = 0; e < edges.size(); ++e) {
+    const auto uses = edges.uses_of(e);
+    std::size_t count = 0, forward = 0;
+    for (const EdgeUse& use : uses) {
+      components.unite(uses.front().triangle, use.triangle);
+      if (use.collapsed) continue;  // it only connects components
+      ++count;
+      forward += use.forward ? 1 : 0;
     }
+    if (count == 0) continue;
+    ++report.edges;
+    if (count == 1) ++report.boundary_edges;
+    if (count >= 3) ++report.nonmanifold_edges;
+    if (count == 2 && forward != 1) ++report.inconsistent_edges;
   }
 
   for (std::size_t t = 0; t < triangles.size(); ++t) {

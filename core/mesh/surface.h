@@ -5,6 +5,8 @@
 #include <array>
 #include <cstdint>
 #include <filesystem>
+#include <span>
+#include <utility>
 #include <vector>
 
 #include "core/base/geometry.h"
@@ -49,5 +51,64 @@ std::size_t weld_vertices(TriangleSurface& surface);
 // (validate_surface cannot know what the reader merged). Throws InputError if a triangle
 // refers to a vertex that does not exist.
 SurfaceReport validate_surface(const TriangleSurface& surface, std::size_t welded_vertices = 0);
+
+// ---------------------------------------------------------------------------------------------
+// The edge table and volume that validate_surface() and repair_orientation()
+// (core/mesh/orientation.h) both read, so that the two agree on what an edge, a boundary and a
+// volume are.
+
+// One triangle's use of an edge.
+struct EdgeUse {
+  uint32_t triangle = 0;
+  bool forward = false;    // the triangle runs from the edge's smaller vertex to its larger
+  bool collapsed = false;  // the triangle has a repeated vertex index: it only connects components
+};
+
+// Every edge of the surface with the triangles that use it, built by a counting sort on the
+// smaller vertex (linear time). Edges come in increasing (smaller, larger) vertex order and each
+// edge's uses in increasing triangle order, so everything derived from the table depends only on
+// the input. A triangle with a repeated index contributes only its distinct-vertex edges.
+struct SurfaceEdges {
+  std::vector<std::array<uint32_t, 2>> vertices;  // edge e runs between vertices[e][0] < vertices[e][1]
+  std::vector<std::size_t> first_use;             // edge e's uses are uses[first_use[e], first_use[e + 1])
+  std::vector<EdgeUse> uses;
+
+  std::size_t size() const { return vertices.size(); }
+  std::span<const EdgeUse> uses_of(std::size_t e) const {
+    return {uses.data() + first_use[e], uses.data() + first_use[e + 1]};
+  }
+};
+
+// Throws InputError for a vertex index out of range and ResourceError from
+// kMaxEdgeTableTriangles (the packing of its sort keys).
+SurfaceEdges surface_edges(const TriangleSurface& surface);
+inline constexpr std::size_t kMaxEdgeTableTriangles = std::size_t{1} << 30;
+void check_surface_indices(const TriangleSurface& surface);  // the InputError above
+void check_edge_table_size(const TriangleSurface& surface);  // the ResourceError above
+
+// Union-find; the smaller index becomes the root so the forest (and anything derived from it
+// later) does not depend on the order the unions come in.
+struct DisjointSets {
+  std::vector<uint32_t> parent;
+  explicit DisjointSets(std::size_t n);
+  uint32_t find(uint32_t x) {
+    while (parent[x] != x) {
+      parent[x] = parent[parent[x]];
+      x = parent[x];
+    }
+    return x;
+  }
+  void unite(uint32_t a, uint32_t b) {
+    a = find(a);
+    b = find(b);
+    if (a == b) return;
+    if (a < b) std::swap(a, b);
+    parent[a] = b;
+  }
+};
+
+// Signed volume (divergence theorem) of the listed triangles about `origin`, with a compensated
+// sum in list order; triangles with a repeated vertex index add nothing.
+double signed_volume(const TriangleSurface& surface, std::span<const uint32_t> triangles, Vec3 origin);
 
 }  // namespace mchex
