@@ -57,8 +57,10 @@ double finest_hull(const AdaptiveGrid& g, const Box& cube) {
   for (std::size_t c = 0; c < g.complex.cells.size(); ++c)
     if (g.cell_level[c] == finest)
       for (std::uint32_t p : g.complex.cells[c]) {
-        lo = {std::min(lo.x, g.complex.points[p].x), std::min(lo.y, g.complex.points[p].y), std::min(lo.z, g.complex.points[p].z)};
-        hi = {std::max(hi.x, g.complex.points[p].x), std::max(hi.y, g.complex.points[p].y), std::max(hi.z, g.complex.points[p].z)};
+        lo = {std::min(lo.x, g.complex.points[p].x), std::min(lo.y, g.complex.points[p].y),
+              std::min(lo.z, g.complex.points[p].z)};
+        hi = {std::max(hi.x, g.complex.points[p].x), std::max(hi.y, g.complex.points[p].y),
+              std::max(hi.z, g.complex.points[p].z)};
       }
   const Vec3 cs = cube.size();
   return (hi.x - lo.x) * (hi.y - lo.y) * (hi.z - lo.z) / (cs.x * cs.y * cs.z);
@@ -84,7 +86,8 @@ int main(int argc, char** argv) {
   }
   if (depths.empty()) depths = {4, 5};
   std::vector<Model> models;
-  for (const ShapeInfo& info : shape_catalog()) models.push_back(load(SolidSource::named_shape(std::string(info.name)), std::string(info.name)));
+  for (const ShapeInfo& info : shape_catalog())
+    models.push_back(load(SolidSource::named_shape(std::string(info.name)), std::string(info.name)));
   const TriangleSurface torus_mesh = tessellate(ShapeKind::kTorus, 160);
   models.push_back(load(SolidSource::in_memory(torus_mesh, "torus-mesh"), "torus-mesh"));
   for (const std::string& path : model_paths)
@@ -92,9 +95,10 @@ int main(int argc, char** argv) {
   const std::unique_ptr<Backend> backend = make_backend(backend_name);
 
   fmt::print("adaptive 3-refinement, threshold {} (x finest cell size); IoU lattice {}^3\n", threshold, lattice);
-  fmt::print("{:<30} {:>3} {:>3} {:>9} {:>6} {:>6} | {:>6} {:>6} {:>6} {:>6} {:>8} {:>8} | {:>3} {:>7} {:>7} {:>7} {:>8} {:>8}\n",
-             "shape", "max", "lvl", "cells", "ratio", "hull", "refine", "bal", "cmplx", "sdf", "M cells/s", "/CPU s", "uni",
-             "hexes", "IoU a", "IoU u", "HR a %", "HR u %");
+  fmt::print(
+      "{:<30} {:>3} {:>3} {:>9} {:>6} {:>6} | {:>6} {:>6} {:>6} {:>6} {:>8} {:>8} | {:>3} {:>7} {:>7} {:>7} {:>8} {:>8}\n",
+      "shape", "max", "lvl", "cells", "ratio", "hull", "refine", "bal", "cmplx", "sdf", "M cells/s", "/CPU s", "uni",
+      "hexes", "IoU a", "IoU u", "HR a %", "HR u %");
   std::string json;
   for (const int max_depth : depths)
     for (const Model& m : models) {
@@ -145,27 +149,29 @@ int main(int argc, char** argv) {
       const double uniform_hexes = double(u.meshes.inside.hexes.size() + u.meshes.outside.hexes.size());
       const double hex_ratio = udepth == finest ? adaptive_hexes / uniform_hexes : NAN;
 
-      fmt::print("{:<30} {:>3} {:>3} {:>9} {:>6.3f} {:>6.3f} | {:>6.3f} {:>6.3f} {:>6.3f} {:>6.3f} {:>8.2f} {:>8.2f} | {:>3} {:>7.3f} {:>7.5f} {:>7.5f} {:>8.4f} {:>8.4f}{}\n",
-                 m.name, max_depth, levels, cells_n, cells / uniform, hull, t.refine, t.balance,
-                 t.complex, t.sdf + sdf_rest, cells / tree_s / 1e6, cells / t.cpu / 1e6, udepth, hex_ratio, fa.iou, fu.iou,
-                 100 * fa.hausdorff_ratio, 100 * fu.hausdorff_ratio, ok ? "" : "  CHECK FAILED");
+      fmt::print(
+          "{:<30} {:>3} {:>3} {:>9} {:>6.3f} {:>6.3f} | {:>6.3f} {:>6.3f} {:>6.3f} {:>6.3f} {:>8.2f} {:>8.2f} | {:>3} {:>7.3f} {:>7.5f} {:>7.5f} {:>8.4f} {:>8.4f}{}\n",
+          m.name, max_depth, levels, cells_n, cells / uniform, hull, t.refine, t.balance, t.complex, t.sdf + sdf_rest,
+          cells / tree_s / 1e6, cells / t.cpu / 1e6, udepth, hex_ratio, fa.iou, fu.iou, 100 * fa.hausdorff_ratio,
+          100 * fu.hausdorff_ratio, ok ? "" : "  CHECK FAILED");
       json += fmt::format(
           "{}{{\"shape\":\"{}\",\"max_depth\":{},\"levels\":{},\"cells\":{},\"uniform_cells\":{:.0f},\"ratio\":{:.6f},"
           "\"hull\":{:.4f},\"refine_s\":{:.4f},\"balance_s\":{:.4f},\"complex_s\":{:.4f},\"sdf_s\":{:.4f},"
           "\"cells_per_s\":{:.1f},\"cells_per_cpu_s\":{:.1f},\"points\":{},\"unsampled_points\":{},\"uniform_depth\":{},"
           "\"mchex_hexes\":{:.0f},\"uniform_mchex_hexes\":{:.0f},\"iou\":{:.6f},\"uniform_iou\":{:.6f},"
           "\"hausdorff_ratio\":{:.6g},\"uniform_hausdorff_ratio\":{:.6g},\"check_ok\":{}}}",
-          json.empty() ? "" : ",", m.name, max_depth, levels, cells_n, uniform, cells / uniform, hull,
-          t.refine, t.balance, t.complex, t.sdf + sdf_rest, cells / tree_s, cells / t.cpu, points, unsampled, udepth,
+          json.empty() ? "" : ",", m.name, max_depth, levels, cells_n, uniform, cells / uniform, hull, t.refine,
+          t.balance, t.complex, t.sdf + sdf_rest, cells / tree_s, cells / t.cpu, points, unsampled, udepth,
           adaptive_hexes, uniform_hexes, fa.iou, fu.iou, fa.hausdorff_ratio, fu.hausdorff_ratio, ok);
       std::fflush(stdout);
     }
-  fmt::print("lvl: levels with a leaf (finest = lvl - 1); ratio: cells / 27^(lvl-1); hull: see the header comment;\n"
-             "times in s (sdf: refinement batches + the complex's unsampled points); M cells/s: cells / (refine + bal + cmplx);\n"
-             "/CPU s: M cells per CPU second of those stages (all threads; load-independent);\n"
-             "uni: the uniform depth compared (= lvl - 1 unless deeper than --iou-depth); hexes: MCHex hexes (both meshes),\n"
-             "adaptive / uniform, when uni = lvl - 1; IoU, HR (Hausdorff / diagonal) of the inside mesh, a(daptive) and u(niform).\n");
-  fmt::print("{{\"bench\":\"adaptive\",\"threshold\":{},\"iou_depth\":{},\"lattice\":{},\"results\":[{}]}}\n", threshold,
-             iou_depth, lattice, json);
+  fmt::print(
+      "lvl: levels with a leaf (finest = lvl - 1); ratio: cells / 27^(lvl-1); hull: see the header comment;\n"
+      "times in s (sdf: refinement batches + the complex's unsampled points); M cells/s: cells / (refine + bal + cmplx);\n"
+      "/CPU s: M cells per CPU second of those stages (all threads; load-independent);\n"
+      "uni: the uniform depth compared (= lvl - 1 unless deeper than --iou-depth); hexes: MCHex hexes (both meshes),\n"
+      "adaptive / uniform, when uni = lvl - 1; IoU, HR (Hausdorff / diagonal) of the inside mesh, a(daptive) and u(niform).\n");
+  fmt::print("{{\"bench\":\"adaptive\",\"threshold\":{},\"iou_depth\":{},\"lattice\":{},\"results\":[{}]}}\n",
+             threshold, iou_depth, lattice, json);
   return 0;
 }

@@ -35,12 +35,12 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/cutting/mchex_mesher.h"
+#include "core/device/backend.h"
 #include "core/grid/grid.h"
 #include "core/grid/hex_complex.h"
-#include "core/cutting/mchex_mesher.h"
 #include "core/grid/refinement_error.h"
 #include "core/sdf/shapes.h"
-#include "core/device/backend.h"
 #include "host/backends/cpu.h"
 #if MCHEX_WITH_OPENCL
 #include "host/backends/opencl.h"
@@ -48,8 +48,8 @@
 #if MCHEX_WITH_VULKAN
 #include "host/backends/vulkan.h"
 #endif
-#include "perf/bench_common.h"
 #include "core/base/parallel.h"
+#include "perf/bench_common.h"
 
 using namespace mchex;
 using bench::seconds_of;
@@ -135,7 +135,8 @@ int main(int argc, char** argv) {
       std::array<double, kChildLatticePoints> f;
       for (int z = 0; z < 4; ++z)
         for (int y = 0; y < 4; ++y)
-          for (int x = 0; x < 4; ++x) f[child_lattice_index(x, y, z)] = two_holed(lo + Vec3{x * h / 3, y * h / 3, z * h / 3});
+          for (int x = 0; x < 4; ++x)
+            f[child_lattice_index(x, y, z)] = two_holed(lo + Vec3{x * h / 3, y * h / 3, z * h / 3});
       w.lattice.push_back(f);
       w.sizes.push_back(h);
     }
@@ -204,16 +205,15 @@ int main(int argc, char** argv) {
   }
 
   const std::size_t n_points = w.points.size(), n_cells = w.complex.cells.size();
-  std::vector<std::string> kernels = {"sdf_surface", "sdf_shape", "refinement_error", "classify+scan",
-                                      "classify+scan codes", "sdf+classify"};
+  std::vector<std::string> kernels = {"sdf_surface",   "sdf_shape",           "refinement_error",
+                                      "classify+scan", "classify+scan codes", "sdf+classify"};
   if (!only.empty()) kernels = split(only);
-  auto wanted_kernel = [&](const std::string& k) { return std::find(kernels.begin(), kernels.end(), k) != kernels.end(); };
-  const std::map<std::string, std::size_t> items = {{"sdf_surface", n_points},
-                                                     {"sdf_shape", n_points},
-                                                     {"refinement_error", w.lattice.size()},
-                                                     {"classify+scan", n_cells},
-                                                     {"classify+scan codes", n_cells},
-                                                     {"sdf+classify", n_cells}};
+  auto wanted_kernel = [&](const std::string& k) {
+    return std::find(kernels.begin(), kernels.end(), k) != kernels.end();
+  };
+  const std::map<std::string, std::size_t> items = {
+      {"sdf_surface", n_points},  {"sdf_shape", n_points},          {"refinement_error", w.lattice.size()},
+      {"classify+scan", n_cells}, {"classify+scan codes", n_cells}, {"sdf+classify", n_cells}};
   std::map<std::string, std::map<std::string, Measured>> results;  // kernel -> backend -> measured
   std::map<std::string, Outputs> reference;                        // kernel -> cpu outputs
   for (auto& [name, b] : backends) {
@@ -268,12 +268,14 @@ int main(int argc, char** argv) {
           m.profile["device"] = after.device - before.device;
           m.profile["download"] = after.download - before.download;
           if (after.host_points != before.host_points)
-            m.profile["points past the loop budget, on the host (count)"] = double(after.host_points - before.host_points);
+            m.profile["points past the loop budget, on the host (count)"] =
+                double(after.host_points - before.host_points);
           const Fp32Stats st = vk->fp32_stats();
           if (const std::uint64_t points = st.points - fp32_before.points) {
             const std::uint64_t host = st.host_points - fp32_before.host_points;
             m.profile["fp32: points the host evaluated whole (count)"] = double(host);
-            m.profile["fp32: of them past the loop budget (count)"] = double(st.budget_points - fp32_before.budget_points);
+            m.profile["fp32: of them past the loop budget (count)"] =
+                double(st.budget_points - fp32_before.budget_points);
             m.profile["fp32: candidates per point (mean)"] =
                 double(st.candidates - fp32_before.candidates) / double(points - host);
           }
@@ -336,13 +338,10 @@ int main(int argc, char** argv) {
 
   std::printf("bench_backends: %zu surface triangles, %zu points, %zu refinement cells, %zu MC cells, %d CPU threads\n",
               w.surface.triangles.size(), n_points, w.lattice.size(), n_cells, hardware_threads());
-  nlohmann::json j = {{"bench", "backends"},
-                      {"triangles", w.surface.triangles.size()},
-                      {"points", n_points},
-                      {"mc_cells", n_cells},
-                      {"refinement_cells", w.lattice.size()},
-                      {"threads", hardware_threads()},
-                      {"unavailable", unavailable}};
+  nlohmann::json j = {
+      {"bench", "backends"},       {"triangles", w.surface.triangles.size()}, {"points", n_points},
+      {"mc_cells", n_cells},       {"refinement_cells", w.lattice.size()},    {"threads", hardware_threads()},
+      {"unavailable", unavailable}};
   for (auto& [name, b] : backends) {
     std::printf("%-7s %s / %s\n", name.c_str(), b->device().platform.c_str(), b->device().name.c_str());
     j["devices"][name] = b->device().platform + " / " + b->device().name;
@@ -377,8 +376,10 @@ int main(int argc, char** argv) {
       // Points a device handed back to the host (loop budget, fp32 overflow) make its time partly
       // the cpu's: say so where they are more than 1 % of the items.
       for (const auto& [part, v] : m.profile)
-        if (part.find("on the host (count)") != std::string::npos || part.find("evaluated whole (count)") != std::string::npos)
-          if (v > 0.01 * double(items.at(kernel))) std::printf(" (%.0f %% on the host)", 100 * v / double(items.at(kernel)));
+        if (part.find("on the host (count)") != std::string::npos ||
+            part.find("evaluated whole (count)") != std::string::npos)
+          if (v > 0.01 * double(items.at(kernel)))
+            std::printf(" (%.0f %% on the host)", 100 * v / double(items.at(kernel)));
     }
     std::printf("\n");
   }

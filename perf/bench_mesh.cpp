@@ -62,8 +62,8 @@ int main(int argc, char** argv) {
   const std::string& shape = run.input.name;
   const int depth = request.options.depth;
   const bool ok = run.check.ok;
-  std::printf("%s mesher, %s at depth %d: %.0f hexes (%zu inside), check ok: %s\n", method.c_str(), shape.c_str(), depth, hexes,
-              m.inside.hexes.size(), ok ? "yes" : "NO");
+  std::printf("%s mesher, %s at depth %d: %.0f hexes (%zu inside), check ok: %s\n", method.c_str(), shape.c_str(),
+              depth, hexes, m.inside.hexes.size(), ok ? "yes" : "NO");
   std::printf("  stage          share of sdf+method+check+vtu   hexes/s\n");
   auto row = [&](const char* name, double t) {
     std::printf("  %-14s %6.1f%%                    %10.3g\n", name, 100 * t / total, hexes / t);
@@ -76,14 +76,17 @@ int main(int argc, char** argv) {
   if (method == "mchex") {
     std::printf("  mchex stages: topology %.3f s, polyhedra + subdivision %.3f s (%.3g hexes/s), assembly %.3f s\n",
                 ms.seconds_topology, ms.seconds_cells, hexes / ms.seconds_cells, ms.seconds_assembly);
-    std::printf("  mchex on 1 thread: %.3g hexes/s; 2 threads / 1 thread speed-up %.2fx\n", hexes / t_serial, t_serial / t_ro);
+    std::printf("  mchex on 1 thread: %.3g hexes/s; 2 threads / 1 thread speed-up %.2fx\n", hexes / t_serial,
+                t_serial / t_ro);
   }
   std::printf("  end to end (sdf+method+check+write .vtu): %.3g hexes/s\n", hexes / total);
-  std::printf("{\"bench\":\"mesh\",\"method\":\"%s\",\"shape\":\"%s\",\"backend\":\"%s\",\"depth\":%d,\"hexes\":%.0f,\"ok\":%s,"
-              "\"share\":{\"sdf\":%.4f,\"method\":%.4f,\"check\":%.4f,\"write_vtu\":%.4f},"
-              "\"method_hexes_per_s\":%.0f,\"cells_hexes_per_s\":%.0f,\"speedup_2_over_1_thread\":%.3f,\"hexes_per_s_end_to_end\":%.0f,\"write_ratio_mesh_vtu_msh\":[%.3f,1,%.3f]}\n",
-              method.c_str(), shape.c_str(), run.device.backend.c_str(), depth, hexes, ok ? "true" : "false", t_sdf / total,
-              t_ro / total, t_check / total, t_write[1] / total, hexes / t_ro, method == "mchex" ? hexes / ms.seconds_cells : 0.0,
-              t_serial > 0 ? t_serial / t_ro : 0.0, hexes / total, t_write[0] / t_write[1], t_write[2] / t_write[1]);
+  std::printf(
+      "{\"bench\":\"mesh\",\"method\":\"%s\",\"shape\":\"%s\",\"backend\":\"%s\",\"depth\":%d,\"hexes\":%.0f,\"ok\":%s,"
+      "\"share\":{\"sdf\":%.4f,\"method\":%.4f,\"check\":%.4f,\"write_vtu\":%.4f},"
+      "\"method_hexes_per_s\":%.0f,\"cells_hexes_per_s\":%.0f,\"speedup_2_over_1_thread\":%.3f,\"hexes_per_s_end_to_end\":%.0f,\"write_ratio_mesh_vtu_msh\":[%.3f,1,%.3f]}\n",
+      method.c_str(), shape.c_str(), run.device.backend.c_str(), depth, hexes, ok ? "true" : "false", t_sdf / total,
+      t_ro / total, t_check / total, t_write[1] / total, hexes / t_ro,
+      method == "mchex" ? hexes / ms.seconds_cells : 0.0, t_serial > 0 ? t_serial / t_ro : 0.0, hexes / total,
+      t_write[0] / t_write[1], t_write[2] / t_write[1]);
   return ok ? 0 : 1;
 }

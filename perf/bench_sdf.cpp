@@ -9,15 +9,14 @@
 #include <string>
 #include <vector>
 
-
+#include "core/base/parallel.h"
 #include "core/grid/grid.h"
-#include "perf/bench_common.h"
+#include "core/io/surface_io.h"
+#include "core/mesh/surface.h"
 #include "core/sdf/sdf.h"
 #include "core/sdf/shapes.h"
 #include "core/sdf/winding_number.h"
-#include "core/mesh/surface.h"
-#include "core/io/surface_io.h"
-#include "core/base/parallel.h"
+#include "perf/bench_common.h"
 
 using namespace mchex;
 using bench::seconds_of;
@@ -114,14 +113,16 @@ int main(int argc, char** argv) {
   std::printf("  1 thread : %10.3f M queries/s (%.2fx the distance query's time)\n", pts.size() / tw1 / 1e6, tw1 / t1);
   std::printf("  %d threads: %10.3f M queries/s\n", cores, pts.size() / twn / 1e6);
   std::printf("  SurfaceSdf(SignRule::kWindingNumber), 1 thread: %.3f M queries/s\n", pts.size() / ts1 / 1e6);
-  std::printf("brute force (paper's method) vs BVH, 1 thread, %zu triangles, %zu points\n", small.triangles.size(), small_pts.size());
-  std::printf("  brute force %.3f s, BVH %.4f s: BVH is %.1fx faster; max |difference| %.2e\n", tb, tv, tb / tv, max_diff);
+  std::printf("brute force (paper's method) vs BVH, 1 thread, %zu triangles, %zu points\n", small.triangles.size(),
+              small_pts.size());
+  std::printf("  brute force %.3f s, BVH %.4f s: BVH is %.1fx faster; max |difference| %.2e\n", tb, tv, tb / tv,
+              max_diff);
   std::printf("{\"bench\":\"sdf\",\"model\":\"%s\",\"triangles\":%zu,\"points\":%zu,\"queries_per_s_per_core\":%.0f,"
               "\"queries_per_s_all_cores\":%.0f,\"cores\":%d,\"brute_force_ratio\":%.2f,\"brute_triangles\":%zu,"
               "\"build_s\":%.4f,\"winding_queries_per_s_per_core\":%.0f,\"winding_queries_per_s_all_cores\":%.0f,"
               "\"winding_build_s\":%.4f,\"winding_signed_queries_per_s_per_core\":%.0f}\n",
-              model.empty() ? "torus" : model.c_str(), big.triangles.size(), pts.size(), per_core, pts.size() / tn, cores,
-              tb / tv, small.triangles.size(), tbuild, pts.size() / tw1, pts.size() / twn, twbuild,
+              model.empty() ? "torus" : model.c_str(), big.triangles.size(), pts.size(), per_core, pts.size() / tn,
+              cores, tb / tv, small.triangles.size(), tbuild, pts.size() / tw1, pts.size() / twn, twbuild,
               pts.size() / ts1);
   return 0;
 }

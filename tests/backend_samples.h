@@ -5,31 +5,31 @@
 #include <array>
 #include <bit>
 #include <cmath>
-#include <random>
-#include <utility>
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
+#include <random>
 #include <string>
+#include <utility>
 #include <vector>
 
-#include <gtest/gtest.h>
 #include <glob.h>
 #include <unistd.h>
+#include <gtest/gtest.h>
 
+#include "core/cutting/local_refinement.h"
+#include "core/cutting/mc33.h"
+#include "core/cutting/mchex_mesher.h"
+#include "core/device/backend.h"
 #include "core/grid/grid.h"
 #include "core/grid/hex_complex.h"
-#include "core/cutting/mchex_mesher.h"
-#include "core/cutting/mc33.h"
-#include "core/sdf/shapes.h"
-#include "core/io/surface_io.h"
-#include "host/backends/cpu.h"
-#include "core/device/backend.h"
-#include "core/cutting/local_refinement.h"
 #include "core/grid/refinement_error.h"
-#include "core/sdf/sdf.h"
+#include "core/io/surface_io.h"
 #include "core/mesh/surface.h"
+#include "core/sdf/sdf.h"
+#include "core/sdf/shapes.h"
+#include "host/backends/cpu.h"
 
 namespace mchex::test {
 
@@ -52,8 +52,7 @@ class LavapipeEnvironment : public ::testing::Environment {
   void SetUp() override {
     glob_t g{};
     std::string icd;
-    if (::glob("/usr/share/vulkan/icd.d/lvp_icd.*.json", 0, nullptr, &g) == 0 && g.gl_pathc > 0)
-      icd = g.gl_pathv[0];
+    if (::glob("/usr/share/vulkan/icd.d/lvp_icd.*.json", 0, nullptr, &g) == 0 && g.gl_pathc > 0) icd = g.gl_pathv[0];
     globfree(&g);
     // An empty VK_DRIVER_FILES would let the loader take every ICD; the tests' device-name
     // checks still fail then.
@@ -144,8 +143,7 @@ inline HexComplex separate_cells(std::size_t cells) {
 }
 
 inline void expect_same_as_reference(const HexComplex& complex, const std::vector<double>& values,
-                              const std::vector<CellCode>& codes,
-                              const std::vector<std::uint64_t>& offsets) {
+                                     const std::vector<CellCode>& codes, const std::vector<std::uint64_t>& offsets) {
   ASSERT_EQ(codes.size(), complex.cells.size());
   ASSERT_EQ(offsets.size(), complex.cells.size() + 1);
   std::uint64_t total = 0;
@@ -155,18 +153,17 @@ inline void expect_same_as_reference(const HexComplex& complex, const std::vecto
     for (int c = 0; c < 8; ++c) f[c] = values[complex.cells[i][c]];
     const CellClass r = classify(f);
     const CellCode& g = codes[i];
-    const bool same = g.subcase == r.subcase && g.sign_mask == r.sign_mask &&
-                      g.face_joins == r.face_joins && g.tunnel == r.tunnel &&
-                      g.symmetry == r.symmetry && (g.inverted != 0) == r.inverted &&
+    const bool same = g.subcase == r.subcase && g.sign_mask == r.sign_mask && g.face_joins == r.face_joins &&
+                      g.tunnel == r.tunnel && g.symmetry == r.symmetry && (g.inverted != 0) == r.inverted &&
                       g.cut_edges == r.cut_edges && offsets[i] == total;
     if (!same) {
       ++wrong;
       ADD_FAILURE() << "cell " << i << ": device subcase " << int(g.subcase) << " mask " << int(g.sign_mask)
-                    << " faces " << int(g.face_joins) << " tunnel " << int(g.tunnel) << " symmetry "
-                    << int(g.symmetry) << " inverted " << int(g.inverted) << " cut " << g.cut_edges
-                    << " offset " << offsets[i] << "; reference " << int(r.subcase) << " "
-                    << int(r.sign_mask) << " " << int(r.face_joins) << " " << int(r.tunnel) << " "
-                    << int(r.symmetry) << " " << r.inverted << " " << r.cut_edges << " " << total;
+                    << " faces " << int(g.face_joins) << " tunnel " << int(g.tunnel) << " symmetry " << int(g.symmetry)
+                    << " inverted " << int(g.inverted) << " cut " << g.cut_edges << " offset " << offsets[i]
+                    << "; reference " << int(r.subcase) << " " << int(r.sign_mask) << " " << int(r.face_joins) << " "
+                    << int(r.tunnel) << " " << int(r.symmetry) << " " << r.inverted << " " << r.cut_edges << " "
+                    << total;
     }
     total += static_cast<std::uint64_t>(local_refinement_hexes(r.subcase));  // the mesher's count
   }
@@ -246,14 +243,15 @@ inline std::vector<Vec3> adversarial_points(const TriangleSurface& s, std::mt199
   return pts;
 }
 
-inline void expect_bit_equal(const std::vector<double>& got, const std::vector<double>& want, const std::vector<Vec3>& pts) {
+inline void expect_bit_equal(const std::vector<double>& got, const std::vector<double>& want,
+                             const std::vector<Vec3>& pts) {
   ASSERT_EQ(got.size(), want.size());
   int wrong = 0;
   for (std::size_t i = 0; i < got.size() && wrong < 5; ++i)
     if (bits(got[i]) != bits(want[i])) {
       ++wrong;
-      ADD_FAILURE() << "point " << i << " (" << pts[i].x << ", " << pts[i].y << ", " << pts[i].z
-                    << "): device " << got[i] << " reference " << want[i];
+      ADD_FAILURE() << "point " << i << " (" << pts[i].x << ", " << pts[i].y << ", " << pts[i].z << "): device "
+                    << got[i] << " reference " << want[i];
     }
 }
 
@@ -264,7 +262,8 @@ inline std::vector<Vec3> grid_points_over(const TriangleSurface& s, int n) {
   for (int k = 0; k < n; ++k)
     for (int j = 0; j < n; ++j)
       for (int i = 0; i < n; ++i)
-        pts.push_back(cube.lo + Vec3{cube.size().x * i / (n - 1), cube.size().y * j / (n - 1), cube.size().z * k / (n - 1)});
+        pts.push_back(cube.lo +
+                      Vec3{cube.size().x * i / (n - 1), cube.size().y * j / (n - 1), cube.size().z * k / (n - 1)});
   return pts;
 }
 
@@ -306,7 +305,8 @@ inline std::vector<Vec3> feature_points(const TriangleSurface& s, std::size_t ra
   }
   for (std::size_t i = 0; i < random_count; ++i) {
     const Vec3 r{unit(rng), unit(rng), unit(rng)};
-    pts.push_back(box.lo - 0.2 * box.size() + Vec3{1.4 * r.x * box.size().x, 1.4 * r.y * box.size().y, 1.4 * r.z * box.size().z});
+    pts.push_back(box.lo - 0.2 * box.size() +
+                  Vec3{1.4 * r.x * box.size().x, 1.4 * r.y * box.size().y, 1.4 * r.z * box.size().z});
   }
   for (double far : {10.0, 1e3}) {
     pts.push_back(box.center() + Vec3{far * diag, 0, 0});
@@ -390,10 +390,12 @@ inline void add_smooth_rough_trilinear_and_flat_fields(std::mt19937_64& rng, int
   for (int i = 0; i < count; ++i) {
     const double size = std::ldexp(1.0, -(i % 7)) * (0.5 + 0.5 * std::abs(u(rng)));
     const double cx = u(rng), cy = u(rng), cz = u(rng);
-    add([&](double x, double y, double z) {
-      return 0.7 - std::sqrt((cx + size * x) * (cx + size * x) + (cy + size * y) * (cy + size * y) +
-                             (cz + size * z) * (cz + size * z));
-    }, size);
+    add(
+        [&](double x, double y, double z) {
+          return 0.7 - std::sqrt((cx + size * x) * (cx + size * x) + (cy + size * y) * (cy + size * y) +
+                                 (cz + size * z) * (cz + size * z));
+        },
+        size);
     add([&](double, double, double) { return u(rng); }, size);
     const double a = u(rng), b = u(rng), c = u(rng), d = u(rng);
     add([&](double x, double y, double z) { return a + b * x + c * y * z + d * x * y * z; }, size);

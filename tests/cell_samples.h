@@ -45,7 +45,8 @@ inline HexCorners random_affine_cube(std::mt19937_64& rng) {
     for (int i = 0; i < 8; ++i) {
       const Vec3 p = kUnitCubeCorners[i];
       c[i] = Vec3{a[0][0] * p.x + a[0][1] * p.y + a[0][2] * p.z, a[1][0] * p.x + a[1][1] * p.y + a[1][2] * p.z,
-                  a[2][0] * p.x + a[2][1] * p.y + a[2][2] * p.z} + t;
+                  a[2][0] * p.x + a[2][1] * p.y + a[2][2] * p.z} +
+             t;
     }
     return c;
   }

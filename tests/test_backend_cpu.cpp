@@ -10,20 +10,20 @@
 #include <random>
 #include <regex>
 
-#include "core/device/device_scene.h"
 #include "core/base/error.h"
-#include "core/grid/grid.h"
 #include "core/cutting/local_refinement.h"
 #include "core/cutting/mc33.h"
 #include "core/cutting/mchex_mesher.h"
+#include "core/device/backend.h"
+#include "core/device/cell_words.h"
+#include "core/device/device_scene.h"
+#include "core/grid/grid.h"
 #include "core/grid/refinement_error.h"
 #include "core/sdf/sdf.h"
 #include "core/sdf/shapes.h"
-#include "core/device/backend.h"
 #include "host/backends/cpu.h"
-#include "tests/backend_samples.h"
 #include "host/backends/registry.h"
-#include "core/device/cell_words.h"
+#include "tests/backend_samples.h"
 
 using namespace mchex;
 

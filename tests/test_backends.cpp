@@ -14,18 +14,18 @@
 // setup.sh installs both drivers, so on a full build nothing here may skip. The API-specific
 // questions (program and pipeline caches, buffer pools, device listing, texel limits) stay in
 // test_opencl.cpp and test_vulkan.cpp.
-#include <gtest/gtest.h>
 #include <unistd.h>
+#include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <memory>
 #include <random>
 #include <set>
 #include <stdexcept>
-#include <limits>
 #include <string>
 #include <vector>
 
@@ -71,8 +71,8 @@ std::string variant_name(const ::testing::TestParamInfo<Variant>& info) { return
 void PrintTo(const Variant& v, std::ostream* os) { *os << v.name; }
 
 // The variant's backend with the device's own chunks (max_chunk 0) or at most max_chunk items per
-// dispatch; made once per test process, variant and chunk (PoCL compiles its program in seconds). Empty with `why` set when the
-// variant cannot run here.
+// dispatch; made once per test process, variant and chunk (PoCL compiles its program in seconds). Empty with `why` set
+// when the variant cannot run here.
 Backend* backend_of(const Variant& v, std::size_t max_chunk, std::string& why) {
   static std::map<std::pair<std::string, std::size_t>, std::unique_ptr<Backend>> made;
   static std::map<std::pair<std::string, std::size_t>, std::string> failed;
@@ -209,9 +209,9 @@ TEST_P(Conformance, SurfaceSdfOnAGridOverAFineTorusIsCores) {
 // Every vertex, points along every edge and inside every triangle, pushed off by tiny and moderate
 // amounts, random and far points, on two tessellations and a real model.
 TEST_P(Conformance, SurfaceSdfIsCoresOnModelsAtTheirFeatures) {
-  for (const auto& [name, surface] : {std::pair{"torus", tessellate(ShapeKind::kTorus, 48)},
-                                      std::pair{"sphere", tessellate(ShapeKind::kSphere, 30)},
-                                      std::pair{"gearwheel", gearwheel()}}) {
+  for (const auto& [name, surface] :
+       {std::pair{"torus", tessellate(ShapeKind::kTorus, 48)}, std::pair{"sphere", tessellate(ShapeKind::kSphere, 30)},
+        std::pair{"gearwheel", gearwheel()}}) {
     SCOPED_TRACE(name);
     const std::vector<Vec3> pts = feature_points(surface, 20000, 7);
     std::vector<double> ref(pts.size()), got(pts.size());
@@ -348,7 +348,8 @@ TEST_P(Conformance, RefinementErrorAtRandomScalesIsCores) {
   }
   std::vector<double> ref(lattice.size()), got(lattice.size());
   make_cpu_backend()->refinement_error(lattice, sizes, ref);
-  for (std::size_t i = 0; i < lattice.size(); ++i) ASSERT_TRUE(same_bits(ref[i], refinement_error(lattice[i], sizes[i])));
+  for (std::size_t i = 0; i < lattice.size(); ++i)
+    ASSERT_TRUE(same_bits(ref[i], refinement_error(lattice[i], sizes[i])));
   whole().refinement_error(lattice, sizes, got);
   EXPECT_EQ(first_difference(ref, got), -1);
   std::size_t infinite = 0, zero = 0;
@@ -392,7 +393,8 @@ TEST_P(Conformance, ClassificationWithTiesAndTinyValues) {
   expect_same_classification(whole(), equal, "all equal");
   // Tiny values of the mesher's zero perturbation next to O(1) values, and wide ranges.
   std::uniform_int_distribution<int> e(-10, 3);
-  const CellBatch tiny = all_patterns(20, [&](int) { return rng() % 3 ? std::ldexp(1.0 + (rng() % 7) / 8.0, e(rng)) : 1e-10; });
+  const CellBatch tiny =
+      all_patterns(20, [&](int) { return rng() % 3 ? std::ldexp(1.0 + (rng() % 7) / 8.0, e(rng)) : 1e-10; });
   expect_same_classification(whole(), tiny, "tiny and wide");
   // Signed zeros count as outside, like any value <= 0.
   CellBatch zeros;

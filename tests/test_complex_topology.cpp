@@ -11,11 +11,11 @@
 #include <stdexcept>
 #include <vector>
 
+#include "core/cutting/mc33.h"
 #include "core/grid/complex_topology.h"
 #include "core/grid/grid.h"
-#include "core/mesh/hex_faces.h"
-#include "core/cutting/mc33.h"
 #include "core/grid/octree.h"
+#include "core/mesh/hex_faces.h"
 
 namespace mchex {
 namespace {

@@ -6,10 +6,10 @@
 
 #include "core/base/error.h"
 #include "core/check/fidelity.h"
-#include "core/grid/grid.h"
-#include "core/grid/hex_complex.h"
 #include "core/check/mesh_check.h"
 #include "core/cutting/ro.h"
+#include "core/grid/grid.h"
+#include "core/grid/hex_complex.h"
 #include "core/sdf/shapes.h"
 
 namespace mchex {

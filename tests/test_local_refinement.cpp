@@ -4,9 +4,9 @@
 #include <algorithm>
 #include <array>
 #include <bit>
-#include <cstdlib>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <map>
 #include <numeric>
 #include <random>
@@ -17,8 +17,8 @@
 #include "core/cutting/local_refinement.h"
 #include "core/cutting/mc33.h"
 #include "core/cutting/polyhedra.h"
-#include "core/mesh/quality.h"
 #include "core/cutting/subdivide.h"
+#include "core/mesh/quality.h"
 #include "tests/cell_samples.h"
 
 namespace mchex {
@@ -26,8 +26,8 @@ namespace {
 
 using Cell = std::array<double, 8>;
 using Corners = std::array<Vec3, 8>;
-constexpr double kEps = 1e-3;        // crossing clamp, the mesher's default
-constexpr double kZeroTol = 1e-10;   // the paper's forced magnitude
+constexpr double kEps = 1e-3;       // crossing clamp, the mesher's default
+constexpr double kZeroTol = 1e-10;  // the paper's forced magnitude
 
 Corners unit_cube() {
   Corners c;
@@ -40,9 +40,9 @@ Corners affine(const double a[3][3], Vec3 t) {
   Corners c;
   for (int i = 0; i < 8; ++i) {
     const Vec3 p = unit_cube()[i];
-    c[i] = Vec3{a[0][0] * p.x + a[0][1] * p.y + a[0][2] * p.z,
-                a[1][0] * p.x + a[1][1] * p.y + a[1][2] * p.z,
-                a[2][0] * p.x + a[2][1] * p.y + a[2][2] * p.z} + t;
+    c[i] = Vec3{a[0][0] * p.x + a[0][1] * p.y + a[0][2] * p.z, a[1][0] * p.x + a[1][1] * p.y + a[1][2] * p.z,
+                a[2][0] * p.x + a[2][1] * p.y + a[2][2] * p.z} +
+           t;
   }
   return c;
 }
@@ -75,9 +75,11 @@ std::vector<Geometry> geometries() {
   g.push_back({"frustum", frustum_child()});
   // A generic trilinear cell: the unit cube with its corners moved (no planar faces).
   Corners j = unit_cube();
+  // clang-format off
   const double d[8][3] = {{0.08, -0.05, 0.1},  {-0.1, 0.07, -0.04}, {0.05, 0.1, 0.06},
                           {-0.07, -0.06, 0.09}, {0.1, 0.04, -0.08}, {-0.06, -0.1, 0.05},
                           {0.07, -0.08, -0.1}, {-0.05, 0.09, 0.07}};
+  // clang-format on
   for (int i = 0; i < 8; ++i) j[i] += Vec3{d[i][0], d[i][1], d[i][2]};
   g.push_back({"trilinear", j});
   for (const auto& x : g) EXPECT_TRUE(bernstein_certified(x.corners)) << x.name;
@@ -112,12 +114,12 @@ std::map<Subcase, std::vector<Cell>> pools(int per, std::uint64_t seed) {
 // ---- One cell through the whole pipeline: refine if needed, cut, subdivide, glue ----------
 
 struct Outcome {
-  bool ok = true;            // all conditions below
-  std::string why;           // the first failure
+  bool ok = true;   // all conditions below
+  std::string why;  // the first failure
   long hexes = 0, certified = 0;
   double min_scaled = 1e300, min_sj = 1e300;
   int leaves = 0, levels = 0;
-  double volume_error = 0;   // |sum of hex volumes - cell volume| / cell volume
+  double volume_error = 0;  // |sum of hex volumes - cell volume| / cell volume
 };
 
 void fail(Outcome& o, const std::string& why) {
@@ -210,15 +212,13 @@ int torus_region(const CellClass& c) {
   if (c.tunnel == 0) return -1;
   int best = -1;
   for (int r = 0; r < c.num_regions; ++r)
-    if (c.regions[r].sign == -c.tunnel && (best < 0 || c.regions[r].count > c.regions[best].count))
-      best = r;
+    if (c.regions[r].sign == -c.tunnel && (best < 0 || c.regions[r].count > c.regions[best].count)) best = r;
   return best;
 }
 
 // forbidden: bit s <=> a leaf of subcase s is a failure (the search's subcases still without a
 // template).
-Outcome run_cell(const Corners& g, const Cell& f, const LocalRefinementTable& table,
-                 std::uint32_t forbidden = 0) {
+Outcome run_cell(const Corners& g, const Cell& f, const LocalRefinementTable& table, std::uint32_t forbidden = 0) {
   Outcome o;
   const CellClass c = classify(f);
   std::vector<std::array<std::uint32_t, 8>> leaves;
@@ -260,8 +260,7 @@ Outcome run_cell(const Corners& g, const Cell& f, const LocalRefinementTable& ta
           for (int q : kHexFaces[face])
             if (leaf[q] >= 8) fail(o, "an inner face of a leaf is ambiguous");
     }
-    if (table[int(lc.subcase)].refine || subcase_has_tunnel(lc.subcase) ||
-        (forbidden >> int(lc.subcase) & 1)) {
+    if (table[int(lc.subcase)].refine || subcase_has_tunnel(lc.subcase) || (forbidden >> int(lc.subcase) & 1)) {
       fail(o, "leaf subcase " + std::string(subcase_name(lc.subcase)) + " is not cut directly");
       return o;
     }
@@ -283,8 +282,7 @@ Outcome run_cell(const Corners& g, const Cell& f, const LocalRefinementTable& ta
   // Topology: the glued components are the cell's regions, balls except the torus.
   const auto comps = glue(leaves, polys);
   if (int(comps.size()) != c.num_regions) {
-    fail(o, "components " + std::to_string(comps.size()) + " != regions " +
-                std::to_string(c.num_regions));
+    fail(o, "components " + std::to_string(comps.size()) + " != regions " + std::to_string(c.num_regions));
     return o;
   }
   const int torus = torus_region(c);
@@ -296,8 +294,7 @@ Outcome run_cell(const Corners& g, const Cell& f, const LocalRefinementTable& ta
       fail(o, "a component matches no region");
       continue;
     }
-    if (k.euler != (match == torus ? 0 : 1))
-      fail(o, "region Euler characteristic " + std::to_string(k.euler));
+    if (k.euler != (match == torus ? 0 : 1)) fail(o, "region Euler characteristic " + std::to_string(k.euler));
   }
   return o;
 }
@@ -337,9 +334,8 @@ TEST(local_refinement, DISABLED_DirectSubcasesPerGeometry) {
 // 14) and the six tunnel subcases.
 std::vector<Subcase> refined_subcases() {
   using S = Subcase;
-  return {S::k3_2,  S::k6_2,  S::k7_2,   S::k7_3,   S::k10_2,  S::k11,   S::k12_2,
-          S::k13_2, S::k13_3, S::k13_4,  S::k14,    S::k4_1_2, S::k6_1_2, S::k7_4_2,
-          S::k10_1_2, S::k12_1_2, S::k13_5_2};
+  return {S::k3_2,  S::k6_2, S::k7_2,   S::k7_3,   S::k10_2,  S::k11,     S::k12_2,   S::k13_2,  S::k13_3,
+          S::k13_4, S::k14,  S::k4_1_2, S::k6_1_2, S::k7_4_2, S::k10_1_2, S::k12_1_2, S::k13_5_2};
 }
 
 struct Score {
@@ -349,8 +345,8 @@ struct Score {
   std::string why;
 };
 
-Score evaluate(Subcase s, const LocalRefinementTable& table, std::uint32_t forbidden,
-               const std::vector<Cell>& cells, int rotations) {
+Score evaluate(Subcase s, const LocalRefinementTable& table, std::uint32_t forbidden, const std::vector<Cell>& cells,
+               int rotations) {
   Score sc;
   sc.ok = true;
   for (std::size_t i = 0; i < cells.size(); ++i)
@@ -393,8 +389,7 @@ LocalRefinementTable search_templates(bool verbose) {
         if (!evaluate(s, trial, fb, {cells.begin(), cells.begin() + 3}, 2).ok) continue;
         const Score sc = evaluate(s, trial, fb, cells, 6);
         if (!sc.ok) continue;
-        if (best_t < 0 || sc.levels < best.levels ||
-            (sc.levels == best.levels && sc.hexes < best.hexes)) {
+        if (best_t < 0 || sc.levels < best.levels || (sc.levels == best.levels && sc.hexes < best.hexes)) {
           best = sc;
           best_t = t;
         }
@@ -402,8 +397,8 @@ LocalRefinementTable search_templates(bool verbose) {
       if (best_t < 0) continue;
       accepted[int(s)] = {true, static_cast<std::uint8_t>(best_t)};
       if (verbose)
-        std::printf("pass %d  %-7s template 0x%02X levels %d hexes %ld\n", pass,
-                    std::string(subcase_name(s)).c_str(), best_t, best.levels, best.hexes);
+        std::printf("pass %d  %-7s template 0x%02X levels %d hexes %ld\n", pass, std::string(subcase_name(s)).c_str(),
+                    best_t, best.levels, best.hexes);
     }
     for (Subcase s : refined_subcases())
       if (accepted[int(s)].refine) pending &= ~(1u << int(s));
@@ -418,8 +413,7 @@ TEST(local_refinement, TemplateSearchFindsTheBuiltInTable) {
   for (int s = 0; s < kNumSubcases; ++s) {
     EXPECT_EQ(found[s].refine, built_in[s].refine) << subcase_name(Subcase(s));
     if (found[s].refine) {
-      EXPECT_EQ(int(found[s].inner_positive), int(built_in[s].inner_positive))
-          << subcase_name(Subcase(s));
+      EXPECT_EQ(int(found[s].inner_positive), int(built_in[s].inner_positive)) << subcase_name(Subcase(s));
     }
   }
 }
@@ -500,18 +494,15 @@ TEST(local_refinement, VirtualValuesAreTheInterpolantWithTheTemplatesSign) {
       }
       v += w * f[k];
     }
-    if (v > 0)
-      EXPECT_DOUBLE_EQ(r.values[8 + i], v) << i;
-    else
-      EXPECT_EQ(r.values[8 + i], kZeroTol) << i;  // forced to the template's sign
+    if (v > 0) EXPECT_DOUBLE_EQ(r.values[8 + i], v) << i;
+    else EXPECT_EQ(r.values[8 + i], kZeroTol) << i;  // forced to the template's sign
     EXPECT_NEAR(r.points[8 + i].x, kCubeCorners[i][0] ? 0.75 : 0.25, 1e-15);
   }
   // Deterministic: the same input, the same output.
   const LocalRefinement again = refine_locally(unit_cube(), f, c, kZeroTol);
   EXPECT_EQ(again.values, r.values);
   EXPECT_EQ(again.cells, r.cells);
-  EXPECT_THROW(refine_locally(unit_cube(), {1, 1, 1, 1, 1, 1, 1, 1}, classify({1, 1, 1, 1, 1, 1, 1, 1}),
-                              kZeroTol),
+  EXPECT_THROW(refine_locally(unit_cube(), {1, 1, 1, 1, 1, 1, 1, 1}, classify({1, 1, 1, 1, 1, 1, 1, 1}), kZeroTol),
                std::invalid_argument);
 }
 
@@ -547,31 +538,30 @@ TEST(local_refinement, EveryCellCertifiesWithItsTopology) {
     for (const Cell& f : pool)
       for (int k = 0; k < 4; ++k) cells.push_back(transform_cell(f, sym(rng), k % 2 == 1));
   for (const Cell& f : cells) {
-        const std::uint8_t mask = classify(f).sign_mask;
-        const CellClass c = classify(f);
-        for (const Geometry& g : asserted) {
-          const Outcome o = run_cell(g.corners, f, local_refinement_table());
-          EXPECT_TRUE(o.ok) << "mask " << mask << " subcase " << subcase_name(c.subcase) << " "
-                            << g.name << ": " << o.why;
-          EXPECT_LT(o.volume_error, 1e-11) << "mask " << mask << " " << g.name;
-          EXPECT_EQ(o.hexes, local_refinement_hexes(c.subcase)) << subcase_name(c.subcase);
-          EXPECT_EQ(o.levels, local_refinement_levels(c.subcase)) << subcase_name(c.subcase);
-          Row& r = rows[c.subcase];
-          ++r.cells;
-          r.hexes += o.hexes;
-          r.certified += o.certified;
-          r.min_scaled = std::min(r.min_scaled, o.min_scaled);
-          r.min_sj = std::min(r.min_sj, o.min_sj);
-          r.leaves = o.leaves;
-          r.levels = o.levels;
-        }
-        for (const Geometry& g : measured) {
-          const Outcome o = run_cell(g.corners, f, local_refinement_table());
-          auto& m = measured_cells[g.name + " " + std::string(subcase_name(c.subcase))];
-          m.first += o.ok;
-          ++m.second;
-        }
-      }
+    const std::uint8_t mask = classify(f).sign_mask;
+    const CellClass c = classify(f);
+    for (const Geometry& g : asserted) {
+      const Outcome o = run_cell(g.corners, f, local_refinement_table());
+      EXPECT_TRUE(o.ok) << "mask " << mask << " subcase " << subcase_name(c.subcase) << " " << g.name << ": " << o.why;
+      EXPECT_LT(o.volume_error, 1e-11) << "mask " << mask << " " << g.name;
+      EXPECT_EQ(o.hexes, local_refinement_hexes(c.subcase)) << subcase_name(c.subcase);
+      EXPECT_EQ(o.levels, local_refinement_levels(c.subcase)) << subcase_name(c.subcase);
+      Row& r = rows[c.subcase];
+      ++r.cells;
+      r.hexes += o.hexes;
+      r.certified += o.certified;
+      r.min_scaled = std::min(r.min_scaled, o.min_scaled);
+      r.min_sj = std::min(r.min_sj, o.min_sj);
+      r.leaves = o.leaves;
+      r.levels = o.levels;
+    }
+    for (const Geometry& g : measured) {
+      const Outcome o = run_cell(g.corners, f, local_refinement_table());
+      auto& m = measured_cells[g.name + " " + std::string(subcase_name(c.subcase))];
+      m.first += o.ok;
+      ++m.second;
+    }
+  }
   EXPECT_EQ(rows.size(), std::size_t(kNumSubcases)) << "every subcase reached";
   long hexes = 0, certified = 0;
   double min_scaled = 1e300, min_sj = 1e300;
@@ -579,17 +569,17 @@ TEST(local_refinement, EveryCellCertifiesWithItsTopology) {
               "subcase  refined levels leaves hexes/cell   cells   hexes checked  min scaled beta  min SJ\n",
               kEps, kEps);
   for (const auto& [s, r] : rows) {
-    std::printf("%-8s %-7s %6d %6d %10d %7ld %15ld %16.2e %7.2e\n",
-                std::string(subcase_name(s)).c_str(), needs_local_refinement(s) ? "yes" : "no",
-                r.levels, r.leaves, local_refinement_hexes(s), r.cells, r.hexes, r.min_scaled,
-                r.min_sj);
+    std::printf("%-8s %-7s %6d %6d %10d %7ld %15ld %16.2e %7.2e\n", std::string(subcase_name(s)).c_str(),
+                needs_local_refinement(s) ? "yes" : "no", r.levels, r.leaves, local_refinement_hexes(s), r.cells,
+                r.hexes, r.min_scaled, r.min_sj);
     hexes += r.hexes;
     certified += r.certified;
     min_scaled = std::min(min_scaled, r.min_scaled);
     min_sj = std::min(min_sj, r.min_sj);
   }
   std::printf("all: %ld/%ld hexes certified, min scaled Bernstein coefficient %.3e, min scaled "
-              "Jacobian %.3e\n", certified, hexes, min_scaled, min_sj);
+              "Jacobian %.3e\n",
+              certified, hexes, min_scaled, min_sj);
   EXPECT_EQ(certified, hexes);
   std::printf("Measured only (cells with every hex certified and the topology kept):\n");
   for (const auto& [k, v] : measured_cells)

@@ -152,8 +152,7 @@ std::array<int, 8> flood_fill_corners(const Cell& f, int n) {
   std::vector<std::uint32_t> stack;
   int next = 0;
   for (int c = 0; c < 8; ++c) {
-    const std::uint32_t start = (kCubeCorners[c][2] * n * m + kCubeCorners[c][1] * n) * m +
-                                kCubeCorners[c][0] * n;
+    const std::uint32_t start = (kCubeCorners[c][2] * n * m + kCubeCorners[c][1] * n) * m + kCubeCorners[c][0] * n;
     if (cell[start] >> 1) {
       out[c] = cell[start] >> 1;
       continue;
@@ -272,8 +271,8 @@ TEST(mc33, SymmetriesAreTheFullOctahedralGroupDerivedFromTheCornerMap) {
     const int u[3] = {a[0] - o[0], a[1] - o[1], a[2] - o[2]};
     const int v[3] = {b[0] - o[0], b[1] - o[1], b[2] - o[2]};
     const int w[3] = {d[0] - o[0], d[1] - o[1], d[2] - o[2]};
-    const int det = u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) +
-                    u[2] * (v[0] * w[1] - v[1] * w[0]);
+    const int det =
+        u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) + u[2] * (v[0] * w[1] - v[1] * w[0]);
     ASSERT_TRUE(det == 1 || det == -1);
     EXPECT_EQ(g.reflection, det < 0) << gi;
     EXPECT_EQ(g.reflection, gi >= kNumCubeRotations) << gi;
@@ -326,13 +325,17 @@ TEST(mc33, TransformCellMovesValuesWithTheCorners) {
 TEST(mc33, AllSignPatternsFallIntoTheClassicFifteenClasses) {
   // Patterns per case with rotation and complement (the classic MC classes; they match the
   // configuration counts of Lewiner's tiling tables).
+  // clang-format off
   const std::map<int, int> expected = {{0, 2},  {1, 16}, {2, 24}, {3, 24}, {4, 8},
                                        {5, 48}, {6, 48}, {7, 16}, {8, 6},  {9, 8},
                                        {10, 6}, {11, 12}, {12, 24}, {13, 2}, {14, 12}};
+  // clang-format on
   // Ambiguous faces per case [C].
+  // clang-format off
   const std::map<int, int> ambiguous = {{0, 0}, {1, 0}, {2, 0},  {3, 1},  {4, 0},
                                         {5, 0}, {6, 1}, {7, 3},  {8, 0},  {9, 0},
                                         {10, 2}, {11, 0}, {12, 2}, {13, 6}, {14, 0}};
+  // clang-format on
   std::mt19937_64 rng(1);
   std::map<int, int> count;
   int nonempty = 0;
@@ -359,12 +362,13 @@ TEST(mc33, AllSignPatternsFallIntoTheClassicFifteenClasses) {
   EXPECT_EQ(count, expected);
   EXPECT_EQ(nonempty, 254);
   // Spot checks against Lewiner's cases[] (same corner order): index = positive corner mask.
+  // clang-format off
   const std::map<int, int> lewiner = {{1, 1},   {3, 2},   {5, 3},   {65, 4},  {11, 5},  {67, 6},
                                       {26, 7},  {15, 8},  {27, 9},  {39, 9},  {85, 10}, {195, 10},
                                       {23, 11}, {57, 11}, {99, 11}, {75, 12}, {165, 13}, {29, 14},
                                       {43, 14}, {71, 14}, {254, 1}, {240, 8}};
-  for (const auto& [mask, c] : lewiner)
-    EXPECT_EQ(mc_case_of(static_cast<std::uint8_t>(mask)), c) << mask;
+  // clang-format on
+  for (const auto& [mask, c] : lewiner) EXPECT_EQ(mc_case_of(static_cast<std::uint8_t>(mask)), c) << mask;
 }
 
 TEST(mc33, SubcaseTableNamesAndRepresentatives) {
@@ -416,7 +420,6 @@ bool case13_realisable(std::uint8_t face_joins) {
   }
   return !(both_pos && both_neg);
 }
-
 
 TEST(mc33, AsymptoticDeciderIsExactAndOrderFree) {
   // a = 2^27 + 1: (a-1)(a+1) = a^2 - 1 < a^2 exactly, but both products round to the same double,
@@ -474,8 +477,7 @@ TEST(mc33, ConfigTableExhaustiveOverPatternsAndFaceOutcomes) {
       const Mc33Config& cfg = mc33_config(mask, static_cast<std::uint8_t>(fj));
       const bool on_ambiguous = (fj & ~amb) == 0;
       const bool expected =
-          on_ambiguous &&
-          (mc_case_of(mask) != 13 || case13_realisable(static_cast<std::uint8_t>(fj)));
+          on_ambiguous && (mc_case_of(mask) != 13 || case13_realisable(static_cast<std::uint8_t>(fj)));
       ASSERT_EQ(cfg.realisable(), expected) << m << " " << fj;
       if (!expected) continue;
       ++realisable;
@@ -492,8 +494,7 @@ TEST(mc33, ConfigTableExhaustiveOverPatternsAndFaceOutcomes) {
         if (inv) moved = static_cast<std::uint8_t>(~moved);
         std::uint8_t faces = 0;
         for (int f = 0; f < 6; ++f)
-          if ((amb >> f & 1) && (fj >> f & 1) != inv)
-            faces |= static_cast<std::uint8_t>(1u << g.face[f]);
+          if ((amb >> f & 1) && (fj >> f & 1) != inv) faces |= static_cast<std::uint8_t>(1u << g.face[f]);
         EXPECT_EQ(moved, info.positive_mask) << m << " " << fj;
         EXPECT_EQ(faces, info.face_joins) << m << " " << fj;
         // Reflections only where the subcase holds both mirror images (12.2).
@@ -512,6 +513,7 @@ TEST(mc33, ConfigTableExhaustiveOverPatternsAndFaceOutcomes) {
   // realisable.
   EXPECT_EQ(realisable, 620);
   // Configurations per subcase (tunnel partners share theirs).
+  // clang-format off
   const std::map<Subcase, int> expected = {
       {Subcase::kEmpty, 2},   {Subcase::k1, 16},       {Subcase::k2, 24},
       {Subcase::k3_1, 24},    {Subcase::k3_2, 24},     {Subcase::k4_1_1, 8},
@@ -522,6 +524,7 @@ TEST(mc33, ConfigTableExhaustiveOverPatternsAndFaceOutcomes) {
       {Subcase::k12_1_1, 48}, {Subcase::k12_2, 48},    {Subcase::k13_1, 4},
       {Subcase::k13_2, 24},   {Subcase::k13_3, 48},    {Subcase::k13_4, 8},
       {Subcase::k13_5_1, 8},  {Subcase::k14, 12}};
+  // clang-format on
   EXPECT_EQ(per_subcase, expected);
 }
 
@@ -598,8 +601,7 @@ TEST(mc33, RandomSamplingReachesEveryOutcome) {
   for (const auto& [f, cc] : sampled_cells()) {
     ++hits[cc.subcase];
     for (int fi = 0; fi < 6; ++fi)
-      if (cc.ambiguous_faces >> fi & 1)
-        face_outcomes.insert({cc.sign_mask * 8 + fi, cc.face_joins >> fi & 1});
+      if (cc.ambiguous_faces >> fi & 1) face_outcomes.insert({cc.sign_mask * 8 + fi, cc.face_joins >> fi & 1});
   }
   // Every subcase with a face or interior test, so both outcomes of every interior test.
   for (const NotesRow& row : notes_table()) {
@@ -623,11 +625,10 @@ TEST(mc33, RandomSamplingReachesEveryOutcome) {
   std::set<Subcase> plain;
   for (int m = 1; m < 255; ++m) {
     const auto mask = static_cast<std::uint8_t>(m);
-    if (ambiguous_faces_of(mask) == 0 && mc_case_of(mask) != 4)
-      plain.insert(classify(random_cell(mask, rng)).subcase);
+    if (ambiguous_faces_of(mask) == 0 && mc_case_of(mask) != 4) plain.insert(classify(random_cell(mask, rng)).subcase);
   }
-  EXPECT_EQ(plain, (std::set<Subcase>{Subcase::k1, Subcase::k2, Subcase::k5, Subcase::k8,
-                                      Subcase::k9, Subcase::k11, Subcase::k14}));
+  EXPECT_EQ(plain, (std::set<Subcase>{Subcase::k1, Subcase::k2, Subcase::k5, Subcase::k8, Subcase::k9, Subcase::k11,
+                                      Subcase::k14}));
 }
 
 TEST(mc33, SampledCellsMatchNotesAndMapOntoTheirRepresentative) {
@@ -669,10 +670,8 @@ TEST(mc33, InvariantUnderAllSymmetriesAndComplement) {
         // Regions move with the corners and flip sign with the values.
         std::set<std::pair<int, int>> moved, got;
         for (int r = 0; r < cc.num_regions; ++r)
-          moved.insert({inv ? -cc.regions[r].sign : cc.regions[r].sign,
-                        move_mask(g, cc.regions[r].corners)});
-        for (int r = 0; r < dc.num_regions; ++r)
-          got.insert({dc.regions[r].sign, dc.regions[r].corners});
+          moved.insert({inv ? -cc.regions[r].sign : cc.regions[r].sign, move_mask(g, cc.regions[r].corners)});
+        for (int r = 0; r < dc.num_regions; ++r) got.insert({dc.regions[r].sign, dc.regions[r].corners});
         EXPECT_EQ(moved, got);
         // Face outcomes move with the faces (and flip under complement).
         for (int fi = 0; fi < 6; ++fi)
@@ -765,8 +764,7 @@ TEST(mc33, Case13_5AgreesWithBodyCriticalPoints) {
     }
   }
   EXPECT_GT(agree, 10);
-  std::cout << "13.5 tunnels: " << agree << " with both saddles inside, " << beyond
-            << " with one outside\n";
+  std::cout << "13.5 tunnels: " << agree << " with both saddles inside, " << beyond << " with one outside\n";
 }
 
 // ---- Crossings ------------------------------------------------------------------------------
@@ -796,8 +794,7 @@ TEST(mc33, CrossingsLieOnTheZeroPlaneOfALinearField) {
       EXPECT_EQ(s, f[a] / (f[a] - f[b]));
       EXPECT_TRUE(s >= 0 && s <= 1);
       double value = -c0;
-      for (int k = 0; k < 3; ++k)
-        value += n[k] * ((1 - s) * kCubeCorners[a][k] + s * kCubeCorners[b][k]);
+      for (int k = 0; k < 3; ++k) value += n[k] * ((1 - s) * kCubeCorners[a][k] + s * kCubeCorners[b][k]);
       EXPECT_NEAR(value, 0, 1e-12);
     }
     // A linear field never needs a face or interior test (its faces are never ambiguous).

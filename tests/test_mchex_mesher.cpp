@@ -9,21 +9,21 @@
 
 #include <algorithm>
 #include <chrono>
-#include <numeric>
-#include <random>
 #include <cstdio>
 #include <cstring>
+#include <numeric>
+#include <random>
 #include <string>
 #include <vector>
 
+#include "core/base/parallel.h"
 #include "core/check/fidelity.h"
+#include "core/check/mesh_check.h"
+#include "core/cutting/mchex_mesher.h"
+#include "core/cutting/ro.h"
 #include "core/grid/grid.h"
 #include "core/grid/hex_complex.h"
-#include "core/cutting/mchex_mesher.h"
-#include "core/check/mesh_check.h"
-#include "core/cutting/ro.h"
 #include "core/sdf/shapes.h"
-#include "core/base/parallel.h"
 
 namespace mchex {
 namespace {
@@ -69,9 +69,8 @@ TEST_P(MchexShapes, ConformingClosedAndCounted) {
               "mesh %.3f s\n",
               std::string(shape_name(kind)).c_str(), depth, r.grid.cell_count(), r.stats.refined_cells,
               r.mesh.inside.hexes.size(), r.mesh.outside.hexes.size(), r.stats.points,
-              qi.count ? 100.0 * qi.certified / qi.count : 100.0,
-              qo.count ? 100.0 * qo.certified / qo.count : 100.0, qi.min_scaled_jacobian,
-              qo.min_scaled_jacobian, r.seconds);
+              qi.count ? 100.0 * qi.certified / qi.count : 100.0, qo.count ? 100.0 * qo.certified / qo.count : 100.0,
+              qi.min_scaled_jacobian, qo.min_scaled_jacobian, r.seconds);
   EXPECT_TRUE(check.ok) << (check.errors.empty() ? "" : check.errors.front());
   EXPECT_EQ(qi.certified, qi.count);
   EXPECT_EQ(qo.certified, qo.count);
@@ -93,17 +92,17 @@ TEST_P(MchexShapes, ConformingClosedAndCounted) {
 // are narrower than the grid resolves (measured: its inside boundary is then one sphere, Euler
 // characteristic 2, still a valid conforming mesh), so its topology is tested from depth 3.
 // Depth 4 is 81^3 cells.
-INSTANTIATE_TEST_SUITE_P(
-    Shapes, MchexShapes,
-    testing::Values(Param{ShapeKind::kSphere, 2}, Param{ShapeKind::kSphere, 3}, Param{ShapeKind::kSphere, 4},
-                    Param{ShapeKind::kTorus, 2}, Param{ShapeKind::kTorus, 3}, Param{ShapeKind::kTorus, 4},
-                    Param{ShapeKind::kTwoHoled, 3}, Param{ShapeKind::kTwoHoled, 4}),
-    [](const testing::TestParamInfo<Param>& info) {
-      std::string name(shape_name(info.param.kind));
-      for (char& c : name)
-        if (c == '-') c = '_';
-      return name + "_depth" + std::to_string(info.param.depth);
-    });
+INSTANTIATE_TEST_SUITE_P(Shapes, MchexShapes,
+                         testing::Values(Param{ShapeKind::kSphere, 2}, Param{ShapeKind::kSphere, 3},
+                                         Param{ShapeKind::kSphere, 4}, Param{ShapeKind::kTorus, 2},
+                                         Param{ShapeKind::kTorus, 3}, Param{ShapeKind::kTorus, 4},
+                                         Param{ShapeKind::kTwoHoled, 3}, Param{ShapeKind::kTwoHoled, 4}),
+                         [](const testing::TestParamInfo<Param>& info) {
+                           std::string name(shape_name(info.param.kind));
+                           for (char& c : name)
+                             if (c == '-') c = '_';
+                           return name + "_depth" + std::to_string(info.param.depth);
+                         });
 
 TEST(Mchex, Deterministic) {
   const MchexRun a = mesh_shape(ShapeKind::kTorus, 3), b = mesh_shape(ShapeKind::kTorus, 3);
@@ -187,8 +186,7 @@ TEST(Mchex, RandomFieldsConformAndCertifyIncludingRefinedCells) {
   }
   std::size_t subcases_seen = 0;
   for (std::size_t n : seen) subcases_seen += n > 0;
-  std::printf("[mchex] random fields: %zu refined cells, %zu of 32 subcase slots seen\n", refined,
-              subcases_seen);
+  std::printf("[mchex] random fields: %zu refined cells, %zu of 32 subcase slots seen\n", refined, subcases_seen);
   EXPECT_EQ(subcases_seen, std::size_t(kMchexCaseSlots));
   EXPECT_GT(refined, 1000u);
 }
@@ -202,8 +200,8 @@ TEST(Mchex, SameBytesOnOneAndTwoThreads) {
     ThreadLimit limit(2);
     return mesh_shape(ShapeKind::kTwoHoled, 3);
   }();
-  for (const auto& [a, b] : {std::pair{&one.mesh.inside, &two.mesh.inside},
-                             std::pair{&one.mesh.outside, &two.mesh.outside}}) {
+  for (const auto& [a, b] :
+       {std::pair{&one.mesh.inside, &two.mesh.inside}, std::pair{&one.mesh.outside, &two.mesh.outside}}) {
     ASSERT_FALSE(a->hexes.empty());
     EXPECT_EQ(a->hexes, b->hexes);
     ASSERT_EQ(a->points.size(), b->points.size());
@@ -311,8 +309,8 @@ TEST(Mchex, FitsTheTorusBetterThanRemoveOutside) {
     const Fidelity a = measure_fidelity(mchex.inside, torus, samples, box, 96, spacing);
     const Fidelity b = measure_fidelity(ro.inside, torus, samples, box, 96, spacing);
     std::printf("[mchex] torus depth %d: IoU mchex %.4f ro %.4f, Hausdorff ratio mchex %.4f%% ro %.4f%% "
-                "(%zu unresolved samples)\n", depth, a.iou, b.iou, 100 * a.hausdorff_ratio, 100 * b.hausdorff_ratio,
-                a.unresolved);
+                "(%zu unresolved samples)\n",
+                depth, a.iou, b.iou, 100 * a.hausdorff_ratio, 100 * b.hausdorff_ratio, a.unresolved);
     EXPECT_GT(a.iou, b.iou) << "depth " << depth;
     EXPECT_LT(a.hausdorff_ratio, b.hausdorff_ratio) << "depth " << depth;
     // Samples whose hex the Newton inversion could not settle (thin hexes at crossings near

@@ -12,8 +12,8 @@
 #include <random>
 #include <string>
 
-#include "core/mesh/hex_faces.h"
 #include "core/check/mesh_check.h"
+#include "core/mesh/hex_faces.h"
 
 namespace mchex {
 namespace {
@@ -26,12 +26,9 @@ struct CellGrid {
   explicit CellGrid(std::array<int, 3> dims)
       : n(dims), inside(static_cast<std::size_t>(dims[0]) * dims[1] * dims[2], 0) {}
   std::size_t cell(int i, int j, int k) const {
-    return static_cast<std::size_t>(i) +
-           static_cast<std::size_t>(n[0]) * (j + static_cast<std::size_t>(n[1]) * k);
+    return static_cast<std::size_t>(i) + static_cast<std::size_t>(n[0]) * (j + static_cast<std::size_t>(n[1]) * k);
   }
-  bool valid(int i, int j, int k) const {
-    return i >= 0 && j >= 0 && k >= 0 && i < n[0] && j < n[1] && k < n[2];
-  }
+  bool valid(int i, int j, int k) const { return i >= 0 && j >= 0 && k >= 0 && i < n[0] && j < n[1] && k < n[2]; }
   void set(int i, int j, int k, bool v = true) { inside[cell(i, j, k)] = v ? 1 : 0; }
   bool in(int i, int j, int k) const { return inside[cell(i, j, k)] != 0; }
 
@@ -58,8 +55,8 @@ HexMesh build_mesh(const CellGrid& g, bool want, const Layout& layout = {}) {
   std::vector<uint32_t> index(static_cast<std::size_t>(px) * py * pz, UINT32_MAX);
   HexMesh m;
   auto point = [&](int i, int j, int k) {
-    uint32_t& id = index[static_cast<std::size_t>(i) +
-                         static_cast<std::size_t>(px) * (j + static_cast<std::size_t>(py) * k)];
+    uint32_t& id =
+        index[static_cast<std::size_t>(i) + static_cast<std::size_t>(px) * (j + static_cast<std::size_t>(py) * k)];
     if (id == UINT32_MAX) {
       id = static_cast<uint32_t>(m.points.size());
       m.points.push_back(layout.origin + layout.h * Vec3{double(i), double(j), double(k)});
@@ -69,9 +66,8 @@ HexMesh build_mesh(const CellGrid& g, bool want, const Layout& layout = {}) {
   g.for_each_cell([&](int i, int j, int k) {
     if (g.in(i, j, k) != want) return;
     // VTK_HEXAHEDRON order: bottom 0-1-2-3 counter-clockwise seen from +z, then the top.
-    m.hexes.push_back({point(i, j, k), point(i + 1, j, k), point(i + 1, j + 1, k),
-                       point(i, j + 1, k), point(i, j, k + 1), point(i + 1, j, k + 1),
-                       point(i + 1, j + 1, k + 1), point(i, j + 1, k + 1)});
+    m.hexes.push_back({point(i, j, k), point(i + 1, j, k), point(i + 1, j + 1, k), point(i, j + 1, k),
+                       point(i, j, k + 1), point(i + 1, j, k + 1), point(i + 1, j + 1, k + 1), point(i, j + 1, k + 1)});
   });
   m.region.assign(m.hexes.size(), want ? kInside : kOutside);
   if (layout.shuffle) {
@@ -111,10 +107,8 @@ Expected expected_counts(const CellGrid& g) {
         (a ? e.inside_box : e.outside_box) += 1;
       } else if (f < 3) {  // each pair once
         const bool b = g.in(x, y, z);
-        if (a != b)
-          ++e.interface;
-        else
-          (a ? e.inside_interior : e.outside_interior) += 1;
+        if (a != b) ++e.interface;
+        else (a ? e.inside_interior : e.outside_interior) += 1;
       }
     }
   });
@@ -168,8 +162,7 @@ void expect_pair_ok(const CellGrid& g, const MeshCheck& c) {
   EXPECT_EQ(c.outside->interior_faces, e.outside_interior);
   EXPECT_EQ(c.outside->boundary_faces, e.interface + e.outside_box);
   EXPECT_EQ(c.inside.boundary.quads, c.inside.boundary_faces);
-  const std::size_t cells_in =
-      static_cast<std::size_t>(std::count(g.inside.begin(), g.inside.end(), 1));
+  const std::size_t cells_in = static_cast<std::size_t>(std::count(g.inside.begin(), g.inside.end(), 1));
   EXPECT_EQ(c.inside.quality.count, cells_in);
   EXPECT_EQ(c.inside.quality.certified, cells_in);
   EXPECT_EQ(c.outside->quality.count, g.inside.size() - cells_in);
@@ -616,11 +609,11 @@ TEST(mesh_check, SameVerticesInADifferentCyclicOrderIsAMismatch) {
     }
   }
   auto id = [](int i, int j, int k) { return static_cast<uint32_t>(i + 2 * j + 4 * k); };
-  m.hexes.push_back({id(0, 0, 0), id(1, 0, 0), id(1, 1, 0), id(0, 1, 0), id(0, 0, 1), id(1, 0, 1),
-                     id(1, 1, 1), id(0, 1, 1)});
+  m.hexes.push_back(
+      {id(0, 0, 0), id(1, 0, 0), id(1, 1, 0), id(0, 1, 0), id(0, 0, 1), id(1, 0, 1), id(1, 1, 1), id(0, 1, 1)});
   // The upper hex's bottom lists (1,0,1) and (1,1,1) the other way round: a bow tie.
-  m.hexes.push_back({id(0, 0, 1), id(1, 1, 1), id(1, 0, 1), id(0, 1, 1), id(0, 0, 2), id(1, 0, 2),
-                     id(1, 1, 2), id(0, 1, 2)});
+  m.hexes.push_back(
+      {id(0, 0, 1), id(1, 1, 1), id(1, 0, 1), id(0, 1, 1), id(0, 0, 2), id(1, 0, 2), id(1, 1, 2), id(0, 1, 2)});
   m.region = {1, 1};
   const MeshCheck c = check_mesh(m, nullptr, nullptr);
   EXPECT_FALSE(c.ok);
@@ -678,8 +671,7 @@ TEST(mesh_check, MessagesAreTheFirstFewInElementOrder) {
   EXPECT_EQ(c.outside->bad_index_hexes, p.out.hexes.size());
   ASSERT_EQ(c.errors.size(), 5u);
   for (int i = 0; i < 5; ++i) {
-    EXPECT_EQ(c.errors[i].rfind("outside: hex " + std::to_string(i) + " has vertex index", 0), 0u)
-        << c.errors[i];
+    EXPECT_EQ(c.errors[i].rfind("outside: hex " + std::to_string(i) + " has vertex index", 0), 0u) << c.errors[i];
   }
   EXPECT_GT(c.error_count, 5u);
   options.max_messages = 0;

@@ -3,9 +3,9 @@
 // HexmeshSamples tests to check the same files against meshio, an independent reader and writer.
 #include "core/io/mesh_io.h"
 
-#include <gtest/gtest.h>
 #include <sys/resource.h>
 #include <unistd.h>
+#include <gtest/gtest.h>
 
 #include <algorithm>
 #include <atomic>
@@ -73,8 +73,8 @@ class TempDir {
  public:
   TempDir() {
     static std::atomic<int> serial{0};
-    path_ = fs::temp_directory_path() /
-            ("mchex_mesh_io_" + std::to_string(::getpid()) + "_" + std::to_string(serial++));
+    path_ =
+        fs::temp_directory_path() / ("mchex_mesh_io_" + std::to_string(::getpid()) + "_" + std::to_string(serial++));
     fs::remove_all(path_);
     fs::create_directories(path_);
   }
@@ -351,18 +351,16 @@ TEST(HexmeshWrite, WrittenTextIsWhatOtherToolsExpect) {
   one.hexes = {{0, 1, 2, 3, 4, 5, 6, 7}};
   one.region = {2};
   write_hex_mesh(one, dir / "one.mesh");
-  EXPECT_EQ(read_bytes(dir / "one.mesh"),
-            "MeshVersionFormatted 2\n\nDimension 3\n\nVertices\n8\n"
-            "0 0 0 0\n1 0 0 0\n1 1 0 0\n0 1 0 0\n0 0 1 0\n1 0 1 0\n1 1 1 0\n0 1 0.5 0\n"
-            "\nHexahedra\n1\n1 2 3 4 5 6 7 8 2\n\nEnd\n");
+  EXPECT_EQ(read_bytes(dir / "one.mesh"), "MeshVersionFormatted 2\n\nDimension 3\n\nVertices\n8\n"
+                                          "0 0 0 0\n1 0 0 0\n1 1 0 0\n0 1 0 0\n0 0 1 0\n1 0 1 0\n1 1 1 0\n0 1 0.5 0\n"
+                                          "\nHexahedra\n1\n1 2 3 4 5 6 7 8 2\n\nEnd\n");
   write_hex_mesh(one, dir / "one.msh");
-  EXPECT_EQ(read_bytes(dir / "one.msh"),
-            "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n"
-            "$PhysicalNames\n1\n3 2 \"region_2\"\n$EndPhysicalNames\n"
-            "$Entities\n0 0 0 1\n2 0 0 0 1 1 1 1 2 0\n$EndEntities\n"
-            "$Nodes\n1 8 1 8\n3 2 0 8\n1\n2\n3\n4\n5\n6\n7\n8\n"
-            "0 0 0\n1 0 0\n1 1 0\n0 1 0\n0 0 1\n1 0 1\n1 1 1\n0 1 0.5\n$EndNodes\n"
-            "$Elements\n1 1 1 1\n3 2 5 1\n1 1 2 3 4 5 6 7 8\n$EndElements\n");
+  EXPECT_EQ(read_bytes(dir / "one.msh"), "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n"
+                                         "$PhysicalNames\n1\n3 2 \"region_2\"\n$EndPhysicalNames\n"
+                                         "$Entities\n0 0 0 1\n2 0 0 0 1 1 1 1 2 0\n$EndEntities\n"
+                                         "$Nodes\n1 8 1 8\n3 2 0 8\n1\n2\n3\n4\n5\n6\n7\n8\n"
+                                         "0 0 0\n1 0 0\n1 1 0\n0 1 0\n0 0 1\n1 0 1\n1 1 1\n0 1 0.5\n$EndNodes\n"
+                                         "$Elements\n1 1 1 1\n3 2 5 1\n1 1 2 3 4 5 6 7 8\n$EndElements\n");
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -420,15 +418,18 @@ TEST(HexmeshMedit, BadFiles) {
       {head + vertices + "Hexahedra\n1\n1 2 3 4 5 6 7 9 1\nEnd\n",
        "line 15: hexahedron vertex index 9 is out of range 1..8"},
       {head + vertices + "Hexahedra\n1\n0 2 3 4 5 6 7 8 1\nEnd\n", "hexahedron vertex index 0 is out of range"},
-      {head + vertices + "Hexahedra\n1\n1 2 3 4 5 6 7 8 5000000000\nEnd\n", "line 15: region label 5000000000 does not fit in 32 bits"},
-      {head + vertices + "Hexahedra\n1\n1 2 3 4 5 6 7 8\nEnd\n", "expected a hexahedron reference (an integer), found 'End'"},
+      {head + vertices + "Hexahedra\n1\n1 2 3 4 5 6 7 8 5000000000\nEnd\n",
+       "line 15: region label 5000000000 does not fit in 32 bits"},
+      {head + vertices + "Hexahedra\n1\n1 2 3 4 5 6 7 8\nEnd\n",
+       "expected a hexahedron reference (an integer), found 'End'"},
       {head + vertices + "Hexahedra\n2\n1 2 3 4 5 6 7 8 1\n",
        "line 16: unexpected end of file where a hexahedron vertex index was expected (truncated file?)"},
       {head + vertices + "Hexahedra\n3\n1 2 3 4 5 6 7 8 1\n", "Hexahedra count 3 is more than the rest of the file"},
       {head + vertices + "Hexahedra\n1\n1 2 3 4 5 6 7 8 1\n", "no End keyword (truncated file?)"},
       {head + vertices + "Hexahedra\n999999999999999\n1 2 3 4 5 6 7 8 1\nEnd\n",
        "Hexahedra count 999999999999999 is more than the rest of the file can hold"},
-      {head + vertices + "Hexahedra\n99999999999999999999999\n", "Hexahedra count 99999999999999999999999 is out of range"},
+      {head + vertices + "Hexahedra\n99999999999999999999999\n",
+       "Hexahedra count 99999999999999999999999 is out of range"},
       {head + vertices + "Hexahedra\n-1\n", "Hexahedra count -1 is out of range"},
       {head + vertices + "Tetrahedra\n1\n1 2 3 4 1\nEnd\n", "line 14: 1 Tetrahedra: only all-hex meshes can be read"},
       {head + vertices + "Prisms 1 1 2 3 4 5 6 0\nEnd\n", "1 Prisms: only all-hex meshes can be read"},
@@ -504,9 +505,8 @@ TEST(HexmeshGmsh, WithoutEntitiesTheEntityTagIsTheRegion) {
 TEST(HexmeshGmsh, BadFiles) {
   TempDir dir;
   const std::string format = "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n";
-  const std::string nodes =
-      "$Nodes\n1 8 1 8\n3 1 0 8\n1\n2\n3\n4\n5\n6\n7\n8\n"
-      "0 0 0\n1 0 0\n1 1 0\n0 1 0\n0 0 1\n1 0 1\n1 1 1\n0 1 1\n$EndNodes\n";
+  const std::string nodes = "$Nodes\n1 8 1 8\n3 1 0 8\n1\n2\n3\n4\n5\n6\n7\n8\n"
+                            "0 0 0\n1 0 0\n1 1 0\n0 1 0\n0 0 1\n1 0 1\n1 1 1\n0 1 1\n$EndNodes\n";
   const std::string hexes = "$Elements\n1 1 1 1\n3 1 5 1\n1 1 2 3 4 5 6 7 8\n$EndElements\n";
   ASSERT_EQ(read_text(dir, "ok.msh", format + nodes + hexes).hexes.size(), 1u);
 
@@ -528,14 +528,18 @@ TEST(HexmeshGmsh, BadFiles) {
       {format + nodes + "$Elements\n2 2 1 2\n3 1 5 1\n1 1 2 3 4 5 6 7 8\n3 1 5 1\n1 1 2 3 4 5 6 7 8\n$EndElements\n",
        "element tag 1 is used twice"},
       {format + "$Nodes\n1 2 1 2\n3 1 0 2\n1\n1\n0 0 0\n1 1 1\n$EndNodes\n" + hexes, "node tag 1 is used twice"},
-      {format + "$Nodes\n1 1 1 1\n3 1 0 1\n1\n0 nan 0\n$EndNodes\n", "line 8: a node coordinate 'nan' is not a finite number"},
+      {format + "$Nodes\n1 1 1 1\n3 1 0 1\n1\n0 nan 0\n$EndNodes\n",
+       "line 8: a node coordinate 'nan' is not a finite number"},
       {format + "$Nodes\n1 99999999999 1 1\n", "node count 99999999999 is more than the rest of the file can hold"},
-      {format + "$Nodes\n1 8 1 8\n3 1 0 8\n1\n2\n3\n4\n5\n6\n7\n8\n0 0 0\n", "line 5: node count 8 is more than the rest"},
-      {format + "$Nodes\n1 2 1 2\n3 1 0 2\n1\n2\n0 0 0\n1 1", "unexpected end of file where a node coordinate was expected"},
+      {format + "$Nodes\n1 8 1 8\n3 1 0 8\n1\n2\n3\n4\n5\n6\n7\n8\n0 0 0\n",
+       "line 5: node count 8 is more than the rest"},
+      {format + "$Nodes\n1 2 1 2\n3 1 0 2\n1\n2\n0 0 0\n1 1",
+       "unexpected end of file where a node coordinate was expected"},
       {format + nodes + "$Elements\n1 1 1 1\n2 1 3 1\n", "unexpected end of file where an element was expected"},
       {format + "$Foo\n1 2 3\n", "unexpected end of file where '$EndFoo' was expected"},
       {format + "$EndNodes\n", "'$EndNodes' without its opening section"},
-      {format + nodes + "$Elements\n1 1 1 1\n4 1 5 1\n1 1 2 3 4 5 6 7 8\n$EndElements\n", "entity dimension 4 is not 0..3"},
+      {format + nodes + "$Elements\n1 1 1 1\n4 1 5 1\n1 1 2 3 4 5 6 7 8\n$EndElements\n",
+       "entity dimension 4 is not 0..3"},
   };
   for (const auto& [content, reason] : cases) expect_read_error(dir, "bad.msh", content, reason);
 }
@@ -596,7 +600,8 @@ std::string vtu_file(std::size_t points, std::size_t cells, const std::string& a
          "<VTKFile type='UnstructuredGrid' version='0.1' byte_order='" + (big_endian ? "BigEndian" : "LittleEndian") +
          "'>\n<UnstructuredGrid>\n<Piece NumberOfPoints=\"" + std::to_string(points) + "\" NumberOfCells=\"" +
          std::to_string(cells) + "\">\n<PointData></PointData>\n<Points>\n" + arrays_points + "</Points>\n<Cells>\n" +
-         arrays_cells + "</Cells>\n<CellData>\n" + arrays_cell_data + "</CellData>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n";
+         arrays_cells + "</Cells>\n<CellData>\n" + arrays_cell_data +
+         "</CellData>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n";
 }
 
 TEST(HexmeshVtu, ReadsInlineAsciiAndBase64InEitherByteOrder) {
@@ -676,16 +681,21 @@ TEST(HexmeshVtu, BadFiles) {
       {replaced("byte_order=", "compressor=\"vtkZLibDataCompressor\" byte_order="),
        "VTU: compressed data (vtkZLibDataCompressor) is not supported"},
       {replaced("type=\"UnstructuredGrid\"", "type=\"PolyData\""), "VTK file type 'PolyData' is not supported"},
-      {replaced("offset=\"0\"", "offset=\"9999999\""), "DataArray 'Points': offset 9999999 is past the end of the file"},
-      {replaced("NumberOfPoints=\"27\"", "NumberOfPoints=\"26\""), "DataArray 'Points' holds 648 bytes where 624 are expected"},
-      {replaced("NumberOfPoints=\"27\"", "NumberOfPoints=\"99999999999999999\""), "points are more than 32-bit indices can address"},
-      {replaced("NumberOfCells=\"8\"", "NumberOfCells=\"99999999\""), "DataArray 'offsets': 99999999 values cannot fit in this file"},
+      {replaced("offset=\"0\"", "offset=\"9999999\""),
+       "DataArray 'Points': offset 9999999 is past the end of the file"},
+      {replaced("NumberOfPoints=\"27\"", "NumberOfPoints=\"26\""),
+       "DataArray 'Points' holds 648 bytes where 624 are expected"},
+      {replaced("NumberOfPoints=\"27\"", "NumberOfPoints=\"99999999999999999\""),
+       "points are more than 32-bit indices can address"},
+      {replaced("NumberOfCells=\"8\"", "NumberOfCells=\"99999999\""),
+       "DataArray 'offsets': 99999999 values cannot fit in this file"},
       {replaced("NumberOfCells=\"8\"", "NumberOfCells=\"x\""), "<Piece> has no valid NumberOfCells"},
       {replaced("Name=\"types\"", "Name=\"kinds\""), "no DataArray 'types' in <Cells>"},
       {replaced("<Points>", "<Points></Points><Points>"), "more than one <Points>"},
       {replaced("</Piece>", "</Piece><Piece NumberOfPoints=\"0\" NumberOfCells=\"0\"></Piece>"),
        "more than one <Piece>: only single-piece files can be read"},
-      {replaced("type=\"UInt8\"", "type=\"Float32\""), "DataArray 'types' holds floating-point values where integers are expected"},
+      {replaced("type=\"UInt8\"", "type=\"Float32\""),
+       "DataArray 'types' holds floating-point values where integers are expected"},
       {replaced("type=\"UInt8\"", "type=\"Int128\""), "DataArray 'types' has unknown type 'Int128'"},
       {replaced("encoding=\"raw\"", "encoding=\"zip\""), "unknown AppendedData encoding 'zip'"},
       {replaced("</Cells>", "</Cell>"), "XML: unexpected </Cell>"},

@@ -6,23 +6,22 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <mutex>
 #include <random>
-#include <cmath>
 #include <set>
 
-
+#include "core/base/parallel.h"
+#include "core/check/mesh_check.h"
+#include "core/cutting/mc33.h"
+#include "core/cutting/ro.h"
 #include "core/grid/cell_types.h"
 #include "core/grid/grid.h"
 #include "core/grid/hex_complex.h"
-#include "core/cutting/mc33.h"
-#include "core/check/mesh_check.h"
 #include "core/grid/octree.h"
 #include "core/grid/refinement_error.h"
-#include "core/cutting/ro.h"
 #include "core/sdf/shapes.h"
-#include "core/base/parallel.h"
 
 namespace mchex {
 namespace {
@@ -103,7 +102,7 @@ TEST(octree, SingleRefinedCellGivesNodeEdgeAndFaceTemplates) {
   Octree t(kUnitCube, 2);
   t.refine(0, octree_key(0, 0, 0));
   t.refine(1, octree_key(1, 1, 1));  // the centre child: its 26 neighbours need templates
-  EXPECT_EQ(balance_octree(t), 0u);   // already balanced
+  EXPECT_EQ(balance_octree(t), 0u);  // already balanced
   EXPECT_TRUE(octree_balanced(t));
   const AdaptiveGrid g = build_adaptive_complex(t);
   // 6 face, 12 edge and 8 node neighbours around the refined centre (a face of the centre, an
@@ -232,8 +231,9 @@ TEST(octree, OneSdfBatchPerLevelAndEveryPointOnce) {
       smooth += may_hold && e <= tolerance;
     }
   }
-  std::printf("refined %zu; not refined: %zu surface-free with error over the tolerance, %zu holding the surface with error under it\n",
-              refined, clear, smooth);
+  std::printf(
+      "refined %zu; not refined: %zu surface-free with error over the tolerance, %zu holding the surface with error under it\n",
+      refined, clear, smooth);
   EXPECT_GT(refined, 0u);
   EXPECT_GT(clear, 0u) << "the sphere's centre (the SDF's kink) has a large error and no surface";
 }
@@ -335,7 +335,8 @@ TEST(octree, RefinementFollowsTheSurfaceNotTheMedialAxis) {
         std::vector<Vec3> p;
         for (int a = 0; a <= 9; ++a)
           for (int b = 0; b <= 9; ++b)
-            for (int c = 0; c <= 9; ++c) p.push_back(cube.lo + Vec3{(i + a / 9.0) * h, (j + b / 9.0) * h, (k + c / 9.0) * h});
+            for (int c = 0; c <= 9; ++c)
+              p.push_back(cube.lo + Vec3{(i + a / 9.0) * h, (j + b / 9.0) * h, (k + c / 9.0) * h});
         std::vector<double> f(p.size());
         shape.evaluate(p, f);
         for (double x : f) {
@@ -405,7 +406,8 @@ TEST(octree, ComplexReusesTheRefinementSamples) {
   const ShapeSdf sphere(ShapeKind::kSphere);
   const TriangleSurface mesh = tessellate(ShapeKind::kTorus, 48);
   const SurfaceSdf torus(mesh);
-  for (const SignedDistance* sdf : {static_cast<const SignedDistance*>(&sphere), static_cast<const SignedDistance*>(&torus)}) {
+  for (const SignedDistance* sdf :
+       {static_cast<const SignedDistance*>(&sphere), static_cast<const SignedDistance*>(&torus)}) {
     const Box cube = padded_cube(sdf->bounds(), 0.1);
     RecordingSdf rec(*sdf);
     OctreeStats stats;
@@ -422,7 +424,8 @@ TEST(octree, ComplexReusesTheRefinementSamples) {
     EXPECT_LE(reused, evaluated_in_refinement);
     evaluate_unsampled(g, rec);
     EXPECT_EQ(rec.batches.size(), std::size_t(std::count_if(stats.levels.begin(), stats.levels.end(),
-                                                            [](const OctreeLevelStats& l) { return l.sampled > 0; })) + 1)
+                                                            [](const OctreeLevelStats& l) { return l.sampled > 0; })) +
+                                      1)
         << "one more batch, for the unsampled points";
     EXPECT_TRUE(g.unsampled.empty());
     std::vector<double> fresh(g.complex.points.size());
@@ -452,7 +455,8 @@ TEST(octree, SameComplexOnOneAndTwoThreads) {
   }
   ASSERT_EQ(one.complex.points.size(), two.complex.points.size());
   ASSERT_EQ(one.complex.cells.size(), two.complex.cells.size());
-  EXPECT_EQ(std::memcmp(one.complex.points.data(), two.complex.points.data(), one.complex.points.size() * sizeof(Vec3)), 0);
+  EXPECT_EQ(std::memcmp(one.complex.points.data(), two.complex.points.data(), one.complex.points.size() * sizeof(Vec3)),
+            0);
   EXPECT_EQ(one.complex.cells, two.complex.cells);
   EXPECT_EQ(one.cell_type, two.cell_type);
   EXPECT_EQ(one.unsampled, two.unsampled);
@@ -479,9 +483,10 @@ TEST(octree, SphereAtMaxDepth5Threshold005) {
   // is under 0.05 of a finest cell (2 h^2 / R against 0.05 h, h = 2.4 / 243, R = 1).
   EXPECT_EQ(g.levels, 5);
   expect_conforming(g, "sphere");
-  std::printf("sphere depth 5 threshold 0.05: %zu cells (uniform depth 4: 531441), leaves cube/node/edge/face %zu/%zu/%zu/%zu, balance rounds %d\n",
-              g.complex.cells.size(), g.leaves_per_template[0], g.leaves_per_template[1],
-              g.leaves_per_template[2], g.leaves_per_template[3], stats.balance_rounds);
+  std::printf(
+      "sphere depth 5 threshold 0.05: %zu cells (uniform depth 4: 531441), leaves cube/node/edge/face %zu/%zu/%zu/%zu, balance rounds %d\n",
+      g.complex.cells.size(), g.leaves_per_template[0], g.leaves_per_template[1], g.leaves_per_template[2],
+      g.leaves_per_template[3], stats.balance_rounds);
   const ShapeSdf sphere(ShapeKind::kSphere);
   evaluate_unsampled(g, sphere);
   const MeshPair m = remove_outside(g.complex, g.values);

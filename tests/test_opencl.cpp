@@ -5,9 +5,9 @@
 // write byte-identical files). The questions every backend answers (surface and shape SDF,
 // refinement error, classification, crossings, chunking, against core bit for bit) are
 // tests/test_backends.cpp's, asked of opencl and its forced fp32 path there.
-#include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
+#include <gtest/gtest.h>
 
 #include <bit>
 #include <cmath>
@@ -20,21 +20,21 @@
 #include <sstream>
 
 #include "core/base/error.h"
-#include "core/grid/grid.h"
-#include "core/grid/hex_complex.h"
 #include "core/cutting/local_refinement.h"
 #include "core/cutting/mc33.h"
 #include "core/cutting/mchex_mesher.h"
+#include "core/device/backend.h"
+#include "core/grid/grid.h"
+#include "core/grid/hex_complex.h"
 #include "core/grid/refinement_error.h"
+#include "core/io/surface_io.h"
+#include "core/mesh/surface.h"
 #include "core/sdf/sdf.h"
 #include "core/sdf/shapes.h"
-#include "core/mesh/surface.h"
-#include "tests/backend_samples.h"
-#include "core/device/backend.h"
 #include "host/backends/cpu.h"
 #include "host/backends/opencl.h"
-#include "core/io/surface_io.h"
 #include "host/backends/registry.h"
+#include "tests/backend_samples.h"
 
 namespace fs = std::filesystem;
 using namespace mchex;
@@ -220,9 +220,9 @@ OpenclBackend& fp32_device() {
 // near all its triangles) and far points; the UV sphere's poles have 30 triangles around one
 // vertex (more than the kernel's candidate list: those points go to the host whole).
 TEST(OpenclFp32, SurfaceSdfEqualsReferenceBitForBit) {
-  for (const auto& [name, surface] : {std::pair{"torus", tessellate(ShapeKind::kTorus, 48)},
-                                      std::pair{"sphere", tessellate(ShapeKind::kSphere, 30)},
-                                      std::pair{"gearwheel", gearwheel()}}) {
+  for (const auto& [name, surface] :
+       {std::pair{"torus", tessellate(ShapeKind::kTorus, 48)}, std::pair{"sphere", tessellate(ShapeKind::kSphere, 30)},
+        std::pair{"gearwheel", gearwheel()}}) {
     SCOPED_TRACE(name);
     std::vector<Vec3> pts = feature_points(surface, 20000, 17);
     // Values at +-1e-10 (the mesher's zero tolerance scale) off the faces.
@@ -275,9 +275,10 @@ void expect_same_mesh_files(const std::string& input_args, const std::string& ta
   for (int k = 0; k < 2; ++k) {
     const std::string backend = k ? "opencl" : "cpu";
     const fs::path in = dir / (backend + "-inside.mesh"), out = dir / (backend + "-outside.mesh");
-    const std::string cmd = (k ? env + " " : std::string()) + "XDG_CACHE_HOME=" + (fs::temp_directory_path() / "mchex_test_opencl_cli_cache").string() + " " + MCHEX_BINARY +
-                            " --quiet mesh " + input_args + " --backend " + backend + " -o " + in.string() +
-                            " --outside " + out.string();
+    const std::string cmd = (k ? env + " " : std::string()) +
+                            "XDG_CACHE_HOME=" + (fs::temp_directory_path() / "mchex_test_opencl_cli_cache").string() +
+                            " " + MCHEX_BINARY + " --quiet mesh " + input_args + " --backend " + backend + " -o " +
+                            in.string() + " --outside " + out.string();
     ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
     files[k][0] = slurp(in);
     files[k][1] = slurp(out);
@@ -308,6 +309,7 @@ TEST(OpenclCli, Fp32PathMeshIsByteIdenticalToCpu) {
 }
 
 TEST(OpenclCli, UnknownBackendExitsOne) {
-  const std::string cmd = std::string(MCHEX_BINARY) + " --quiet mesh --shape sphere --backend cuda -o /dev/null 2>/dev/null";
+  const std::string cmd =
+      std::string(MCHEX_BINARY) + " --quiet mesh --shape sphere --backend cuda -o /dev/null 2>/dev/null";
   EXPECT_EQ(WEXITSTATUS(std::system(cmd.c_str())), 1);
 }

@@ -39,8 +39,8 @@ TriangleSurface sphere(Vec3 centre, double radius, int stacks = 12, int slices =
   for (int k = 1; k < stacks; ++k) {
     for (int j = 0; j < slices; ++j) {
       const double phi = pi * k / stacks, theta = 2 * pi * j / slices;
-      s.vertices.push_back(centre + radius * Vec3{std::sin(phi) * std::cos(theta), std::sin(phi) * std::sin(theta),
-                                                  std::cos(phi)});
+      s.vertices.push_back(
+          centre + radius * Vec3{std::sin(phi) * std::cos(theta), std::sin(phi) * std::sin(theta), std::cos(phi)});
     }
   }
   s.vertices.push_back(centre - Vec3{0, 0, radius});
@@ -104,7 +104,9 @@ bool same(const TriangleSurface& a, const TriangleSurface& b) {
          std::equal(a.vertices.begin(), a.vertices.end(), b.vertices.begin());
 }
 
-double sphere_volume(double r, int stacks = 12, int slices = 16) { return validate_surface(sphere({}, r, stacks, slices)).volume; }
+double sphere_volume(double r, int stacks = 12, int slices = 16) {
+  return validate_surface(sphere({}, r, stacks, slices)).volume;
+}
 
 // ---------------------------------------------------------------------------------------------
 // Repairs
@@ -356,8 +358,8 @@ TEST(orientation, MoebiusBandIsNonOrientable) {
   for (int i = 0; i < n; ++i) {
     const double theta = 2 * pi * i / n, phi = theta / 2;
     for (double w : {0.3, -0.3}) {
-      s.vertices.push_back({(2 + w * std::cos(phi)) * std::cos(theta), (2 + w * std::cos(phi)) * std::sin(theta),
-                            w * std::sin(phi)});
+      s.vertices.push_back(
+          {(2 + w * std::cos(phi)) * std::cos(theta), (2 + w * std::cos(phi)) * std::sin(theta), w * std::sin(phi)});
     }
   }
   for (uint32_t i = 0; i < n; ++i) {
@@ -464,8 +466,8 @@ TEST(orientation, PermutedInputGivesTheSameResult) {
 }
 
 TEST(orientation, ThreadCountDoesNotChangeTheResult) {
-  TriangleSurface soup = join({inside_out(sphere({}, 3, 40, 60)), sphere({0.2, 0, 0}, 2, 40, 60),
-                               sphere({2.5, 0, 0}, 1, 40, 60)});
+  TriangleSurface soup =
+      join({inside_out(sphere({}, 3, 40, 60)), sphere({0.2, 0, 0}, 2, 40, 60), sphere({2.5, 0, 0}, 1, 40, 60)});
   for (std::size_t t = 0; t < soup.triangles.size(); t += 3) soup.triangles[t] = flipped(soup.triangles[t]);
   TriangleSurface threaded = soup, serial = soup;
   const OrientationReport a = repair_orientation(threaded);
@@ -564,8 +566,8 @@ OrientationReport repair_file(const fs::path& path) {
   const OrientationReport r = repair_orientation(s);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const SurfaceReport after = validate_surface(s);
-  std::cout << path.filename().string() << " (" << before.triangles << " triangles, " << seconds << " s): "
-            << before.inconsistent_edges << " inconsistent edges, volume " << before.volume << " -> "
+  std::cout << path.filename().string() << " (" << before.triangles << " triangles, " << seconds
+            << " s): " << before.inconsistent_edges << " inconsistent edges, volume " << before.volume << " -> "
             << after.volume << "; " << describe(r) << "\n";
   if (r.nonorientable_components == 0) {
     EXPECT_EQ(after.inconsistent_edges, 0u) << path;

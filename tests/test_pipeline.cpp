@@ -6,8 +6,8 @@
 // their check; the report must carry its keys with the run's values; the stage times must not
 // add up to more than the wall time; and each error must come as its exception type, before any
 // backend is opened where the request is refused up front.
-#include <gtest/gtest.h>
 #include <unistd.h>
+#include <gtest/gtest.h>
 
 #include <chrono>
 #include <cstdio>
@@ -79,7 +79,8 @@ void expect_sound(const Timed& t) {
 
   const MeshOutputs outputs{"in.mesh", "out.vtu"};
   const nlohmann::json r = report_json(run, &outputs);
-  for (const char* key : {"input", "method", "backend", "grid", "elements", "check", "outputs", "times", "peak_memory_bytes"})
+  for (const char* key :
+       {"input", "method", "backend", "grid", "elements", "check", "outputs", "times", "peak_memory_bytes"})
     EXPECT_TRUE(r.contains(key)) << key;
   EXPECT_EQ(r["method"], run.options.method);
   EXPECT_EQ(r["backend"]["name"], "cpu");

@@ -33,9 +33,9 @@
 #include "core/cutting/local_refinement.h"
 #include "core/cutting/mc33.h"
 #include "core/cutting/polyhedra.h"
-#include "core/mesh/quality.h"
 #include "core/cutting/repair.h"
 #include "core/cutting/subdivide.h"
+#include "core/mesh/quality.h"
 #include "tests/cell_samples.h"
 
 namespace mchex {
@@ -120,8 +120,7 @@ Shape check_polyhedron(const Polyhedron& p, const std::string& where) {
   std::map<std::pair<std::uint32_t, std::uint32_t>, int> directed;
   for (const auto& face : p.faces) {
     EXPECT_GE(face.size(), 3u) << where;
-    for (std::size_t i = 0; i < face.size(); ++i)
-      ++directed[{face[i], face[(i + 1) % face.size()]}];
+    for (std::size_t i = 0; i < face.size(); ++i) ++directed[{face[i], face[(i + 1) % face.size()]}];
   }
   std::vector<std::set<std::uint32_t>> nbrs(p.points.size());
   for (const auto& [uv, n] : directed) {
@@ -137,8 +136,7 @@ Shape check_polyhedron(const Polyhedron& p, const std::string& where) {
 }
 
 // The isosurface loops as cyclic key sequences starting at their smallest key.
-std::vector<int> canonical_loop(const Polyhedron& p, const std::vector<std::uint32_t>& f,
-                                bool reversed) {
+std::vector<int> canonical_loop(const Polyhedron& p, const std::vector<std::uint32_t>& f, bool reversed) {
   std::vector<int> k;
   for (std::uint32_t i : f) k.push_back(p.keys[i]);
   if (reversed) std::reverse(k.begin(), k.end());
@@ -223,7 +221,7 @@ TEST(polyhedra, AllSignPatternsCutSubdivideAndCertify) {
   const auto facts = notes_facts();
   std::mt19937_64 rng(20250917);
   const auto geoms = geometries(rng);
-  constexpr int kDraws = 24;  // per pattern, geometry and kind (random / extreme)
+  constexpr int kDraws = 24;                      // per pattern, geometry and kind (random / extreme)
   std::map<Subcase, std::array<Stats, 2>> stats;  // [0] random magnitudes, [1] extreme
   std::set<Subcase> tunnels_seen;
   for (int mask = 0; mask < 256; ++mask) {
@@ -238,8 +236,7 @@ TEST(polyhedra, AllSignPatternsCutSubdivideAndCertify) {
         }
         for (const Corners& g : geoms) {
           const std::string where = "mask " + std::to_string(mask) + " subcase " +
-                                    std::string(subcase_name(c.subcase)) +
-                                    (is_unit(g) ? " unit" : " affine");
+                                    std::string(subcase_name(c.subcase)) + (is_unit(g) ? " unit" : " affine");
           const auto polys = cut_cell(g, c);
           ASSERT_EQ(polys.size(), c.num_regions) << where;
           // Topology against docs/mc33.md's table.
@@ -299,12 +296,10 @@ TEST(polyhedra, AllSignPatternsCutSubdivideAndCertify) {
               "per subcase: certified hexes / hexes, cells with every hex certified / cells, min\n"
               "scaled coefficient; random magnitudes | crossings near 0 and 1\n");
   for (const auto& [s, pair] : stats) {
-    std::printf("%-7s %s", std::string(subcase_name(s)).c_str(),
-                asserted_direct(s) ? "asserted" : "measured");
+    std::printf("%-7s %s", std::string(subcase_name(s)).c_str(), asserted_direct(s) ? "asserted" : "measured");
     for (const Stats& st : pair)
       std::printf(" | %6ld/%6ld (%5.1f%%) cells %5ld/%5ld min %.2e", st.certified, st.hexes,
-                  st.hexes ? 100.0 * st.certified / st.hexes : 0.0, st.cells_all_certified,
-                  st.cells, st.min_scaled);
+                  st.hexes ? 100.0 * st.certified / st.hexes : 0.0, st.cells_all_certified, st.cells, st.min_scaled);
     std::printf("\n");
   }
   std::printf("tunnel subcases refused:");
@@ -314,8 +309,7 @@ TEST(polyhedra, AllSignPatternsCutSubdivideAndCertify) {
     if (!asserted_direct(s)) continue;
     for (int extreme = 0; extreme < 2; ++extreme) {
       const Stats& st = pair[extreme];
-      EXPECT_EQ(st.certified, st.hexes) << "subcase " << subcase_name(s)
-                                          << ": cut directly, so it must certify";
+      EXPECT_EQ(st.certified, st.hexes) << "subcase " << subcase_name(s) << ": cut directly, so it must certify";
     }
   }
 }

@@ -16,8 +16,7 @@
 namespace mchex {
 namespace {
 
-const HexCorners kUnitCube = {
-    {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}}};
+const HexCorners kUnitCube = {{{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}}};
 
 // Reference coordinates of each corner (paper Eq. 8 order).
 Vec3 reference_corner(int i) { return kUnitCube[i]; }
@@ -41,8 +40,7 @@ Affine random_affine(std::mt19937_64& rng, bool integer) {
   std::uniform_real_distribution<double> real(-2.0, 2.0);
   auto draw = [&] { return integer ? static_cast<double>(small(rng)) : real(rng); };
   while (true) {
-    Affine a{{{draw(), draw(), draw()}, {draw(), draw(), draw()}, {draw(), draw(), draw()}},
-             {draw(), draw(), draw()}};
+    Affine a{{{draw(), draw(), draw()}, {draw(), draw(), draw()}, {draw(), draw(), draw()}}, {draw(), draw(), draw()}};
     const double d = a.det();
     if (d > 0.1) return a;
     if (d < -0.1) {  // flip one column to make it positive
@@ -58,9 +56,7 @@ HexCorners random_hex(std::mt19937_64& rng, double amount) {
   return map_corners(kUnitCube, [&](Vec3 p) { return p + Vec3{d(rng), d(rng), d(rng)}; });
 }
 
-double bernstein2(int i, double t) {
-  return i == 0 ? (1 - t) * (1 - t) : (i == 1 ? 2 * t * (1 - t) : t * t);
-}
+double bernstein2(int i, double t) { return i == 0 ? (1 - t) * (1 - t) : (i == 1 ? 2 * t * (1 - t) : t * t); }
 
 // sum beta_ijk B_i(xi) B_j(eta) B_k(zeta), written out here rather than taken from the library.
 double evaluate_bernstein(const BernsteinCoefficients& beta, double xi, double eta, double zeta) {
@@ -68,8 +64,7 @@ double evaluate_bernstein(const BernsteinCoefficients& beta, double xi, double e
   for (int k = 0; k < 3; ++k) {
     for (int j = 0; j < 3; ++j) {
       for (int i = 0; i < 3; ++i) {
-        sum +=
-            beta[i + 3 * j + 9 * k] * bernstein2(i, xi) * bernstein2(j, eta) * bernstein2(k, zeta);
+        sum += beta[i + 3 * j + 9 * k] * bernstein2(i, xi) * bernstein2(j, eta) * bernstein2(k, zeta);
       }
     }
   }
@@ -166,8 +161,7 @@ TEST(quality, AffineIntegerHexesHaveEveryCoefficientEqualToDetA) {
     EXPECT_TRUE(bernstein_certified(c));
     EXPECT_EQ(jacobian_determinant(c, 0.25, 0.5, 0.75), d);
     // Scaled Jacobian: det of A's normalized columns, the same at all 9 points.
-    const double expected =
-        triple(normalized(a.col[0]), normalized(a.col[1]), normalized(a.col[2]));
+    const double expected = triple(normalized(a.col[0]), normalized(a.col[1]), normalized(a.col[2]));
     for (double s : scaled_jacobians(c)) EXPECT_NEAR(s, expected, 1e-15);
     const double h = (4 * norm(a.col[0]) + 4 * norm(a.col[1]) + 4 * norm(a.col[2])) / 12;
     EXPECT_NEAR(min_bernstein_scaled(c), d / (h * h * h), 1e-14 * d / (h * h * h));
@@ -217,8 +211,7 @@ TEST(quality, AffineRealHexesHaveEveryCoefficientEqualToDetA) {
     const HexCorners c = map_corners(kUnitCube, a);
     const double d = a.det();
     // Rounding in the corners is relative to their size, a few units: scale the tolerance.
-    const double tol =
-        1e-13 * std::pow(norm(a.col[0]) + norm(a.col[1]) + norm(a.col[2]) + norm(a.b), 3);
+    const double tol = 1e-13 * std::pow(norm(a.col[0]) + norm(a.col[1]) + norm(a.col[2]) + norm(a.b), 3);
     for (double b : bernstein_jacobian(c)) ASSERT_NEAR(b, d, tol) << "trial " << t;
     EXPECT_NEAR(hex_volume(c), d, tol);
   }
@@ -364,14 +357,8 @@ TEST(quality, VolumeIsExactForTrilinearHexes) {
   }
   // A frustum: square base 2 x 2, top 1 x 1 centred one unit above. Its faces are planar, so
   // the trilinear element is the polyhedron: V = h (A1 + A2 + sqrt(A1 A2)) / 3 = 7/3.
-  const HexCorners frustum = {{{0, 0, 0},
-                               {2, 0, 0},
-                               {2, 2, 0},
-                               {0, 2, 0},
-                               {0.5, 0.5, 1},
-                               {1.5, 0.5, 1},
-                               {1.5, 1.5, 1},
-                               {0.5, 1.5, 1}}};
+  const HexCorners frustum = {
+      {{0, 0, 0}, {2, 0, 0}, {2, 2, 0}, {0, 2, 0}, {0.5, 0.5, 1}, {1.5, 0.5, 1}, {1.5, 1.5, 1}, {0.5, 1.5, 1}}};
   EXPECT_NEAR(hex_volume(frustum), 7.0 / 3.0, 1e-15);
   EXPECT_TRUE(bernstein_certified(frustum));
 }
@@ -386,9 +373,7 @@ TEST(quality, EdgeRatioAndScaledJacobianOfSimpleShapes) {
 
   // Shear x += s y: columns (1,0,0), (s,1,0), (0,0,1); scaled Jacobian 1 / sqrt(1 + s^2).
   const double s = 0.75;
-  const HexCorners sheared = map_corners(kUnitCube, [&](Vec3 p) {
-    return Vec3{p.x + s * p.y, p.y, p.z};
-  });
+  const HexCorners sheared = map_corners(kUnitCube, [&](Vec3 p) { return Vec3{p.x + s * p.y, p.y, p.z}; });
   for (double v : scaled_jacobians(sheared)) EXPECT_NEAR(v, 1 / std::sqrt(1 + s * s), 1e-15);
   EXPECT_EQ(hex_volume(sheared), 1.0);
 

@@ -6,10 +6,9 @@
 #include <numeric>
 #include <random>
 
-
+#include "core/base/parallel.h"
 #include "core/sdf/sdf.h"
 #include "core/sdf/shapes.h"
-#include "core/base/parallel.h"
 
 namespace mchex {
 namespace {
@@ -129,7 +128,8 @@ TEST(SurfaceSdf, AnswerIsIndependentOfBatchOrderAndSurvivesDegenerateTriangles) 
   const int n = 19;
   for (int k = 0; k < n; ++k)
     for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i) grid.push_back(Vec3{-1.6, -1.6, -0.8} + (3.2 / (n - 1)) * Vec3{double(i), double(j), 0.5 * k});
+      for (int i = 0; i < n; ++i)
+        grid.push_back(Vec3{-1.6, -1.6, -0.8} + (3.2 / (n - 1)) * Vec3{double(i), double(j), 0.5 * k});
   grid.push_back(mesh.vertices[mid + 2]);
   std::vector<uint32_t> perm(grid.size());
   std::iota(perm.begin(), perm.end(), 0u);
@@ -201,10 +201,10 @@ TEST(ShapeSdf, ClosedFormValuesAtKnownPoints) {
   EXPECT_DOUBLE_EQ(box({0, 0, 0}), 0.5);
   EXPECT_DOUBLE_EQ(box({2, 0, 0}), -1.0);
   EXPECT_NEAR(box({1.5, 1.25, 0}), -(std::hypot(0.7, 0.7) - 0.2), 1e-15);
-  EXPECT_DOUBLE_EQ(eight({1.2, 0, 0}), 0.25);   // on the core circle
+  EXPECT_DOUBLE_EQ(eight({1.2, 0, 0}), 0.25);        // on the core circle
   EXPECT_DOUBLE_EQ(eight({0.6, 0, 0}), 0.25 - 0.6);  // centre of the right hole
-  EXPECT_LT(eight({-0.6, 0, 0}), 0);            // centre of the left hole
-  EXPECT_GT(eight({0, 0, 0}), 0);               // the junction
+  EXPECT_LT(eight({-0.6, 0, 0}), 0);                 // centre of the left hole
+  EXPECT_GT(eight({0, 0, 0}), 0);                    // the junction
 }
 
 TEST(ShapeSdf, OneLipschitzAndBoundsHoldTheSolid) {

@@ -95,7 +95,8 @@ TEST(SurfaceSdfSearch, ExactTiesOnFlatFacesOfManyCoplanarTriangles) {
   const int n = 23;
   for (int k = 0; k < n; ++k)
     for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i) pts.push_back(Vec3{-1.5, -1.5, -1.5} + (3.0 / (n - 1)) * Vec3{double(i), double(j), double(k)});
+      for (int i = 0; i < n; ++i)
+        pts.push_back(Vec3{-1.5, -1.5, -1.5} + (3.0 / (n - 1)) * Vec3{double(i), double(j), double(k)});
   expect_brute_force_values(cube, pts);
 }
 

@@ -23,8 +23,8 @@
 #endif
 
 #include "core/base/error.h"
-#include "core/mesh/surface.h"
 #include "core/io/surface_io.h"
+#include "core/mesh/surface.h"
 
 namespace mchex {
 namespace {
@@ -73,8 +73,8 @@ TriangleSurface torus(uint32_t n, uint32_t m, double major = 3, double minor = 1
   for (uint32_t i = 0; i < n; ++i) {
     for (uint32_t j = 0; j < m; ++j) {
       const double u = two_pi * i / n, v = two_pi * j / m;
-      s.vertices.push_back({(major + minor * std::cos(v)) * std::cos(u),
-                            (major + minor * std::cos(v)) * std::sin(u), minor * std::sin(v)});
+      s.vertices.push_back({(major + minor * std::cos(v)) * std::cos(u), (major + minor * std::cos(v)) * std::sin(u),
+                            minor * std::sin(v)});
     }
   }
   const auto at = [&](uint32_t i, uint32_t j) { return (i % n) * m + (j % m); };
@@ -232,8 +232,7 @@ TEST(surface_validate, MillionTriangleTorus) {
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   RecordProperty("validate_seconds", std::to_string(seconds));
   EXPECT_EQ(r.edges, 3 * s.triangles.size() / 2);
-  EXPECT_EQ(static_cast<long long>(r.vertices) - static_cast<long long>(r.edges) +
-                static_cast<long long>(r.triangles),
+  EXPECT_EQ(static_cast<long long>(r.vertices) - static_cast<long long>(r.edges) + static_cast<long long>(r.triangles),
             0);  // genus 1
   EXPECT_TRUE(r.consistently_oriented);
   EXPECT_EQ(r.components, 1u);
@@ -303,9 +302,8 @@ class TempDir : public ::testing::Test {
   void SetUp() override {
     static int counter = 0;
     const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    dir_ = fs::temp_directory_path() /
-           ("mchex_test_surface_" + std::to_string(static_cast<long long>(::getpid())) + "_" +
-            std::to_string(counter++) + "_" + info->name());
+    dir_ = fs::temp_directory_path() / ("mchex_test_surface_" + std::to_string(static_cast<long long>(::getpid())) +
+                                        "_" + std::to_string(counter++) + "_" + info->name());
     fs::remove_all(dir_);
     fs::create_directories(dir_);
   }
@@ -346,8 +344,7 @@ std::string binary_stl(const TriangleSurface& s, std::string header = "binary ST
   std::string out = header + le32(static_cast<uint32_t>(s.triangles.size()));
   for (const auto& t : s.triangles) {
     out += lef(0) + lef(0) + lef(0);
-    for (uint32_t v : t)
-      out += lef(float(s.vertices[v].x)) + lef(float(s.vertices[v].y)) + lef(float(s.vertices[v].z));
+    for (uint32_t v : t) out += lef(float(s.vertices[v].x)) + lef(float(s.vertices[v].y)) + lef(float(s.vertices[v].z));
     out += std::string(2, '\0');
   }
   return out;
@@ -358,8 +355,8 @@ std::string ascii_stl(const TriangleSurface& s) {
   for (const auto& t : s.triangles) {
     out += "  facet normal 0 0 0\n    outer loop\n";
     for (uint32_t v : t)
-      out += "      vertex " + number(s.vertices[v].x) + " " + number(s.vertices[v].y) + " " +
-             number(s.vertices[v].z) + "\n";
+      out += "      vertex " + number(s.vertices[v].x) + " " + number(s.vertices[v].y) + " " + number(s.vertices[v].z) +
+             "\n";
     out += "    endloop\n  endfacet\n";
   }
   return out + "endsolid test\n";
@@ -369,14 +366,12 @@ std::string obj(const TriangleSurface& s) {
   std::string out = "# written by test_surface\n";
   for (const Vec3& v : s.vertices) out += "v " + number(v.x) + " " + number(v.y) + " " + number(v.z) + "\n";
   for (const auto& t : s.triangles)
-    out += "f " + std::to_string(t[0] + 1) + " " + std::to_string(t[1] + 1) + " " + std::to_string(t[2] + 1) +
-           "\n";
+    out += "f " + std::to_string(t[0] + 1) + " " + std::to_string(t[1] + 1) + " " + std::to_string(t[2] + 1) + "\n";
   return out;
 }
 
 std::string off(const TriangleSurface& s) {
-  std::string out =
-      "OFF\n" + std::to_string(s.vertices.size()) + " " + std::to_string(s.triangles.size()) + " 0\n";
+  std::string out = "OFF\n" + std::to_string(s.vertices.size()) + " " + std::to_string(s.triangles.size()) + " 0\n";
   for (const Vec3& v : s.vertices) out += number(v.x) + " " + number(v.y) + " " + number(v.z) + "\n";
   for (const auto& t : s.triangles)
     out += "3 " + std::to_string(t[0]) + " " + std::to_string(t[1]) + " " + std::to_string(t[2]) + "\n";
@@ -385,8 +380,7 @@ std::string off(const TriangleSurface& s) {
 
 std::string ply_header(const TriangleSurface& s, const char* format) {
   return std::string("ply\nformat ") + format + " 1.0\ncomment written by test_surface\nelement vertex " +
-         std::to_string(s.vertices.size()) +
-         "\nproperty float x\nproperty float y\nproperty float z\nelement face " +
+         std::to_string(s.vertices.size()) + "\nproperty float x\nproperty float y\nproperty float z\nelement face " +
          std::to_string(s.triangles.size()) + "\nproperty list uchar int vertex_indices\nend_header\n";
 }
 
@@ -427,8 +421,7 @@ const std::vector<Writer>& writers() {
 TEST_F(surface_read, UnitCubeInEveryFormat) {
   for (const Writer& writer : writers()) {
     SCOPED_TRACE(writer.name);
-    const fs::path path =
-        write(std::string("cube_") + writer.name + writer.extension, writer.write(unit_cube()));
+    const fs::path path = write(std::string("cube_") + writer.name + writer.extension, writer.write(unit_cube()));
     std::size_t welded = 99;
     const TriangleSurface s = read_surface(path, &welded);
     EXPECT_EQ(welded, writer.cube_welds);
@@ -540,8 +533,7 @@ TEST_F(surface_read, ExtensionIsCaseInsensitive) {
 
 TEST_F(surface_read, ObjPolygonsAreTriangulatedAndOtherPrimitivesIgnored) {
   std::string text = "mtllib does_not_exist.mtl\nusemtl missing\n";
-  for (const Vec3& v : unit_cube().vertices)
-    text += "v " + number(v.x) + " " + number(v.y) + " " + number(v.z) + "\n";
+  for (const Vec3& v : unit_cube().vertices) text += "v " + number(v.x) + " " + number(v.y) + " " + number(v.z) + "\n";
   text += "vt 0 0\nvn 0 0 1\n";
   // Quads of the cube, with the corner forms OBJ allows and negative (relative) indices.
   text += "f 1/1 4/1 3/1 2/1\nf 5//1 6//1 7//1 8//1\nf 1/1/1 2/1/1 6/1/1 5/1/1\n";
@@ -579,8 +571,7 @@ TEST_F(surface_read, BinaryStlHeaderThatLooksLikeAByteOrderMark) {
   // Assimp converts such a file to UTF-8 before checking its size; the header is free text.
   for (const std::string& mark :
        std::vector<std::string>{"\xEF\xBB\xBF", "\xFE\xFF", "\xFF\xFE", std::string("\0\0\xFE\xFF", 4)}) {
-    const SurfaceReport r =
-        validate_surface(read_surface(write("bom.stl", binary_stl(unit_cube(), mark + "cube"))));
+    const SurfaceReport r = validate_surface(read_surface(write("bom.stl", binary_stl(unit_cube(), mark + "cube"))));
     EXPECT_EQ(r.triangles, 12u);
     EXPECT_EQ(r.volume, 1.0);
   }
@@ -742,8 +733,7 @@ TEST_F(surface_bad_input, PathWithANewlineStaysOnOneLine) {
 TEST_F(surface_bad_input, TruncatedBinaryStl) {
   const std::string full = binary_stl(unit_cube());
   expect_input_error(write("truncated.stl", full.substr(0, full.size() - 30)), "truncated");
-  expect_input_error(write("truncated_solid.stl", binary_stl(unit_cube(), "solid cube").substr(0, 300)),
-                     "truncated");
+  expect_input_error(write("truncated_solid.stl", binary_stl(unit_cube(), "solid cube").substr(0, 300)), "truncated");
   expect_input_error(write("header_only.stl", full.substr(0, 60)), "84-byte header");
   expect_input_error(write("extra.stl", full + "junk"), "truncated or corrupt");
 }
@@ -884,8 +874,7 @@ TEST_F(surface_bad_input, AsciiStlStructureErrors) {
   text = cube;
   text.replace(text.find("normal 0 0 0"), 12, "normal");
   expect_input_error(write("no_normal.stl", text), "facet normal needs three numbers");
-  expect_input_error(write("cut.stl", cube.substr(0, cube.find("vertex", cube.size() / 2) + 10)),
-                     "three coordinates");
+  expect_input_error(write("cut.stl", cube.substr(0, cube.find("vertex", cube.size() / 2) + 10)), "three coordinates");
   expect_input_error(write("cut_facet.stl", cube.substr(0, cube.find("outer loop", cube.size() / 2) + 10)),
                      "the file ends inside a facet");
   text = cube;
@@ -955,8 +944,7 @@ TEST_F(surface_bad_input, PlyHeaderErrors) {
   text.replace(text.find("element face"), 12, "element tristrips");
   expect_input_error(write("tristrips.ply", text), "'tristrips' is not supported");
   text = binary_ply(cube);
-  for (std::size_t at = text.find('\n'); at < text.find("end_header"); at = text.find('\n', at + 1))
-    text[at] = '\r';
+  for (std::size_t at = text.find('\n'); at < text.find("end_header"); at = text.find('\n', at + 1)) text[at] = '\r';
   expect_input_error(write("carriage_returns.ply", text), "bare carriage return");
 }
 
@@ -969,11 +957,9 @@ TEST_F(surface_read, BinaryPlyWhoseDataStartsWithALineFeed) {
   cube.vertices[0].x = x;
   const std::string plain = binary_ply(cube);
   std::string with_edges = plain;
-  with_edges.replace(with_edges.find("end_header"), 0,
-                     "element edge 1\nproperty int vertex1\nproperty int vertex2\n");
+  with_edges.replace(with_edges.find("end_header"), 0, "element edge 1\nproperty int vertex1\nproperty int vertex2\n");
   with_edges += le32(0) + le32(1);
-  for (const auto& [name, bytes] :
-       {std::pair{"line_feed.ply", plain}, std::pair{"line_feed_edges.ply", with_edges}}) {
+  for (const auto& [name, bytes] : {std::pair{"line_feed.ply", plain}, std::pair{"line_feed_edges.ply", with_edges}}) {
     SCOPED_TRACE(name);
     ASSERT_EQ(bytes[bytes.find("end_header\n") + 11], '\n');
     const TriangleSurface s = read_surface(write(name, bytes));
@@ -1078,34 +1064,33 @@ TEST(surface_samples, Openscad) {
 
 TEST(surface_samples, NpmStlModels) {
   REQUIRE_DIR(kNpmStl);
-  check_samples(
-      kNpmStl,
-      {
-          {"polytopes/cube.ascii.stl", nullptr, 12, true, 8},
-          {"polytopes/cube.bin.stl", nullptr, 12, true, 8},
-          {"polytopes/unitCube.ascii.stl", nullptr, 12, true, 1},
-          {"polytopes/unitCube.binary.stl", nullptr, 12, true, 1},
-          {"polytopes/tetrahedron.ascii.stl", nullptr, 4, true, 1.0 / 6},
-          {"polytopes/tetrahedron.min.ascii.stl", nullptr, 4, true, 1.0 / 6},
-          {"polytopes/tetrahedronMinusZero.bin.stl", nullptr, 4, true, 1.0 / 6},
-          {"polytopes/triangle.ascii.stl", nullptr, 1, false, 0},
-          {"objects/gearwheel.bin.stl", nullptr, 2444, true, 0},
-          {"broken/empty.stl", "empty"},
-          {"broken/fourVertices.ascii.stl", "line 2: facet has 4 vertices"},
-          {"broken/quad.ascii.stl", "facet has 4 vertices"},
-          {"broken/twoVertices.ascii.stl", "facet has 2 vertices"},
-          {"broken/incorrectFaceCounter.bin.stl", "declares 66 triangles"},
-          {"broken/missingNormal.ascii.stl", "facet normal needs three numbers"},
-          {"broken/missingFace.ascii.stl", nullptr, 3, false, 0},  // open: the report says so
-          {"broken/missingEndsolid.ascii.stl", nullptr, 4, true, 1.0 / 6},
-          {"broken/notANumberNormal.ascii.stl", nullptr, 4, true, 1.0 / 6},  // normals are not used
-          {"broken/wrongNormals.ascii.stl", nullptr, 4, true, 1.0 / 6},
-          {"broken/solidNameMismatch.ascii.stl", nullptr, 4, true, 1.0 / 6},
-          {"broken/singleFace.ascii.stl", nullptr, 1, false, 0},
-          {"broken/wrongHeader.bin.stl", nullptr, 12, true, 1e6},
-          {"misc/faceless.ascii.stl", "no triangles"},
-          {"misc/multiWordName.bin.stl", "declares 4 triangles, which need 284 bytes, but the file has 333"},
-      });
+  check_samples(kNpmStl,
+                {
+                    {"polytopes/cube.ascii.stl", nullptr, 12, true, 8},
+                    {"polytopes/cube.bin.stl", nullptr, 12, true, 8},
+                    {"polytopes/unitCube.ascii.stl", nullptr, 12, true, 1},
+                    {"polytopes/unitCube.binary.stl", nullptr, 12, true, 1},
+                    {"polytopes/tetrahedron.ascii.stl", nullptr, 4, true, 1.0 / 6},
+                    {"polytopes/tetrahedron.min.ascii.stl", nullptr, 4, true, 1.0 / 6},
+                    {"polytopes/tetrahedronMinusZero.bin.stl", nullptr, 4, true, 1.0 / 6},
+                    {"polytopes/triangle.ascii.stl", nullptr, 1, false, 0},
+                    {"objects/gearwheel.bin.stl", nullptr, 2444, true, 0},
+                    {"broken/empty.stl", "empty"},
+                    {"broken/fourVertices.ascii.stl", "line 2: facet has 4 vertices"},
+                    {"broken/quad.ascii.stl", "facet has 4 vertices"},
+                    {"broken/twoVertices.ascii.stl", "facet has 2 vertices"},
+                    {"broken/incorrectFaceCounter.bin.stl", "declares 66 triangles"},
+                    {"broken/missingNormal.ascii.stl", "facet normal needs three numbers"},
+                    {"broken/missingFace.ascii.stl", nullptr, 3, false, 0},  // open: the report says so
+                    {"broken/missingEndsolid.ascii.stl", nullptr, 4, true, 1.0 / 6},
+                    {"broken/notANumberNormal.ascii.stl", nullptr, 4, true, 1.0 / 6},  // normals are not used
+                    {"broken/wrongNormals.ascii.stl", nullptr, 4, true, 1.0 / 6},
+                    {"broken/solidNameMismatch.ascii.stl", nullptr, 4, true, 1.0 / 6},
+                    {"broken/singleFace.ascii.stl", nullptr, 1, false, 0},
+                    {"broken/wrongHeader.bin.stl", nullptr, 12, true, 1e6},
+                    {"misc/faceless.ascii.stl", "no triangles"},
+                    {"misc/multiWordName.bin.stl", "declares 4 triangles, which need 284 bytes, but the file has 333"},
+                });
   // -0 and +0 weld: the minus-zero tetrahedron has the same four corners as the plain one.
   EXPECT_EQ(read_surface(kNpmStl / "polytopes/tetrahedronMinusZero.bin.stl").vertices.size(), 4u);
   // The ascii and binary bunny are the same surface.

@@ -12,10 +12,10 @@
 #include <set>
 #include <vector>
 
-#include "core/grid/cell_types.h"
 #include "core/cutting/mc33.h"
-#include "core/mesh/quality.h"
+#include "core/grid/cell_types.h"
 #include "core/grid/templates.h"
+#include "core/mesh/quality.h"
 
 namespace mchex {
 namespace {
@@ -81,8 +81,10 @@ std::array<Key, 8> placed(const TemplateHex& h, int rotation, Key origin) {
 
 TEST(templates, CountsAndVertexLevelsMatchTheNotes) {
   // docs/templates.md: node 1 child + 3, edge 3 + 8, face 9 + 13, and the levels.
-  const std::map<TemplateKind, std::pair<int, int>> made_of = {
-      {TemplateKind::kCube, {0, 1}}, {TemplateKind::kNode, {1, 3}}, {TemplateKind::kEdge, {3, 8}}, {TemplateKind::kFace, {9, 13}}};
+  const std::map<TemplateKind, std::pair<int, int>> made_of = {{TemplateKind::kCube, {0, 1}},
+                                                               {TemplateKind::kNode, {1, 3}},
+                                                               {TemplateKind::kEdge, {3, 8}},
+                                                               {TemplateKind::kFace, {9, 13}}};
   const std::map<TemplateKind, std::set<int>> levels = {{TemplateKind::kCube, {0, 12}},
                                                         {TemplateKind::kNode, {0, 4, 12}},
                                                         {TemplateKind::kEdge, {0, 4, 8, 9, 12}},
@@ -102,7 +104,7 @@ TEST(templates, CountsAndVertexLevelsMatchTheNotes) {
     EXPECT_EQ(others, made_of.at(k).second) << template_name(k);
     if (k == TemplateKind::kFace) {
       EXPECT_EQ(z_used, (std::set<int>{0, 4, 6, 9, 12}));  // z = 0, 1/3, 1/2, 3/4, 1
-      EXPECT_EQ(used, (std::set<int>{0, 4, 8, 12}));  // x, y: thirds
+      EXPECT_EQ(used, (std::set<int>{0, 4, 8, 12}));       // x, y: thirds
     } else {
       used.insert(z_used.begin(), z_used.end());
       EXPECT_EQ(used, levels.at(k)) << template_name(k);
@@ -115,7 +117,8 @@ TEST(templates, EachTemplateTilesItsCellAndEveryHexIsCertified) {
     for (int r = 0; r < kNumCubeRotations; ++r) {
       std::vector<std::array<Key, 8>> hexes;
       for (const TemplateHex& h : template_hexes(k)) hexes.push_back(placed(h, r, {0, 0, 0}));
-      expect_conforming_tiling(hexes, {0, 0, 0}, {12, 12, 12}, std::string(template_name(k)) + " rotation " + std::to_string(r));
+      expect_conforming_tiling(hexes, {0, 0, 0}, {12, 12, 12},
+                               std::string(template_name(k)) + " rotation " + std::to_string(r));
     }
 }
 
@@ -146,7 +149,8 @@ TEST(templates, MarksTableCoversExactlyTheTemplatePatterns) {
     // The rotation carries the canonical marks onto m.
     std::uint8_t image = 0;
     for (int i = 0; i < 8; ++i)
-      if (template_canonical_marks(c.kind) >> i & 1) image |= static_cast<std::uint8_t>(1u << kCubeSymmetries[c.rotation].corner[i]);
+      if (template_canonical_marks(c.kind) >> i & 1)
+        image |= static_cast<std::uint8_t>(1u << kCubeSymmetries[c.rotation].corner[i]);
     EXPECT_EQ(image, m);
     const int n = std::popcount(static_cast<unsigned>(m));
     EXPECT_EQ(n, (std::array<int, 4>{0, 1, 2, 4})[static_cast<int>(c.kind)]);
@@ -195,8 +199,8 @@ TEST(templates, FacePatternDependsOnlyOnItsFourCornerMarks) {
   using P2 = std::array<int, 2>;
   using Quad2 = std::array<P2, 4>;
   struct Pattern {
-    int marks = 0;              // bit u + 2 v for the face corner (12 u, 12 v)
-    std::vector<Quad2> quads;   // each quad's corners sorted, the list sorted
+    int marks = 0;             // bit u + 2 v for the face corner (12 u, 12 v)
+    std::vector<Quad2> quads;  // each quad's corners sorted, the list sorted
     bool operator==(const Pattern&) const = default;
   };
   // The 8 symmetries of the square [0, 12]^2: optional swap of (u, v), then optional flips.
@@ -227,7 +231,8 @@ TEST(templates, FacePatternDependsOnlyOnItsFourCornerMarks) {
     for (int r = 0; r < kNumCubeRotations; ++r) {
       std::uint8_t cell_marks = 0;
       for (int c = 0; c < 8; ++c)
-        if (template_canonical_marks(k) >> c & 1) cell_marks |= static_cast<std::uint8_t>(1u << kCubeSymmetries[r].corner[c]);
+        if (template_canonical_marks(k) >> c & 1)
+          cell_marks |= static_cast<std::uint8_t>(1u << kCubeSymmetries[r].corner[c]);
       std::vector<std::array<Key, 8>> hexes;
       for (const TemplateHex& h : template_hexes(k)) hexes.push_back(placed(h, r, {0, 0, 0}));
       for (int axis = 0; axis < 3; ++axis)
@@ -251,7 +256,8 @@ TEST(templates, FacePatternDependsOnlyOnItsFourCornerMarks) {
           // Invariant under the symmetries that fix the marks.
           for (int g = 0; g < 8; ++g)
             if (moved(f, g).marks == f.marks) {
-              EXPECT_EQ(moved(f, g).quads, f.quads) << template_name(k) << " rotation " << r << " axis " << axis << " side " << side;
+              EXPECT_EQ(moved(f, g).quads, f.quads)
+                  << template_name(k) << " rotation " << r << " axis " << axis << " side " << side;
             }
           // Canonical: the symmetry giving the smallest marks (any one: the pattern is invariant).
           Pattern best = f;
@@ -277,11 +283,13 @@ TEST(cell_types, BasicCellsAreTheHandClassification) {
   const auto types = cell_types();
   std::vector<std::string> names;
   for (const CellType& t : types) names.push_back(t.name);
-  EXPECT_EQ(names, (std::vector<std::string>{"cube", "node", "edge-1", "edge-2", "edge-3", "face-1", "face-2", "face-3"}));
+  EXPECT_EQ(names,
+            (std::vector<std::string>{"cube", "node", "edge-1", "edge-2", "edge-3", "face-1", "face-2", "face-3"}));
   // Which template hexes fall into which type (counts per template, hand-derived above).
   std::map<std::pair<TemplateKind, int>, int> per;
   for (TemplateKind k : kinds())
-    for (std::size_t h = 0; h < template_hexes(k).size(); ++h) ++per[{k, template_hex_type(k, static_cast<int>(h)).type}];
+    for (std::size_t h = 0; h < template_hexes(k).size(); ++h)
+      ++per[{k, template_hex_type(k, static_cast<int>(h)).type}];
   EXPECT_EQ((per[{TemplateKind::kNode, 1}]), 3);
   EXPECT_EQ((per[{TemplateKind::kEdge, 2}]), 4);   // left and right of both sheets
   EXPECT_EQ((per[{TemplateKind::kEdge, 3}]), 2);   // middle prisms
@@ -290,8 +298,9 @@ TEST(cell_types, BasicCellsAreTheHandClassification) {
   EXPECT_EQ((per[{TemplateKind::kFace, 5}]), 4);
   EXPECT_EQ((per[{TemplateKind::kFace, 6}]), 4);
   EXPECT_EQ((per[{TemplateKind::kFace, 7}]), 4);
-  for (const CellType& t : types) std::printf("cell type %-8s from %s hex %d\n", t.name.c_str(),
-                                              std::string(template_name(t.source)).c_str(), t.source_hex);
+  for (const CellType& t : types)
+    std::printf("cell type %-8s from %s hex %d\n", t.name.c_str(), std::string(template_name(t.source)).c_str(),
+                t.source_hex);
   // No two types are affinely equivalent under any rotation (the table is a maximal set).
   for (std::size_t a = 0; a < types.size(); ++a)
     for (std::size_t b = 0; b < types.size(); ++b)
@@ -305,7 +314,8 @@ TEST(cell_types, BasicCellsAreTheHandClassification) {
     for (std::size_t h = 0; h < hexes.size(); ++h) {
       const CellTypeMatch m = template_hex_type(k, static_cast<int>(h));
       ASSERT_GE(m.type, 0);
-      EXPECT_TRUE(affinely_equivalent(transform_hex(types[m.type].corners, m.rotation), template_hex_corners(hexes[h])));
+      EXPECT_TRUE(
+          affinely_equivalent(transform_hex(types[m.type].corners, m.rotation), template_hex_corners(hexes[h])));
       if (hexes[h].child) {
         EXPECT_EQ(types[m.type].name, "cube");
       }

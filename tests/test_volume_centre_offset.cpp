@@ -17,13 +17,13 @@
 #include <string>
 #include <vector>
 
-#include "core/grid/cell_types.h"
 #include "core/cutting/local_refinement.h"
 #include "core/cutting/mc33.h"
 #include "core/cutting/polyhedra.h"
-#include "core/mesh/quality.h"
 #include "core/cutting/subdivide.h"
 #include "core/cutting/volume_centre_offset.h"
+#include "core/grid/cell_types.h"
+#include "core/mesh/quality.h"
 
 namespace mchex {
 namespace {
@@ -44,8 +44,7 @@ Corners parallelepiped() {
   Corners c;
   for (int i = 0; i < 8; ++i) {
     const Vec3 p = unit_cube()[i];
-    c[i] = Vec3{a[0][0] * p.x + a[0][1] * p.y + a[0][2] * p.z + 40,
-                a[1][0] * p.x + a[1][1] * p.y + a[1][2] * p.z - 7,
+    c[i] = Vec3{a[0][0] * p.x + a[0][1] * p.y + a[0][2] * p.z + 40, a[1][0] * p.x + a[1][1] * p.y + a[1][2] * p.z - 7,
                 a[2][0] * p.x + a[2][1] * p.y + a[2][2] * p.z + 3};
   }
   return c;
@@ -139,8 +138,7 @@ void cut_and_check(const Corners& g, const CellClass& c, Tally& t, const std::st
 
 void print_rule() {
   const VolumeCentreOffsetRule& r = volume_centre_offset_rule();
-  std::printf("volume-centre offset of the region 0x%02X of case 11's representative (Table-1 edges",
-              r.region_corners);
+  std::printf("volume-centre offset of the region 0x%02X of case 11's representative (Table-1 edges", r.region_corners);
   for (int e : r.edges) std::printf(" %d", e + 1);
   std::printf("):\n  v_i = a_i0 + sum_j a_ij (s_j - 1/2)\n");
   for (int i = 0; i < 3; ++i) {
@@ -159,8 +157,7 @@ TEST(volume_centre_offset, AppliesToTheFourPolyhedraOf11And14Only) {
     const CellClass c = classify(f);
     if (subcase_has_tunnel(c.subcase)) continue;
     const bool offset = c.subcase == Subcase::k11 || c.subcase == Subcase::k14;
-    for (const Polyhedron& p : cut_cell(unit_cube(), c))
-      EXPECT_EQ(p.volume_centre.has_value(), offset) << "mask " << m;
+    for (const Polyhedron& p : cut_cell(unit_cube(), c)) EXPECT_EQ(p.volume_centre.has_value(), offset) << "mask " << m;
   }
 }
 
@@ -216,8 +213,8 @@ TEST(volume_centre_offset, PinnedCounterexampleCertifiesWithTheOffset) {
       p.volume_centre.reset();  // the plain vertex mean
       for (const auto& h : midpoint_subdivide(p)) plain = std::min(plain, min_bernstein_scaled(h.corners));
     }
-    std::printf("pinned case-11 cell: min scaled Bernstein coefficient %.3e plain, %.3e with the offset\n",
-                plain, offset);
+    std::printf("pinned case-11 cell: min scaled Bernstein coefficient %.3e plain, %.3e with the offset\n", plain,
+                offset);
     EXPECT_LT(plain, 0);
     EXPECT_GT(offset, 0);
   }
@@ -275,7 +272,6 @@ TEST(volume_centre_offset, EveryPatternOf11And14CertifiesOnAffineCells) {
     EXPECT_GT(per_case[k].hexes, 0);
   }
 }
-
 
 // ---- Transition cells: refined, because no offset can certify them ----------------------------
 
@@ -425,8 +421,8 @@ TEST(volume_centre_offset, NoCentreCertifies11OnTheNodeCell) {
     if (worst_at(sx[0]) > worst_at(best)) best = sx[0];
   }
   const double t = worst_at(best);
-  std::printf("node cell, rotation 4: best centre (%.4f %.4f %.4f) leaves min scaled coefficient %.3e\n",
-              best.x, best.y, best.z, t);
+  std::printf("node cell, rotation 4: best centre (%.4f %.4f %.4f) leaves min scaled coefficient %.3e\n", best.x,
+              best.y, best.z, t);
   ASSERT_LT(t, 0);
   std::vector<std::size_t> near;
   for (std::size_t k = 0; k < b0.size(); ++k)
@@ -489,7 +485,6 @@ TEST(volume_centre_offset, NoCentreCertifies11OnTheNodeCell) {
     EXPECT_NEAR(combo, constant, 1e-9);
   }
 }
-
 
 // ---- The search that found the rule (paper Eq. 14) ---------------------------------------------
 
@@ -633,8 +628,8 @@ TEST(volume_centre_offset, DISABLED_OffsetSearchFindsTheBuiltInRule) {
     for (int i = 0; i < kP; ++i) th[i] += d[i];
   }
   const long found_failures = failures(th);
-  std::printf("search: %zu hexes; plain subdivision fails %ld, the found rule %ld; found coefficients:\n",
-              items.size(), plain_failures, found_failures);
+  std::printf("search: %zu hexes; plain subdivision fails %ld, the found rule %ld; found coefficients:\n", items.size(),
+              plain_failures, found_failures);
   for (int i = 0; i < 3; ++i) {
     std::printf("  %c:", "xyz"[i]);
     for (int j = 0; j < 7; ++j) std::printf(" %+.5f", th[i * 7 + j]);

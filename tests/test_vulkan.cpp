@@ -23,20 +23,20 @@
 #include <vector>
 
 #include "core/base/error.h"
-#include "core/grid/grid.h"
-#include "core/grid/hex_complex.h"
 #include "core/cutting/local_refinement.h"
 #include "core/cutting/mc33.h"
 #include "core/cutting/mchex_mesher.h"
+#include "core/grid/grid.h"
+#include "core/grid/hex_complex.h"
 #include "core/grid/refinement_error.h"
+#include "core/mesh/surface.h"
 #include "core/sdf/sdf.h"
 #include "core/sdf/shapes.h"
-#include "core/mesh/surface.h"
-#include "tests/backend_samples.h"
 #include "host/backends/cpu.h"
-#include "host/backends/vulkan.h"
 #include "host/backends/vk_context.h"
 #include "host/backends/vk_spirv.h"
+#include "host/backends/vulkan.h"
+#include "tests/backend_samples.h"
 
 namespace fs = std::filesystem;
 using namespace mchex;
@@ -80,15 +80,13 @@ std::vector<SdfVariant> sdf_variants() {
   return {{"subgroup walk", subgroup}, {"single walk, texel reads", single}, {"single walk, storage reads", storage}};
 }
 
-
 struct Classified {
   std::vector<CellCode> codes;
   std::vector<std::uint64_t> offsets;
 };
 
 Classified run_classify(Backend& b, const HexComplex& complex, const std::vector<double>& values) {
-  Classified out{std::vector<CellCode>(complex.cells.size()),
-                 std::vector<std::uint64_t>(complex.cells.size() + 1)};
+  Classified out{std::vector<CellCode>(complex.cells.size()), std::vector<std::uint64_t>(complex.cells.size() + 1)};
   classify_cells_codes(b, complex, values, out.codes, out.offsets);
   return out;
 }
@@ -212,8 +210,8 @@ TEST(vulkan, BuffersTakeHostCachedMemoryWhereTheDeviceHasIt) {
   };
   // A discrete NVIDIA GPU: device memory, write-combined system memory, cached system memory,
   // and the device memory the CPU sees through the BAR.
-  const auto nvidia = table({0, kLocal, kLocal, kVisible | kCoherent, kVisible | kCoherent | kCached,
-                             kLocal | kVisible | kCoherent});
+  const auto nvidia =
+      table({0, kLocal, kLocal, kVisible | kCoherent, kVisible | kCoherent | kCached, kLocal | kVisible | kCoherent});
   EXPECT_EQ(vk::buffer_memory_type(nvidia, ~0u), 4);
   EXPECT_EQ(vk::buffer_memory_type(nvidia, ~0u & ~(1u << 4)), 3);  // cached not allowed: the first mapped type
   EXPECT_EQ(vk::buffer_memory_type(nvidia, 1u << 5), 5);
@@ -492,4 +490,3 @@ TEST(VulkanFp32, SurfaceSdfAtTheCentreOfAFineSphereStopsWithinTheLoopBudget) {
   EXPECT_EQ(easy_st.budget_points, 0u);
   EXPECT_LT(easy_st.host_points, easy.size() / 4);
 }
-

@@ -114,13 +114,16 @@ TriangleSurface folded_spike(int n = 8) {
   };
   const Vec3 axis_point[3] = {{0, 0, 1.25}, {0.3, 0, 1.5}, {0.6, 0, 1.0}};
   for (int r = 0; r < 3; ++r)
-    for (int k = 0; k < 4; ++k) b.quad(ring(r, k), ring(r, (k + 1) % 4), ring(r + 1, (k + 1) % 4), ring(r + 1, k), axis_point[r]);
+    for (int k = 0; k < 4; ++k)
+      b.quad(ring(r, k), ring(r, (k + 1) % 4), ring(r + 1, (k + 1) % 4), ring(r + 1, k), axis_point[r]);
   b.quad(ring(3, 0), ring(3, 1), ring(3, 2), ring(3, 3), {0.6, 0, 0.6});
   return b.s;
 }
 
 double spike_w(Vec3 p) {
-  auto in = [&](Vec3 lo, Vec3 hi) { return p.x > lo.x && p.x < hi.x && p.y > lo.y && p.y < hi.y && p.z > lo.z && p.z < hi.z; };
+  auto in = [&](Vec3 lo, Vec3 hi) {
+    return p.x > lo.x && p.x < hi.x && p.y > lo.y && p.y < hi.y && p.z > lo.z && p.z < hi.z;
+  };
   int w = in({-1, -1, -1}, {1, 1, 1});
   // The tube as three boxes (the mitres' wedges overlap the boxes only near the bends, which the
   // tests keep away from).
@@ -164,7 +167,8 @@ std::vector<Vec3> sample_points(const TriangleSurface& s, std::size_t per_kind, 
     const auto& t = s.triangles[std::size_t(u(rng) * s.triangles.size()) % s.triangles.size()];
     double a = u(rng), b = u(rng);
     if (a + b > 1) a = 1 - a, b = 1 - b;
-    const Vec3 on = s.vertices[t[0]] + a * (s.vertices[t[1]] - s.vertices[t[0]]) + b * (s.vertices[t[2]] - s.vertices[t[0]]);
+    const Vec3 on =
+        s.vertices[t[0]] + a * (s.vertices[t[1]] - s.vertices[t[0]]) + b * (s.vertices[t[2]] - s.vertices[t[0]]);
     p.push_back(on + std::pow(10.0, -4 + 3 * u(rng)) * direction());
     p.push_back(c + diag * (3 + 97 * u(rng)) * direction());
   }
@@ -217,7 +221,8 @@ TEST(WindingNumber, FastEqualsDefinitionOnASoup) {
   for (const auto& t : torus.triangles) {
     if (u(rng) < 0.2) continue;
     const uint32_t o = uint32_t(soup.vertices.size());
-    for (uint32_t v : t) soup.vertices.push_back(torus.vertices[v] + 0.02 * Vec3{u(rng) - 0.5, u(rng) - 0.5, u(rng) - 0.5});
+    for (uint32_t v : t)
+      soup.vertices.push_back(torus.vertices[v] + 0.02 * Vec3{u(rng) - 0.5, u(rng) - 0.5, u(rng) - 0.5});
     soup.triangles.push_back(u(rng) < 0.25 ? std::array{o, o + 2, o + 1} : std::array{o, o + 1, o + 2});
   }
   expect_matches_definition(soup, 1200, 4);
@@ -267,7 +272,8 @@ TEST(WindingNumber, DeterministicOnAnyThreadCount) {
     wn.at(pts, one);
   }
   wn.at(pts, all);
-  for (std::size_t i = 0; i < pts.size(); ++i) ASSERT_EQ(std::bit_cast<uint64_t>(one[i]), std::bit_cast<uint64_t>(all[i]));
+  for (std::size_t i = 0; i < pts.size(); ++i)
+    ASSERT_EQ(std::bit_cast<uint64_t>(one[i]), std::bit_cast<uint64_t>(all[i]));
   for (std::size_t i = 0; i < pts.size(); i += 97) ASSERT_EQ(wn.at(pts[i]), all[i]);
 }
 
@@ -420,7 +426,8 @@ std::vector<Vec3> grid_points(const Box& box, int n) {
   const Vec3 lo = box.lo - 0.1 * box.size(), size = 1.2 * box.size();
   for (int k = 0; k < n; ++k)
     for (int j = 0; j < n; ++j)
-      for (int i = 0; i < n; ++i) p.push_back(lo + Vec3{size.x * i / (n - 1), size.y * j / (n - 1), size.z * k / (n - 1)});
+      for (int i = 0; i < n; ++i)
+        p.push_back(lo + Vec3{size.x * i / (n - 1), size.y * j / (n - 1), size.z * k / (n - 1)});
   return p;
 }
 

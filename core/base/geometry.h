@@ -25,9 +25,7 @@ constexpr Vec3 operator/(Vec3 a, double s) { return {a.x / s, a.y / s, a.z / s};
 constexpr Vec3& operator+=(Vec3& a, Vec3 b) { return a = a + b; }
 constexpr Vec3& operator-=(Vec3& a, Vec3 b) { return a = a - b; }
 constexpr double dot(Vec3 a, Vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-constexpr Vec3 cross(Vec3 a, Vec3 b) {
-  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
-}
+constexpr Vec3 cross(Vec3 a, Vec3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
 constexpr double squared_norm(Vec3 a) { return dot(a, a); }
 inline double norm(Vec3 a) { return std::sqrt(dot(a, a)); }
 inline Vec3 normalized(Vec3 a) {
@@ -52,7 +50,10 @@ struct Box {
   Vec3 size() const { return hi - lo; }
   Vec3 center() const { return 0.5 * (lo + hi); }
   double diagonal() const { return norm(hi - lo); }
-  double volume() const { const Vec3 s = size(); return s.x * s.y * s.z; }
+  double volume() const {
+    const Vec3 s = size();
+    return s.x * s.y * s.z;
+  }
   bool contains(Vec3 p) const {
     return p.x >= lo.x && p.x <= hi.x && p.y >= lo.y && p.y <= hi.y && p.z >= lo.z && p.z <= hi.z;
   }

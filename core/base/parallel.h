@@ -86,19 +86,17 @@ void ordered_pipeline(std::size_t count, const Make& make, const Consume& consum
   if (count == 0) return;
   std::size_t next = 0;
   const auto live = static_cast<std::size_t>(2 * std::max(1, tbb::this_task_arena::max_concurrency()));
-  tbb::parallel_pipeline(live,
-                         tbb::make_filter<void, std::size_t>(tbb::filter_mode::serial_in_order,
-                                                             [&](tbb::flow_control& fc) -> std::size_t {
-                                                               if (next == count) {
-                                                                 fc.stop();
-                                                                 return 0;
-                                                               }
-                                                               return next++;
-                                                             }) &
-                             tbb::make_filter<std::size_t, Item>(tbb::filter_mode::parallel,
-                                                                 [&](std::size_t i) { return make(i); }) &
-                             tbb::make_filter<Item, void>(tbb::filter_mode::serial_in_order,
-                                                          [&](const Item& item) { consume(item); }));
+  tbb::parallel_pipeline(
+      live,
+      tbb::make_filter<void, std::size_t>(tbb::filter_mode::serial_in_order, [&](tbb::flow_control& fc) -> std::size_t {
+        if (next == count) {
+          fc.stop();
+          return 0;
+        }
+        return next++;
+      }) & tbb::make_filter<std::size_t, Item>(tbb::filter_mode::parallel, [&](std::size_t i) {
+        return make(i);
+      }) & tbb::make_filter<Item, void>(tbb::filter_mode::serial_in_order, [&](const Item& item) { consume(item); }));
 }
 
 // Threads: what the machine offers, and a scope that runs at most n (n >= 1) while it lives.

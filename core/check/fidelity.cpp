@@ -6,9 +6,9 @@
 #include <limits>
 #include <memory>
 
+#include "core/base/parallel.h"
 #include "core/check/mesh_check.h"
 #include "core/mesh/quality.h"
-#include "core/base/parallel.h"
 
 namespace mchex {
 namespace {
@@ -27,8 +27,7 @@ bool invert_trilinear(const std::array<Vec3, 8>& x, Vec3 p, bool* inside) {
     t += delta;
     if (std::max({std::abs(delta.x), std::abs(delta.y), std::abs(delta.z)}) < 1e-13) {
       constexpr double tol = 1e-10;
-      *inside = t.x >= -tol && t.x <= 1 + tol && t.y >= -tol && t.y <= 1 + tol && t.z >= -tol &&
-                t.z <= 1 + tol;
+      *inside = t.x >= -tol && t.x <= 1 + tol && t.y >= -tol && t.y <= 1 + tol && t.z >= -tol && t.z <= 1 + tol;
       return true;
     }
     // Far outside the cube the map is not meaningful; the point is not in this hex.
@@ -94,9 +93,8 @@ std::vector<Vec3> sample_surface(const SignedDistance& solid, const Box& box, do
   return pts;
 }
 
-Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid,
-                          std::span<const Vec3> surface_samples, const Box& lattice_box,
-                          std::size_t lattice, double spacing) {
+Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, std::span<const Vec3> surface_samples,
+                          const Box& lattice_box, std::size_t lattice, double spacing) {
   Fidelity fid;
   fid.lattice = lattice;
   const Vec3 lo = lattice_box.lo, size = lattice_box.size();
@@ -108,9 +106,8 @@ Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid,
 
   // The solid on the lattice.
   std::vector<Vec3> points(count);
-  parallel_for(count, [&](std::size_t s) {
-    points[s] = sample(s % lattice, (s / lattice) % lattice, s / (lattice * lattice));
-  });
+  parallel_for(
+      count, [&](std::size_t s) { points[s] = sample(s % lattice, (s / lattice) % lattice, s / (lattice * lattice)); });
   std::vector<double> f(count);
   solid.evaluate(points, f);
   points = {};

@@ -24,17 +24,16 @@ struct Fidelity {
   double mesh_to_surface = 0;                // max over mesh-boundary samples
   double surface_to_mesh = 0;                // max over input-surface samples
   double hausdorff = 0;
-  double hausdorff_ratio = 0;                // hausdorff / input bounding-box diagonal
-  std::size_t lattice = 0;                   // samples per axis
-  std::size_t unresolved = 0;                // samples where the inverse map did not converge
+  double hausdorff_ratio = 0;  // hausdorff / input bounding-box diagonal
+  std::size_t lattice = 0;     // samples per axis
+  std::size_t unresolved = 0;  // samples where the inverse map did not converge
 };
 
 // Points on the reference surface at about the given spacing.
 std::vector<Vec3> sample_surface(const TriangleSurface& surface, double spacing);
 std::vector<Vec3> sample_surface(const SignedDistance& solid, const Box& box, double spacing);
 
-Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid,
-                          std::span<const Vec3> surface_samples, const Box& lattice_box,
-                          std::size_t lattice, double spacing);
+Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, std::span<const Vec3> surface_samples,
+                          const Box& lattice_box, std::size_t lattice, double spacing);
 
 }  // namespace mchex

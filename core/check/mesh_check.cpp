@@ -13,8 +13,8 @@
 #include <utility>
 
 #include "core/base/error.h"
-#include "core/mesh/hex_faces.h"
 #include "core/base/parallel.h"
+#include "core/mesh/hex_faces.h"
 #include "core/mesh/quality.h"
 
 namespace mchex {
@@ -53,8 +53,7 @@ class Messages {
   }
 
  private:
-  static bool by_key(const std::pair<uint64_t, std::string>& a,
-                     const std::pair<uint64_t, std::string>& b) {
+  static bool by_key(const std::pair<uint64_t, std::string>& a, const std::pair<uint64_t, std::string>& b) {
     return a.first < b.first;
   }
   std::size_t limit_;
@@ -64,8 +63,7 @@ class Messages {
 std::string point_text(Vec3 p) { return fmt::format("({}, {}, {})", p.x, p.y, p.z); }
 
 std::string points_text(const std::array<Vec3, 4>& q) {
-  return fmt::format("{} {} {} {}", point_text(q[0]), point_text(q[1]), point_text(q[2]),
-                     point_text(q[3]));
+  return fmt::format("{} {} {} {}", point_text(q[0]), point_text(q[1]), point_text(q[2]), point_text(q[3]));
 }
 
 // An empty box has lo = +inf and hi = -inf: extending by its corners would give an infinite box.
@@ -121,55 +119,50 @@ HexPass check_hexes(const HexMesh& mesh, const std::string& name, std::size_t ma
   valid.assign(mesh.hexes.size(), 0);
   const std::size_t np = mesh.points.size();
   const HexPass proto(max_messages);
-  return deterministic_reduce(
-      mesh.hexes.size(), 4096, proto, [&](std::size_t b, std::size_t e, HexPass& acc) {
-        for (std::size_t h = b; h < e; ++h) {
-          const Hex& hex = mesh.hexes[h];
-          const auto bad =
-              std::find_if(hex.begin(), hex.end(), [&](uint32_t v) { return v >= np; });
-          if (bad != hex.end()) {
-            ++acc.bad_index;
-            acc.messages.add(h, [&] {
-              return fmt::format("{}: hex {} has vertex index {}, but there are {} points", name, h,
-                                 *bad, np);
-            });
-            continue;
-          }
-          bool repeated = false;
-          for (int i = 0; i < 8 && !repeated; ++i) {
-            for (int j = i + 1; j < 8 && !repeated; ++j) repeated = hex[i] == hex[j];
-          }
-          if (repeated) {
-            ++acc.repeated;
-            acc.messages.add(h, [&] {
-              return fmt::format("{}: hex {} repeats a vertex: [{}]", name, h,
-                                 fmt::join(hex, ", "));
-            });
-            continue;
-          }
-          const HexCorners c = mesh.corners(h);
-          // A non-finite corner is reported once, by the point check.
-          if (!std::all_of(c.begin(), c.end(), [](Vec3 p) { return is_finite(p); })) continue;
-          valid[h] = 1;
-          const HexQuality q = hex_quality(c);
-          if (!(q.min_corner_jacobian > 0)) {
-            ++acc.inverted;
-            acc.messages.add(h, [&] {
-              return fmt::format("{}: hex {} is inverted or degenerate: det J = {} at a corner",
-                                 name, h, q.min_corner_jacobian);
-            });
-          }
-          QualityStats& s = acc.quality;
-          ++s.count;
-          s.min_scaled_jacobian = std::min(s.min_scaled_jacobian, q.scaled_jacobian);
-          s.mean_scaled_jacobian += q.scaled_jacobian;
-          s.certified += q.certified() ? 1 : 0;
-          s.min_bernstein_scaled = std::min(s.min_bernstein_scaled, q.min_bernstein_scaled);
-          s.max_edge_ratio = std::max(s.max_edge_ratio, q.edge_ratio);
-          s.volume += q.volume;
-          for (Vec3 p : c) acc.corners_box.extend(p);
-        }
-      });
+  return deterministic_reduce(mesh.hexes.size(), 4096, proto, [&](std::size_t b, std::size_t e, HexPass& acc) {
+    for (std::size_t h = b; h < e; ++h) {
+      const Hex& hex = mesh.hexes[h];
+      const auto bad = std::find_if(hex.begin(), hex.end(), [&](uint32_t v) { return v >= np; });
+      if (bad != hex.end()) {
+        ++acc.bad_index;
+        acc.messages.add(h, [&] {
+          return fmt::format("{}: hex {} has vertex index {}, but there are {} points", name, h, *bad, np);
+        });
+        continue;
+      }
+      bool repeated = false;
+      for (int i = 0; i < 8 && !repeated; ++i) {
+        for (int j = i + 1; j < 8 && !repeated; ++j) repeated = hex[i] == hex[j];
+      }
+      if (repeated) {
+        ++acc.repeated;
+        acc.messages.add(
+            h, [&] { return fmt::format("{}: hex {} repeats a vertex: [{}]", name, h, fmt::join(hex, ", ")); });
+        continue;
+      }
+      const HexCorners c = mesh.corners(h);
+      // A non-finite corner is reported once, by the point check.
+      if (!std::all_of(c.begin(), c.end(), [](Vec3 p) { return is_finite(p); })) continue;
+      valid[h] = 1;
+      const HexQuality q = hex_quality(c);
+      if (!(q.min_corner_jacobian > 0)) {
+        ++acc.inverted;
+        acc.messages.add(h, [&] {
+          return fmt::format("{}: hex {} is inverted or degenerate: det J = {} at a corner", name, h,
+                             q.min_corner_jacobian);
+        });
+      }
+      QualityStats& s = acc.quality;
+      ++s.count;
+      s.min_scaled_jacobian = std::min(s.min_scaled_jacobian, q.scaled_jacobian);
+      s.mean_scaled_jacobian += q.scaled_jacobian;
+      s.certified += q.certified() ? 1 : 0;
+      s.min_bernstein_scaled = std::min(s.min_bernstein_scaled, q.min_bernstein_scaled);
+      s.max_edge_ratio = std::max(s.max_edge_ratio, q.edge_ratio);
+      s.volume += q.volume;
+      for (Vec3 p : c) acc.corners_box.extend(p);
+    }
+  });
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -182,9 +175,7 @@ struct FaceRec {
   std::array<uint32_t, 4> cycle;
   uint32_t ref;  // hex * 6 + local face
 
-  friend bool operator<(const FaceRec& a, const FaceRec& b) {
-    return std::tie(a.key, a.ref) < std::tie(b.key, b.ref);
-  }
+  friend bool operator<(const FaceRec& a, const FaceRec& b) { return std::tie(a.key, a.ref) < std::tie(b.key, b.ref); }
 };
 
 enum class Pairing { kOpposite, kSame, kMismatch };
@@ -223,13 +214,14 @@ FaceRec face_rec(const VertexOf& vertex_of, uint32_t ref) {
 // the hex's face k).
 //
 // The face references grouped by smallest vertex id (core/base/parallel.h group_by_key, a counting
-// sort), then each bucket, a handful of faces, sorted by the other three ids. Two faces with the same vertex set have the same smallest id, so each group lies
-// in one bucket. Memory: 4 bytes per face plus 4 per vertex id; no hash table, no 16-byte keys.
+// sort), then each bucket, a handful of faces, sorted by the other three ids. Two faces with the same vertex set have
+// the same smallest id, so each group lies in one bucket. Memory: 4 bytes per face plus 4 per vertex id; no hash table,
+// no 16-byte keys.
 //
 // Face references (hex * 6 + face) and vertex ids are 32-bit; check_mesh checks the sizes.
 template <class Acc, class FacesOf, class VertexOf, class Visit>
-Acc reduce_face_groups(std::size_t num_hexes, std::size_t num_ids, const FacesOf& faces_of,
-                       const VertexOf& vertex_of, const Acc& proto, const Visit& visit) {
+Acc reduce_face_groups(std::size_t num_hexes, std::size_t num_ids, const FacesOf& faces_of, const VertexOf& vertex_of,
+                       const Acc& proto, const Visit& visit) {
   auto min_id = [&](uint32_t ref) {
     const auto ids = face_ids(vertex_of, ref);
     return *std::min_element(ids.begin(), ids.end());
@@ -293,13 +285,12 @@ struct FacePass {
   }
 };
 
-FacePass check_faces(const HexMesh& mesh, const std::string& name,
-                     const std::vector<uint8_t>& valid, std::size_t max_messages) {
+FacePass check_faces(const HexMesh& mesh, const std::string& name, const std::vector<uint8_t>& valid,
+                     std::size_t max_messages) {
   const auto vertex_of = [&](uint32_t h, int c) { return mesh.hexes[h][c]; };
   const FacePass proto(max_messages);
   FacePass pass = reduce_face_groups(
-      mesh.hexes.size(), mesh.points.size(), [&](uint32_t h) { return valid[h] ? 0x3Fu : 0u; },
-      vertex_of, proto,
+      mesh.hexes.size(), mesh.points.size(), [&](uint32_t h) { return valid[h] ? 0x3Fu : 0u; }, vertex_of, proto,
       [&](const FaceRec* b, const FaceRec* e, FacePass& acc) {
         ++acc.faces;
         const std::size_t n = static_cast<std::size_t>(e - b);
@@ -309,28 +300,25 @@ FacePass check_faces(const HexMesh& mesh, const std::string& name,
         } else if (n > 2) {
           ++acc.nonmanifold;
           acc.messages.add(b->ref, [&] {
-            return fmt::format("{}: face {} is in {} hexes ({}); at most 2 allowed", name,
-                               face_text(*b), n, hexes_text(b, e));
+            return fmt::format("{}: face {} is in {} hexes ({}); at most 2 allowed", name, face_text(*b), n,
+                               hexes_text(b, e));
           });
         } else {
           switch (pairing(b[0], b[1])) {
-            case Pairing::kOpposite:
-              ++acc.interior;
-              break;
+            case Pairing::kOpposite: ++acc.interior; break;
             case Pairing::kSame:
               ++acc.same_orientation;
               acc.messages.add(b->ref, [&] {
-                return fmt::format("{}: hexes {} and {} have face {} with the same orientation",
-                                   name, b[0].ref / 6, b[1].ref / 6, face_text(*b));
+                return fmt::format("{}: hexes {} and {} have face {} with the same orientation", name, b[0].ref / 6,
+                                   b[1].ref / 6, face_text(*b));
               });
               break;
             case Pairing::kMismatch:
               ++acc.mismatch;
               acc.messages.add(b->ref, [&] {
-                return fmt::format(
-                    "{}: hexes {} and {} share vertices {} and {} in different cyclic "
-                    "orders",
-                    name, b[0].ref / 6, b[1].ref / 6, face_text(b[0]), face_text(b[1]));
+                return fmt::format("{}: hexes {} and {} share vertices {} and {} in different cyclic "
+                                   "orders",
+                                   name, b[0].ref / 6, b[1].ref / 6, face_text(b[0]), face_text(b[1]));
               });
               break;
           }
@@ -385,8 +373,7 @@ bool single_fan(const std::vector<std::pair<uint32_t, uint32_t>>& wedges) {
   return visited == wedges.size();
 }
 
-BoundaryStats analyze_boundary(const std::vector<std::array<uint32_t, 4>>& quads,
-                               std::size_t num_ids) {
+BoundaryStats analyze_boundary(const std::vector<std::array<uint32_t, 4>>& quads, std::size_t num_ids) {
   BoundaryStats s;
   s.quads = quads.size();
 
@@ -430,8 +417,7 @@ BoundaryStats analyze_boundary(const std::vector<std::array<uint32_t, 4>>& quads
   for (std::size_t i = 0; i < wedges.size();) {
     std::size_t j = i;
     fan.clear();
-    for (; j < wedges.size() && wedges[j].v == wedges[i].v; ++j)
-      fan.emplace_back(wedges[j].prev, wedges[j].next);
+    for (; j < wedges.size() && wedges[j].v == wedges[i].v; ++j) fan.emplace_back(wedges[j].prev, wedges[j].next);
     ++s.vertices;
     if (!single_fan(fan)) ++s.bad_vertices;
     i = j;
@@ -442,11 +428,10 @@ BoundaryStats analyze_boundary(const std::vector<std::array<uint32_t, 4>>& quads
     for (int i = 1; i < 4; ++i) sets.unite(q[0], q[i]);
   }
   for (std::size_t i = 0; i < wedges.size(); ++i) {
-    if ((i == 0 || wedges[i].v != wedges[i - 1].v) && sets.find(wedges[i].v) == wedges[i].v)
-      ++s.components;
+    if ((i == 0 || wedges[i].v != wedges[i - 1].v) && sets.find(wedges[i].v) == wedges[i].v) ++s.components;
   }
-  s.euler_characteristic = static_cast<int64_t>(s.vertices) - static_cast<int64_t>(s.edges) +
-                           static_cast<int64_t>(s.quads);
+  s.euler_characteristic =
+      static_cast<int64_t>(s.vertices) - static_cast<int64_t>(s.edges) + static_cast<int64_t>(s.quads);
   return s;
 }
 
@@ -468,17 +453,15 @@ MeshResult check_one(const HexMesh& mesh, const std::string& name, const CheckOp
   s.points = mesh.points.size();
   s.hexes = mesh.hexes.size();
 
-  PointPass points = deterministic_reduce(mesh.points.size(), 16384, PointPass(options.max_messages),
-                                   [&](std::size_t b, std::size_t e, PointPass& acc) {
-                                     for (std::size_t i = b; i < e; ++i) {
-                                       if (is_finite(mesh.points[i])) continue;
-                                       ++acc.nonfinite;
-                                       acc.messages.add(i, [&] {
-                                         return fmt::format("{}: point {} is not finite: {}", name,
-                                                            i, point_text(mesh.points[i]));
-                                       });
-                                     }
-                                   });
+  PointPass points = deterministic_reduce(
+      mesh.points.size(), 16384, PointPass(options.max_messages), [&](std::size_t b, std::size_t e, PointPass& acc) {
+        for (std::size_t i = b; i < e; ++i) {
+          if (is_finite(mesh.points[i])) continue;
+          ++acc.nonfinite;
+          acc.messages.add(
+              i, [&] { return fmt::format("{}: point {} is not finite: {}", name, i, point_text(mesh.points[i])); });
+        }
+      });
   s.nonfinite_points = points.nonfinite;
   points.messages.append_sorted_to(messages);
 
@@ -491,11 +474,9 @@ MeshResult check_one(const HexMesh& mesh, const std::string& name, const CheckOp
   r.corners_box = hexes.corners_box;
   hexes.messages.append_sorted_to(messages);
 
-  s.region_size_ok =
-      mesh.region.size() == mesh.hexes.size() || (!options.require_regions && mesh.region.empty());
+  s.region_size_ok = mesh.region.size() == mesh.hexes.size() || (!options.require_regions && mesh.region.empty());
   if (!s.region_size_ok) {
-    messages.push_back(fmt::format("{}: {} region labels for {} hexes", name, mesh.region.size(),
-                                   mesh.hexes.size()));
+    messages.push_back(fmt::format("{}: {} region labels for {} hexes", name, mesh.region.size(), mesh.hexes.size()));
   }
 
   FacePass faces = check_faces(mesh, name, r.valid, options.max_messages);
@@ -511,8 +492,7 @@ MeshResult check_one(const HexMesh& mesh, const std::string& name, const CheckOp
   r.boundary_refs = std::move(faces.boundary_refs);
 
   r.errors = s.nonfinite_points + s.bad_index_hexes + s.repeated_vertex_hexes + s.inverted_hexes +
-             (s.region_size_ok ? 0 : 1) + s.nonmanifold_faces + s.orientation_errors +
-             s.cyclic_mismatches;
+             (s.region_size_ok ? 0 : 1) + s.nonmanifold_faces + s.orientation_errors + s.cyclic_mismatches;
   return r;
 }
 
@@ -551,9 +531,7 @@ class PointIndex {
     z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
     return z ^ (z >> 31);
   }
-  static std::size_t hash(Vec3 p) {
-    return static_cast<std::size_t>(mix(bits(p.x) + mix(bits(p.y) + mix(bits(p.z)))));
-  }
+  static std::size_t hash(Vec3 p) { return static_cast<std::size_t>(mix(bits(p.x) + mix(bits(p.y) + mix(bits(p.z))))); }
 
   void insert(uint32_t i) {
     const Vec3 p = points_[i];
@@ -598,9 +576,8 @@ struct UnionPass {
   }
 };
 
-UnionStats check_union(const HexMesh& in, const HexMesh& out, const MeshResult& rin,
-                       const MeshResult& rout, const Box* box, const CheckOptions& options,
-                       std::vector<std::string>& messages) {
+UnionStats check_union(const HexMesh& in, const HexMesh& out, const MeshResult& rin, const MeshResult& rout,
+                       const Box* box, const CheckOptions& options, std::vector<std::string>& messages) {
   UnionStats u;
   u.box_given = box != nullptr;
   if (box) {
@@ -633,9 +610,7 @@ UnionStats check_union(const HexMesh& in, const HexMesh& out, const MeshResult& 
   }
 
   const std::size_t hin = in.hexes.size();
-  const auto vertex_of = [&](uint32_t h, int c) {
-    return h < hin ? in.hexes[h][c] : out_id[out.hexes[h - hin][c]];
-  };
+  const auto vertex_of = [&](uint32_t h, int c) { return h < hin ? in.hexes[h][c] : out_id[out.hexes[h - hin][c]]; };
   // For messages and the box test: which mesh a union face reference is from, and its corners.
   const auto describe = [&](uint32_t ref) {
     const uint32_t h = ref / 6;
@@ -646,8 +621,8 @@ UnionStats check_union(const HexMesh& in, const HexMesh& out, const MeshResult& 
     const int f = static_cast<int>(ref % 6);
     const HexMesh& m = h < hin ? in : out;
     const Hex& hex = m.hexes[h < hin ? h : h - hin];
-    return std::array<Vec3, 4>{m.points[hex[kFaces[f][0]]], m.points[hex[kFaces[f][1]]],
-                               m.points[hex[kFaces[f][2]]], m.points[hex[kFaces[f][3]]]};
+    return std::array<Vec3, 4>{m.points[hex[kFaces[f][0]]], m.points[hex[kFaces[f][1]]], m.points[hex[kFaces[f][2]]],
+                               m.points[hex[kFaces[f][3]]]};
   };
   const auto gap = [&](uint32_t ref, UnionPass& acc) {
     if (on_box_side(face_points(ref), u.box)) return;
@@ -678,12 +653,12 @@ UnionStats check_union(const HexMesh& in, const HexMesh& out, const MeshResult& 
   });
   const uint32_t first_outside_ref = static_cast<uint32_t>(6 * hin);
   UnionPass pass = reduce_face_groups(
-      hin + out.hexes.size(), ni + out.points.size(), [&](uint32_t h) { return unsigned{grouped[h]}; },
-      vertex_of,
-      UnionPass(options.max_messages), [&](const FaceRec* b, const FaceRec* e, UnionPass& acc) {
+      hin + out.hexes.size(), ni + out.points.size(), [&](uint32_t h) { return unsigned{grouped[h]}; }, vertex_of,
+      UnionPass(options.max_messages),
+      [&](const FaceRec* b, const FaceRec* e, UnionPass& acc) {
         const std::size_t n = static_cast<std::size_t>(e - b);
-        const std::size_t from_inside = static_cast<std::size_t>(
-            std::count_if(b, e, [&](const FaceRec& r) { return r.ref < first_outside_ref; }));
+        const std::size_t from_inside =
+            static_cast<std::size_t>(std::count_if(b, e, [&](const FaceRec& r) { return r.ref < first_outside_ref; }));
         if (n == 1) {
           gap(b->ref, acc);
           return;
@@ -704,10 +679,9 @@ UnionStats check_union(const HexMesh& in, const HexMesh& out, const MeshResult& 
         if (pairing(b[0], b[1]) != Pairing::kOpposite) {
           ++acc.interface_errors;
           acc.messages.add(b->ref, [&] {
-            return fmt::format(
-                "union: interface face {} of {} and {} is not matched with "
-                "opposite orientation",
-                points_text(face_points(b->ref)), describe(b[0].ref), describe(b[1].ref));
+            return fmt::format("union: interface face {} of {} and {} is not matched with "
+                               "opposite orientation",
+                               points_text(face_points(b->ref)), describe(b[0].ref), describe(b[1].ref));
           });
         }
       });
@@ -717,12 +691,12 @@ UnionStats check_union(const HexMesh& in, const HexMesh& out, const MeshResult& 
     return i < nb_in ? rin.boundary_refs[i] : first_outside_ref + rout.boundary_refs[i - nb_in];
   };
   pass.join(deterministic_reduce(nb_in + rout.boundary_refs.size(), 16384, UnionPass(options.max_messages),
-                          [&](std::size_t b, std::size_t e, UnionPass& acc) {
-                            for (std::size_t i = b; i < e; ++i) {
-                              const uint32_t ref = boundary_ref(i);
-                              if (!(grouped[ref / 6] >> (ref % 6) & 1)) gap(ref, acc);
-                            }
-                          }));
+                                 [&](std::size_t b, std::size_t e, UnionPass& acc) {
+                                   for (std::size_t i = b; i < e; ++i) {
+                                     const uint32_t ref = boundary_ref(i);
+                                     if (!(grouped[ref / 6] >> (ref % 6) & 1)) gap(ref, acc);
+                                   }
+                                 }));
   u.interface_faces = pass.interface;
   u.overlap_faces = pass.overlap;
   u.gap_faces = pass.gap;
@@ -731,14 +705,13 @@ UnionStats check_union(const HexMesh& in, const HexMesh& out, const MeshResult& 
 
   u.volume = rin.stats.quality.volume + rout.stats.quality.volume;
   u.box_volume = u.box.empty() ? 0 : u.box.volume();
-  u.volume_relative_error = u.box_volume > 0 ? std::abs(u.volume - u.box_volume) / u.box_volume
-                                             : std::numeric_limits<double>::infinity();
+  u.volume_relative_error =
+      u.box_volume > 0 ? std::abs(u.volume - u.box_volume) / u.box_volume : std::numeric_limits<double>::infinity();
   u.volume_ok = u.volume_relative_error <= options.volume_tolerance;
   if (!u.volume_ok) {
-    messages.push_back(
-        fmt::format("union: inside + outside volume {} differs from the box volume {} (relative "
-                    "{:.3g} > {:.3g})",
-                    u.volume, u.box_volume, u.volume_relative_error, options.volume_tolerance));
+    messages.push_back(fmt::format("union: inside + outside volume {} differs from the box volume {} (relative "
+                                   "{:.3g} > {:.3g})",
+                                   u.volume, u.box_volume, u.volume_relative_error, options.volume_tolerance));
   }
   return u;
 }
@@ -757,17 +730,16 @@ std::vector<std::array<uint32_t, 4>> boundary_quads(const HexMesh& mesh) {
   return quads;
 }
 
-MeshCheck check_mesh(const HexMesh& inside, const HexMesh* outside, const Box* box,
-                     const CheckOptions& options) {
+MeshCheck check_mesh(const HexMesh& inside, const HexMesh* outside, const Box* box, const CheckOptions& options) {
   // Face references and union vertex ids are 32-bit: 4 bytes per face keeps 5M hexes in about
   // 120 MB. Past that many hexes the mesh would not fit in memory anyway.
   const std::size_t hexes = inside.hexes.size() + (outside ? outside->hexes.size() : 0);
   const std::size_t points = inside.points.size() + (outside ? outside->points.size() : 0);
   constexpr std::size_t kMaxHexes = std::numeric_limits<uint32_t>::max() / 6;
   if (hexes > kMaxHexes || points >= kNone) {
-    throw ResourceError(fmt::format(
-        "mesh check: {} hexes and {} points are over the checker's limits ({} hexes, {} points)",
-        hexes, points, kMaxHexes, kNone - 1));
+    throw ResourceError(
+        fmt::format("mesh check: {} hexes and {} points are over the checker's limits ({} hexes, {} points)", hexes,
+                    points, kMaxHexes, kNone - 1));
   }
   MeshCheck check;
   std::vector<std::string> messages;
@@ -844,10 +816,8 @@ nlohmann::json to_json(const UnionStats& u) {
 }
 
 nlohmann::json to_json(const MeshCheck& c) {
-  nlohmann::json j = {{"ok", c.ok},
-                      {"error_count", c.error_count},
-                      {"errors", c.errors},
-                      {"inside", to_json(c.inside)}};
+  nlohmann::json j = {
+      {"ok", c.ok}, {"error_count", c.error_count}, {"errors", c.errors}, {"inside", to_json(c.inside)}};
   j["outside"] = c.outside ? to_json(*c.outside) : nlohmann::json(nullptr);
   j["union"] = c.combined ? to_json(*c.combined) : nlohmann::json(nullptr);
   return j;

@@ -24,10 +24,10 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
-#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
+#include <nlohmann/json.hpp>
 
 #include "core/base/geometry.h"
 #include "core/mesh/hex_mesh.h"
@@ -47,7 +47,7 @@ struct QualityStats {
   std::size_t count = 0;  // hexes measured: those with valid indices and finite corners
   double min_scaled_jacobian = std::numeric_limits<double>::infinity();
   double mean_scaled_jacobian = 0;
-  std::size_t certified = 0;  // all 27 Bernstein coefficients of det J > 0
+  std::size_t certified = 0;                                              // all 27 Bernstein coefficients of det J > 0
   double min_bernstein_scaled = std::numeric_limits<double>::infinity();  // min beta / h^3
   double max_edge_ratio = 0;
   double volume = 0;  // sum of exact trilinear volumes
@@ -115,8 +115,7 @@ struct MeshCheck {
 // the bounding box of the hexes' corners. Without an outside mesh the box is not used.
 // Never throws for bad mesh content; throws ResourceError when a mesh has more than
 // 2^32 / 6 hexes (face references are 32-bit).
-MeshCheck check_mesh(const HexMesh& inside, const HexMesh* outside, const Box* box,
-                     const CheckOptions& options = {});
+MeshCheck check_mesh(const HexMesh& inside, const HexMesh* outside, const Box* box, const CheckOptions& options = {});
 
 // The quads that belong to exactly one hex, each as its hex lists it (outward), sorted. The
 // mesh's indices must be in range (as check_mesh or the mesh reader ensure).

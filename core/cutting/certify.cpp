@@ -10,14 +10,14 @@
 
 #include <fmt/format.h>
 
-#include "core/grid/cell_types.h"
 #include "core/base/error.h"
-#include "core/cutting/local_refinement.h"
 #include "core/base/parallel.h"
+#include "core/cutting/local_refinement.h"
 #include "core/cutting/polyhedra.h"
-#include "core/mesh/quality.h"
 #include "core/cutting/repair.h"
 #include "core/cutting/subdivide.h"
+#include "core/grid/cell_types.h"
+#include "core/mesh/quality.h"
 
 namespace mchex {
 
@@ -249,13 +249,14 @@ CertifyResult certify(const CertifyOptions& o) {
 
 std::string certify_report(const CertifyResult& r) {
   const auto types = cell_types();
-  std::string out = fmt::format(
-      "certify: {} cell types x {} rotations x {} subcases, crossings in [{}, {}]; the 27 Bernstein "
-      "coefficients of det J of every hex must be > 0\n",
-      types.size(), kNumCubeRotations, kNumSubcases - 1, r.options.eps, 1 - r.options.eps);
-  out += fmt::format("basic cell types here: {} (the paper counts {}); the 15 + 1 local-refinement types are not in the\n"
-                     "table: LR subcases are certified through refine_locally on each basic type instead\n",
-                     types.size(), kPaperBasicCellTypes);
+  std::string out =
+      fmt::format("certify: {} cell types x {} rotations x {} subcases, crossings in [{}, {}]; the 27 Bernstein "
+                  "coefficients of det J of every hex must be > 0\n",
+                  types.size(), kNumCubeRotations, kNumSubcases - 1, r.options.eps, 1 - r.options.eps);
+  out +=
+      fmt::format("basic cell types here: {} (the paper counts {}); the 15 + 1 local-refinement types are not in the\n"
+                  "table: LR subcases are certified through refine_locally on each basic type instead\n",
+                  types.size(), kPaperBasicCellTypes);
   out += fmt::format("{:<8} {} {:>9} ", "subcase", "  ", "hexes");
   for (const CellType& t : types) out += fmt::format(" {:>9}", t.name);
   out += "\n";
@@ -277,7 +278,8 @@ std::string certify_report(const CertifyResult& r) {
     }
     out += "\n";
   }
-  out += "(LR: through local refinement; entry: min over the hexes of min coefficient / mean edge^3; '!': some coefficient <= 0)\n";
+  out +=
+      "(LR: through local refinement; entry: min over the hexes of min coefficient / mean edge^3; '!': some coefficient <= 0)\n";
   // Where plain midpoint subdivision was not certified and core/cutting/repair.h moved a volume centre.
   out += fmt::format("{:<8} {} {:>9} ", "moved", "  ", "centres");
   for (std::size_t t = 0; t < types.size(); ++t) {
@@ -292,8 +294,10 @@ std::string certify_report(const CertifyResult& r) {
     for (std::size_t t = 0; t < types.size(); ++t) moved += r.table[t][s].moved_centres;
     if (moved) where += fmt::format(" {} ({})", std::string(subcase_name(static_cast<Subcase>(s))), moved);
   }
-  out += fmt::format("(polyhedra whose plain subdivision was not certified, so the volume-centre search of core/cutting/repair.h "
-                     "moved the centre; by subcase:{})\n", where.empty() ? " none" : where);
+  out += fmt::format(
+      "(polyhedra whose plain subdivision was not certified, so the volume-centre search of core/cutting/repair.h "
+      "moved the centre; by subcase:{})\n",
+      where.empty() ? " none" : where);
   if (r.first_failure) {
     const CertifyFailure& f = *r.first_failure;
     std::string s;
@@ -302,8 +306,8 @@ std::string certify_report(const CertifyResult& r) {
     out += fmt::format("first failure: type {} rotation {} subcase {}:{} (coefficient {:.3e})\n", types[f.type].name,
                        f.rotation, std::string(subcase_name(f.subcase)), s, f.coefficient);
   }
-  out += fmt::format("{} hexes checked in {:.1f} s; {} subcases not checked\n", r.hexes, r.seconds,
-                     r.not_landed_subcases);
+  out +=
+      fmt::format("{} hexes checked in {:.1f} s; {} subcases not checked\n", r.hexes, r.seconds, r.not_landed_subcases);
   out += r.passed() ? "certify: PASSED\n"
                     : fmt::format("certify: NOT PASSED ({})\n",
                                   r.first_failure ? "a coefficient is not positive" : "a subcase was not checked");

@@ -42,21 +42,21 @@
 namespace mchex {
 
 struct CertifyOptions {
-  double eps = 1e-3;        // crossings in [eps, 1 - eps], as the mesher's --eps
-  int random_samples = 8;   // per (type, rotation, pattern): magnitudes uniform in [0.05, 1]
-  int mixed_samples = 8;    // each magnitude 1, 1e-6 or random (plus the 256 end cells)
+  double eps = 1e-3;       // crossings in [eps, 1 - eps], as the mesher's --eps
+  int random_samples = 8;  // per (type, rotation, pattern): magnitudes uniform in [0.05, 1]
+  int mixed_samples = 8;   // each magnitude 1, 1e-6 or random (plus the 256 end cells)
   std::uint64_t seed = 20250917;
 };
 
 enum class CertifyRoute : std::uint8_t { kDirect, kLocalRefinement };
 CertifyRoute certify_route(Subcase s);
 
-struct CertifyEntry {  // one (type, subcase)
-  std::size_t hexes = 0;         // hexes checked
-  std::size_t failed_hexes = 0;  // with a coefficient <= 0
-  std::size_t moved_centres = 0; // polyhedra whose volume centre the search moved (core/cutting/repair.h)
-  double min_coefficient = 0;    // min over hexes of min beta / (mean edge)^3 (dimensionless)
-  bool checked = false;          // false: needs local refinement (not landed)
+struct CertifyEntry {             // one (type, subcase)
+  std::size_t hexes = 0;          // hexes checked
+  std::size_t failed_hexes = 0;   // with a coefficient <= 0
+  std::size_t moved_centres = 0;  // polyhedra whose volume centre the search moved (core/cutting/repair.h)
+  double min_coefficient = 0;     // min over hexes of min beta / (mean edge)^3 (dimensionless)
+  bool checked = false;           // false: needs local refinement (not landed)
 };
 
 struct CertifyFailure {

@@ -26,8 +26,7 @@ std::array<double, 8> trilinear_weights(const std::array<double, 3>& u) {
 
 std::array<double, 3> inner_parameter(int corner) {
   std::array<double, 3> u{};
-  for (int i = 0; i < 3; ++i)
-    u[i] = kCubeCorners[corner][i] ? 1 - kInnerPointPosition : kInnerPointPosition;
+  for (int i = 0; i < 3; ++i) u[i] = kCubeCorners[corner][i] ? 1 - kInnerPointPosition : kInnerPointPosition;
   return u;
 }
 
@@ -82,7 +81,7 @@ constexpr LocalRefinementTable make_table() {
   auto set = [&t](Subcase s, std::uint8_t inner) { t[static_cast<int>(s)] = {true, inner}; };
   using S = Subcase;
   // One level: every child is cut directly.
-  set(S::k3_2, 0x0F);     // inner points next to the face z = 0 (the joined one) positive
+  set(S::k3_2, 0x0F);  // inner points next to the face z = 0 (the joined one) positive
   // ... but a cell that is 3.2 itself takes 0x7F (every inner point positive but the one next to
   // corner 7): measured over the 8 basic cell types x 24 rotations x 709 sampled 3.2 cells (with
   // core/cutting/repair.h's volume-centre search), 0x0F leaves 117 uncertified polyhedra on edge-3 and
@@ -97,7 +96,7 @@ constexpr LocalRefinementTable make_table() {
   // ... on general cells only: on affine ones the volume-centre offset certifies them directly.
   t[static_cast<int>(S::k11)].direct_on_affine = true;
   t[static_cast<int>(S::k14)].direct_on_affine = true;
-  set(S::k4_1_2, 0xFF);   // the tunnel's sign fills the inner cell
+  set(S::k4_1_2, 0xFF);  // the tunnel's sign fills the inner cell
   // Two levels: some frustums are 3.2 or 6.2 cells and are refined again.
   set(S::k7_2, 0x00);
   set(S::k7_3, 0xFF);
@@ -133,8 +132,7 @@ SignPlan plan(std::uint8_t mask, std::uint8_t face_joins, Subcase s, int symmetr
     return {8 + 2 * cut, 0};
   }
   if (depth >= kMaxLevels)
-    throw std::logic_error("local refinement: subcase " + std::string(subcase_name(s)) +
-                           " needs a third level");
+    throw std::logic_error("local refinement: subcase " + std::string(subcase_name(s)) + " needs a third level");
   const CubeSymmetry& g = kCubeSymmetries[symmetry];
   std::uint16_t signs = mask;
   for (int i = 0; i < 8; ++i) {
@@ -164,9 +162,8 @@ SignPlan subcase_plan(Subcase s) {
   return plan(info.positive_mask, info.face_joins, s, 0, false, kTable, 0);
 }
 
-void refine_into(const std::array<std::uint32_t, 8>& cell, const CellClass& c,
-                 const LocalRefinementTable& table, double zero_tolerance, int depth,
-                 LocalRefinement& out) {
+void refine_into(const std::array<std::uint32_t, 8>& cell, const CellClass& c, const LocalRefinementTable& table,
+                 double zero_tolerance, int depth, LocalRefinement& out) {
   if (depth >= kMaxLevels)
     throw std::logic_error("local refinement: subcase " + std::string(subcase_name(c.subcase)) +
                            " would need a third level");
@@ -188,8 +185,7 @@ void refine_into(const std::array<std::uint32_t, 8>& cell, const CellClass& c,
     const auto w = trilinear_weights(inner_parameter(i));
     double v = 0;
     for (int k = 0; k < 8; ++k) v += w[k] * f[k];
-    if ((v > 0) != positive || !(std::abs(v) >= zero_tolerance))
-      v = positive ? zero_tolerance : -zero_tolerance;
+    if ((v > 0) != positive || !(std::abs(v) >= zero_tolerance)) v = positive ? zero_tolerance : -zero_tolerance;
     id[8 + i] = static_cast<std::uint32_t>(out.points.size());
     out.points.push_back(pts[8 + i]);
     out.values.push_back(v);
@@ -207,21 +203,16 @@ void refine_into(const std::array<std::uint32_t, 8>& cell, const CellClass& c,
     // configuration (the interior test would read the virtual magnitudes), and no ambiguous face
     // except on the cell's own faces (whose points are the cell's corners, ids 0..7).
     if (subcase_info(cc.subcase).tunnel_partner != Subcase::kEmpty)
-      throw std::logic_error("local refinement: a child of subcase " +
-                             std::string(subcase_name(c.subcase)) + " is " +
-                             std::string(subcase_name(cc.subcase)) +
-                             ", decided by the interior test");
+      throw std::logic_error("local refinement: a child of subcase " + std::string(subcase_name(c.subcase)) + " is " +
+                             std::string(subcase_name(cc.subcase)) + ", decided by the interior test");
     for (int face = 0; face < 6; ++face)
       if (cc.ambiguous_faces >> face & 1)
         for (int q : kHexFaces[face])
           if (sub[q] >= 8)
-            throw std::logic_error("local refinement: a child of subcase " +
-                                   std::string(subcase_name(c.subcase)) +
+            throw std::logic_error("local refinement: a child of subcase " + std::string(subcase_name(c.subcase)) +
                                    " has an ambiguous face inside the cell");
-    if (table[static_cast<int>(cc.subcase)].refine)
-      refine_into(sub, cc, table, zero_tolerance, depth + 1, out);
-    else
-      out.cells.push_back(sub);
+    if (table[static_cast<int>(cc.subcase)].refine) refine_into(sub, cc, table, zero_tolerance, depth + 1, out);
+    else out.cells.push_back(sub);
   }
 }
 
@@ -261,14 +252,12 @@ bool needs_local_refinement(const CellClass& c, const std::array<Vec3, 8>& corne
   return needs_local_refinement(c.subcase, cell_shape(corners));
 }
 
-LocalRefinement refine_locally(const std::array<Vec3, 8>& corners, const std::array<double, 8>& f,
-                               const CellClass& c, double zero_tolerance,
-                               const LocalRefinementTable& table) {
+LocalRefinement refine_locally(const std::array<Vec3, 8>& corners, const std::array<double, 8>& f, const CellClass& c,
+                               double zero_tolerance, const LocalRefinementTable& table) {
   if (!table[static_cast<int>(c.subcase)].refine)
     throw std::invalid_argument("refine_locally: subcase " + std::string(subcase_name(c.subcase)) +
                                 " is cut without local refinement");
-  if (!(zero_tolerance > 0))
-    throw std::invalid_argument("refine_locally: zero_tolerance must be positive");
+  if (!(zero_tolerance > 0)) throw std::invalid_argument("refine_locally: zero_tolerance must be positive");
   LocalRefinement out;
   out.points.assign(corners.begin(), corners.end());
   out.values.assign(f.begin(), f.end());

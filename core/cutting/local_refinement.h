@@ -3,12 +3,12 @@
 // (no such polyhedra at all), are split into 7 children before cutting: "connecting its eight grid
 // points to its centroid, resulting in seven smaller children cells" (Section 5) - an inner cell
 // and 6 frustums, one on each face of the cell. The 8 inserted (inner) points sit at fixed
-// positions (halfway from each corner to the centroid, kInnerPointScale); each gets a *virtual* value whose SIGN follows a per-subcase template,
-// chosen so that every child falls into a subcase that midpoint subdivision certifies and the
-// union of the children's regions has the cell's MC33 topology (Figure 7: "virtual SDF values
-// assigned to new vertices ensure each hex falls into the fourteen proven topological cases and
-// the isosurface topology is the same"). A child whose own subcase still needs refinement is
-// refined once more with its own template (the paper's second level, Figure 7 and Section 8).
+// positions (halfway from each corner to the centroid, kInnerPointScale); each gets a *virtual* value whose SIGN
+// follows a per-subcase template, chosen so that every child falls into a subcase that midpoint subdivision certifies
+// and the union of the children's regions has the cell's MC33 topology (Figure 7: "virtual SDF values assigned to new
+// vertices ensure each hex falls into the fourteen proven topological cases and the isosurface topology is the same").
+// A child whose own subcase still needs refinement is refined once more with its own template (the paper's second
+// level, Figure 7 and Section 8).
 //
 // Guarantees (tests/test_local_refinement.cpp checks each, exhaustively over the 256 sign
 // patterns and the face/interior outcomes):
@@ -89,7 +89,9 @@ struct LocalRefinementTemplate {
   // (local_refinement.cpp).
   bool own_level = false;
   std::uint8_t own_inner_positive = 0;
-  constexpr std::uint8_t signs(int depth) const { return depth == 0 && own_level ? own_inner_positive : inner_positive; }
+  constexpr std::uint8_t signs(int depth) const {
+    return depth == 0 && own_level ? own_inner_positive : inner_positive;
+  }
 };
 using LocalRefinementTable = std::array<LocalRefinementTemplate, kNumSubcases>;
 const LocalRefinementTable& local_refinement_table();
@@ -104,8 +106,8 @@ bool needs_local_refinement(Subcase s, CellShape shape);
 bool needs_local_refinement(const CellClass& c, const std::array<Vec3, 8>& corners);
 
 struct LocalRefinement {
-  std::vector<Vec3> points;    // [0, 8): the cell's corners as given; then the inserted points
-  std::vector<double> values;  // f at every point: the cell's 8 values, then virtual values
+  std::vector<Vec3> points;                         // [0, 8): the cell's corners as given; then the inserted points
+  std::vector<double> values;                       // f at every point: the cell's 8 values, then virtual values
   std::vector<std::array<std::uint32_t, 8>> cells;  // leaf children, VTK order, into points
   int levels = 0;                                   // 1 or 2
 };
@@ -115,9 +117,8 @@ struct LocalRefinement {
 // (and the least magnitude of any virtual value). Throws std::invalid_argument if c does not need
 // refinement, std::logic_error if a table entry breaks its guarantees (tests rule that out).
 // `table` exists for the search and tests; the mesher uses the default.
-LocalRefinement refine_locally(const std::array<Vec3, 8>& corners, const std::array<double, 8>& f,
-                               const CellClass& c, double zero_tolerance,
-                               const LocalRefinementTable& table = local_refinement_table());
+LocalRefinement refine_locally(const std::array<Vec3, 8>& corners, const std::array<double, 8>& f, const CellClass& c,
+                               double zero_tolerance, const LocalRefinementTable& table = local_refinement_table());
 
 // Leaf i of a refinement as a cell of its own: its corners and values, VTK order.
 struct LocalRefinementLeaf {

@@ -44,8 +44,7 @@ constexpr std::uint8_t compute_ambiguous_faces(std::uint8_t mask) {
   std::uint8_t out = 0;
   for (int f = 0; f < 6; ++f) {
     const auto& q = kHexFaces[f];
-    const int s0 = mask >> q[0] & 1, s1 = mask >> q[1] & 1, s2 = mask >> q[2] & 1,
-              s3 = mask >> q[3] & 1;
+    const int s0 = mask >> q[0] & 1, s1 = mask >> q[1] & 1, s2 = mask >> q[2] & 1, s3 = mask >> q[3] & 1;
     if (s0 == s2 && s1 == s3 && s0 != s1) out |= bit8(f);
   }
   return out;
@@ -60,8 +59,7 @@ constexpr std::uint8_t move_mask(const CubeSymmetry& g, std::uint8_t mask, bool 
 
 // Face outcomes move with the faces; negating the values swaps which diagonal is the positive one,
 // so every ambiguous face's bit flips.
-constexpr std::uint8_t move_faces(const CubeSymmetry& g, std::uint8_t mask, std::uint8_t faces,
-                                  bool invert) {
+constexpr std::uint8_t move_faces(const CubeSymmetry& g, std::uint8_t mask, std::uint8_t faces, bool invert) {
   const std::uint8_t amb = compute_ambiguous_faces(mask);
   std::uint8_t out = 0;
   for (int f = 0; f < 6; ++f)
@@ -78,12 +76,10 @@ struct PatternEntry {
 // complement (the classic 15 classes; with reflections 11 and 14 would merge [L]).
 constexpr std::array<PatternEntry, 256> make_pattern_table() {
   std::array<PatternEntry, 256> t{};
-  for (int m = 0; m < 256; ++m)
-    t[m].ambiguous_faces = compute_ambiguous_faces(static_cast<std::uint8_t>(m));
+  for (int m = 0; m < 256; ++m) t[m].ambiguous_faces = compute_ambiguous_faces(static_cast<std::uint8_t>(m));
   for (const SubcaseInfo& s : kSubcaseInfo)
     for (int g = 0; g < kNumCubeRotations; ++g)
-      for (int inv = 0; inv < 2; ++inv)
-        t[move_mask(kCubeSymmetries[g], s.positive_mask, inv != 0)].mc_case = s.mc_case;
+      for (int inv = 0; inv < 2; ++inv) t[move_mask(kCubeSymmetries[g], s.positive_mask, inv != 0)].mc_case = s.mc_case;
   return t;
 }
 
@@ -108,8 +104,7 @@ constexpr std::array<Mc33Config, 256 * 64> make_config_table() {
         const std::uint8_t m = move_mask(g, info.positive_mask, inv != 0);
         const std::uint8_t fc = move_faces(g, info.positive_mask, info.face_joins, inv != 0);
         Mc33Config& e = t[config_index(m, fc)];
-        if (e.realisable() && e.subcase != static_cast<Subcase>(s))
-          throw "two subcases claim one configuration";
+        if (e.realisable() && e.subcase != static_cast<Subcase>(s)) throw "two subcases claim one configuration";
         e.subcase = static_cast<Subcase>(s);
         if (g.inverse < e.map[inv]) e.map[inv] = g.inverse;
       }
@@ -147,8 +142,7 @@ double kahan_det(double a, double b, double c, double d) {
 }
 
 // Same-sign components of the corners under the links in adj (edges, faces, interior).
-void label_regions(const std::array<std::uint8_t, 8>& adj, std::uint8_t sign_mask,
-                   CellClass& out) {
+void label_regions(const std::array<std::uint8_t, 8>& adj, std::uint8_t sign_mask, CellClass& out) {
   std::uint8_t left = 0xFF;
   int n = 0;
   while (left) {
@@ -156,8 +150,7 @@ void label_regions(const std::array<std::uint8_t, 8>& adj, std::uint8_t sign_mas
     std::uint8_t comp = bit8(c), frontier = comp;
     while (frontier) {
       std::uint8_t next = 0;
-      for (std::uint8_t m = frontier; m; m &= static_cast<std::uint8_t>(m - 1))
-        next |= adj[std::countr_zero(m)];
+      for (std::uint8_t m = frontier; m; m &= static_cast<std::uint8_t>(m - 1)) next |= adj[std::countr_zero(m)];
       next &= static_cast<std::uint8_t>(~comp);
       comp |= next;
       frontier = next;
@@ -249,9 +242,7 @@ const Mc33Config& mc33_config(std::uint8_t sign_mask, std::uint8_t face_joins) {
   return kConfigTable.at(static_cast<std::size_t>(config_index(sign_mask, face_joins & 0x3F)));
 }
 
-std::uint8_t ambiguous_faces_of(std::uint8_t sign_mask) {
-  return kPatternTable[sign_mask].ambiguous_faces;
-}
+std::uint8_t ambiguous_faces_of(std::uint8_t sign_mask) { return kPatternTable[sign_mask].ambiguous_faces; }
 
 CellClass classify(const std::array<double, 8>& f) {
   CellClass out;
@@ -309,8 +300,7 @@ CellClass classify(const std::array<double, 8>& f) {
   // topology is fixed by edges and faces [C], so the test is not run.
   const Subcase partner = subcase_info(entry.subcase).tunnel_partner;
   int c1 = 0, c2 = 0;
-  if (partner != Subcase::kEmpty && interior_join(f, c1, c2) &&
-      out.corner_region[c1] != out.corner_region[c2]) {
+  if (partner != Subcase::kEmpty && interior_join(f, c1, c2) && out.corner_region[c1] != out.corner_region[c2]) {
     out.tunnel = static_cast<std::int8_t>((mask >> c1 & 1) ? 1 : -1);
     out.subcase = partner;
     adj[c1] |= bit8(c2);
@@ -320,8 +310,7 @@ CellClass classify(const std::array<double, 8>& f) {
 
   // A tunnel fixes the inversion (the representative's tunnel has a given sign); otherwise the
   // preferred map is used.
-  const int inv = out.tunnel != 0 ? (out.tunnel != subcase_info(out.subcase).tunnel)
-                                  : entry.preferred;
+  const int inv = out.tunnel != 0 ? (out.tunnel != subcase_info(out.subcase).tunnel) : entry.preferred;
   out.symmetry = entry.map[inv];
   out.inverted = inv != 0;
   if (out.symmetry == kNoCubeSymmetry)

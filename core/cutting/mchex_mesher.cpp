@@ -3,8 +3,8 @@
 
 #include <algorithm>
 #include <array>
-#include <chrono>
 #include <bit>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -12,16 +12,16 @@
 #include <string>
 #include <vector>
 
-#include "core/grid/complex_topology.h"
 #include "core/base/error.h"
-#include "core/mesh/hex_faces.h"
+#include "core/base/parallel.h"
 #include "core/cutting/local_refinement.h"
 #include "core/cutting/mc33.h"
-#include "core/base/parallel.h"
 #include "core/cutting/polyhedra.h"
-#include "core/mesh/quality.h"
 #include "core/cutting/repair.h"
 #include "core/cutting/subdivide.h"
+#include "core/grid/complex_topology.h"
+#include "core/mesh/hex_faces.h"
+#include "core/mesh/quality.h"
 
 namespace mchex {
 namespace {
@@ -89,8 +89,7 @@ constexpr auto kCellFaceCorners = make_cell_face_corners();
 
 constexpr int cube_edge_of(int a, int b) {
   for (int e = 0; e < 12; ++e)
-    if ((kCubeEdges[e][0] == a && kCubeEdges[e][1] == b) || (kCubeEdges[e][0] == b && kCubeEdges[e][1] == a))
-      return e;
+    if ((kCubeEdges[e][0] == a && kCubeEdges[e][1] == b) || (kCubeEdges[e][0] == b && kCubeEdges[e][1] == a)) return e;
   return -1;
 }
 
@@ -161,9 +160,9 @@ struct Mesher {
   const SlotLayout& slots;
   std::span<const double> f;
   double eps;
-  double tiny;                // the zero rule's tolerance: virtual values are at least this
+  double tiny;                                    // the zero rule's tolerance: virtual values are at least this
   std::span<const std::uint8_t> device_subcases;  // empty, or the device's (cross-checked)
-  std::vector<Vec3>& shared;  // [0, slots.end): written by owners only
+  std::vector<Vec3>& shared;                      // [0, slots.end): written by owners only
 
   // The points one cell makes for itself (loop centroids, volume centres, everything inside a
   // refined cell), by local name.
@@ -253,7 +252,8 @@ struct Mesher {
       frame.piece = static_cast<std::uint32_t>(li + 1);
       const CellClass leaf_class = classify(cell_of_leaf.values);
       if (needs_local_refinement(leaf_class))
-        throw std::logic_error("local refinement left a leaf of subcase " + std::string(subcase_name(leaf_class.subcase)));
+        throw std::logic_error("local refinement left a leaf of subcase " +
+                               std::string(subcase_name(leaf_class.subcase)));
       mesh_piece(cell, frame, cell_of_leaf.corners, leaf_class, locals, out);
     }
   }
@@ -362,7 +362,7 @@ struct Mesher {
       // Mapped into the cell, every hex checked, the volume centre moved where one is not
       // certified (core/cutting/repair.h; the centre is this polyhedron's own point).
       MappedSubdivision mapped;
-      if (uncut_affine) {  // certified by construction (repair.h), no check needed
+      if (uncut_affine) {             // certified by construction (repair.h), no check needed
         mapped.hexes = uncut->hexes;  // uncut_affine: the cell is uncut
         for (SubdivisionHex& h : mapped.hexes)
           for (Vec3& x : h.corners) x = trilinear_map(xc, x);
@@ -399,7 +399,8 @@ struct Mesher {
               if (face_cell_face[sk.a] >= 0)
                 id = face_point(face_cell_face[sk.a], static_cast<std::uint32_t>(face_slot[sk.a]), x);
               else
-                id = locals.get(local_key(kLoopCentroid, fr.piece, static_cast<std::uint64_t>(face_slot[sk.a])), x, out);
+                id =
+                    locals.get(local_key(kLoopCentroid, fr.piece, static_cast<std::uint64_t>(face_slot[sk.a])), x, out);
               break;
             case SubdivisionPointKey::Kind::kCentre:
               id = locals.get(local_key(kVolumeCentre, fr.piece, pi), x, out);
@@ -417,9 +418,7 @@ struct Mesher {
 
 static_assert(kMchexCaseSlots == kNumSubcases);
 
-std::string_view mchex_case_name(int slot) {
-  return subcase_name(static_cast<Subcase>(slot));
-}
+std::string_view mchex_case_name(int slot) { return subcase_name(static_cast<Subcase>(slot)); }
 
 double zero_tolerance(double cell_size) { return 1e-10 * cell_size; }
 
@@ -449,8 +448,8 @@ std::vector<double> apply_zero_rule(const HexComplex& cx, std::span<const double
   return f;
 }
 
-MeshPair mesh_mchex(const HexComplex& cx, std::span<const double> values, double eps,
-                    MchexStats* stats_out, const DeviceClassification& device) {
+MeshPair mesh_mchex(const HexComplex& cx, std::span<const double> values, double eps, MchexStats* stats_out,
+                    const DeviceClassification& device) {
   if (!(eps > 0 && eps < 0.5)) throw InputError("eps must be in (0, 0.5), got " + std::to_string(eps));
   MchexStats stats;
   const std::vector<double> f = apply_zero_rule(cx, values, &stats.perturbed_values);
@@ -539,8 +538,7 @@ MeshPair mesh_mchex(const HexComplex& cx, std::span<const double> values, double
   return out;
 }
 
-MeshPair mesh_mchex(const UniformGrid& grid, std::span<const double> values, double eps,
-                    MchexStats* stats) {
+MeshPair mesh_mchex(const UniformGrid& grid, std::span<const double> values, double eps, MchexStats* stats) {
   return mesh_mchex(uniform_complex(grid), values, eps, stats);
 }
 

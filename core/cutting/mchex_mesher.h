@@ -46,13 +46,13 @@ std::string_view mchex_case_name(int slot);
 
 struct MchexStats {
   std::array<std::size_t, kMchexCaseSlots> cases{};  // cells per subcase (index: mc33 Subcase)
-  std::size_t refined_cells = 0;    // cells cut as their local refinement (paper Figure 7)
+  std::size_t refined_cells = 0;                     // cells cut as their local refinement (paper Figure 7)
   std::size_t refined_cells_two_levels = 0;
-  std::size_t perturbed_values = 0; // grid values moved off zero by the zero rule
-  std::size_t expected_hexes = 0;   // sum over cells of local_refinement_hexes(subcase)
-  std::size_t moved_centres = 0;    // polyhedra whose volume centre core/cutting/repair.h moved
+  std::size_t perturbed_values = 0;       // grid values moved off zero by the zero rule
+  std::size_t expected_hexes = 0;         // sum over cells of local_refinement_hexes(subcase)
+  std::size_t moved_centres = 0;          // polyhedra whose volume centre core/cutting/repair.h moved
   std::size_t uncertified_polyhedra = 0;  // polyhedra with a hex not certified even so
-  std::size_t points = 0;           // distinct global points (both meshes together)
+  std::size_t points = 0;                 // distinct global points (both meshes together)
   // Wall time of the stages: numbering the complex's edges and faces, cutting + subdividing the
   // cells (parallel), and assembling the two meshes from the chunks.
   double seconds_topology = 0, seconds_cells = 0, seconds_assembly = 0;
@@ -91,10 +91,9 @@ struct DeviceClassification {
 // eps in (0, 0.5): crossing parameters are clamped to [eps, 1 - eps] so that no polyhedron has
 // a (near-)zero-length edge. Deterministic for any thread count.
 // Throws InputError for a bad eps, a values size mismatch or a non-finite value.
-MeshPair mesh_mchex(const HexComplex& complex, std::span<const double> values, double eps,
-                    MchexStats* stats = nullptr, const DeviceClassification& device = {});
+MeshPair mesh_mchex(const HexComplex& complex, std::span<const double> values, double eps, MchexStats* stats = nullptr,
+                    const DeviceClassification& device = {});
 // The uniform grid (values in UniformGrid::vertex_index order) through uniform_complex().
-MeshPair mesh_mchex(const UniformGrid& grid, std::span<const double> values, double eps,
-                    MchexStats* stats = nullptr);
+MeshPair mesh_mchex(const UniformGrid& grid, std::span<const double> values, double eps, MchexStats* stats = nullptr);
 
 }  // namespace mchex

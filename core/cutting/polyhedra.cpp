@@ -3,8 +3,8 @@
 
 #include <string>
 
-#include "core/mesh/hex_faces.h"
 #include "core/cutting/volume_centre_offset.h"
+#include "core/mesh/hex_faces.h"
 
 namespace mchex {
 namespace {
@@ -13,9 +13,7 @@ constexpr int kNoEdge = -1;
 
 int edge_between(int a, int b) {
   for (int e = 0; e < 12; ++e)
-    if ((kCubeEdges[e][0] == a && kCubeEdges[e][1] == b) ||
-        (kCubeEdges[e][0] == b && kCubeEdges[e][1] == a))
-      return e;
+    if ((kCubeEdges[e][0] == a && kCubeEdges[e][1] == b) || (kCubeEdges[e][0] == b && kCubeEdges[e][1] == a)) return e;
   return kNoEdge;
 }
 
@@ -52,8 +50,7 @@ void face_pieces(const CellClass& c, int f, std::vector<FacePiece>& out) {
       if (!is_corner_key(k)) continue;
       const int r = c.corner_region[k];
       if (region >= 0 && r != region)
-        throw std::logic_error("cut_cell: a piece of face " + std::to_string(f) +
-                               " has corners in two regions");
+        throw std::logic_error("cut_cell: a piece of face " + std::to_string(f) + " has corners in two regions");
       region = r;
     }
     return region;

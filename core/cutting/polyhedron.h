@@ -24,8 +24,8 @@ struct Polyhedron {
   std::vector<Vec3> points;
   std::vector<CellPointKey> keys;                 // keys[i] identifies points[i] in the cell
   std::vector<std::vector<std::uint32_t>> faces;  // indices into points, CCW seen from outside
-  int region_sign = 0;       // +1 inside (f > 0), -1 outside, as CellRegion::sign
-  std::uint8_t corners = 0;  // bit c <=> cell corner c is a vertex (the region's corners)
+  int region_sign = 0;                            // +1 inside (f > 0), -1 outside, as CellRegion::sign
+  std::uint8_t corners = 0;                       // bit c <=> cell corner c is a vertex (the region's corners)
   // How many of `faces` come first and are pieces of cell faces; the rest are isosurface loops.
   std::uint32_t num_cell_face_pieces = 0;
   // Where midpoint subdivision puts the volume centre when the mean of the vertices is not

@@ -18,11 +18,11 @@ namespace {
 // +6e-7). Sequential linear programming handles the kinks: linearize the coefficients that can
 // bind within a trust region, maximize their least value over the box (a 4-variable LP, solved
 // exactly by its vertices), accept the step if the true least coefficient grows, else shrink.
-constexpr double kFirstRadius = 0.1;    // trust-region half-width, in mean hex edges L
+constexpr double kFirstRadius = 0.1;  // trust-region half-width, in mean hex edges L
 constexpr double kMaxRadius = 0.5;
-constexpr double kLeastRadius = 1e-7;   // stop below this
+constexpr double kLeastRadius = 1e-7;      // stop below this
 constexpr double kCertifiedRadius = 1e-3;  // once certified, stop below this
-constexpr double kDerivativeStep = 1e-6;  // central differences, in L (the coefficients are cubic)
+constexpr double kDerivativeStep = 1e-6;   // central differences, in L (the coefficients are cubic)
 constexpr int kMaxIterations = 60;
 constexpr std::size_t kMaxActive = 8;  // linearized coefficients per LP (with the 6 box sides)
 

@@ -25,17 +25,17 @@
 #include <vector>
 
 #include "core/cutting/polyhedron.h"
-#include "core/mesh/quality.h"
 #include "core/cutting/subdivide.h"
+#include "core/mesh/quality.h"
 
 namespace mchex {
 
 struct MappedSubdivision {
-  std::vector<SubdivisionHex> hexes;  // midpoint_subdivide's hexes, corners mapped into the cell
-  bool centre_moved = false;          // the search ran (plain subdivision was not certified)
-  bool certified = false;             // every coefficient of every hex > 0 (after the search)
-  double min_scaled = 0;              // least min_bernstein_scaled over the hexes
-  std::vector<double> hex_min_scaled; // min_bernstein_scaled of each hex
+  std::vector<SubdivisionHex> hexes;   // midpoint_subdivide's hexes, corners mapped into the cell
+  bool centre_moved = false;           // the search ran (plain subdivision was not certified)
+  bool certified = false;              // every coefficient of every hex > 0 (after the search)
+  double min_scaled = 0;               // least min_bernstein_scaled over the hexes
+  std::vector<double> hex_min_scaled;  // min_bernstein_scaled of each hex
 };
 
 // `parametric`: a polyhedron of cut_cell(kUnitCubeCorners, ...); `cell`: the cell's corners (VTK

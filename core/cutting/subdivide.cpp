@@ -57,9 +57,7 @@ std::vector<SubdivisionHex> midpoint_subdivide(const Polyhedron& p) {
       if (inc[i].next == a) fac = &inc[i];
       if (inc[i].prev == b) fbc = &inc[i];
     }
-    if (!fac || !fbc || fac == fbc || fac->prev != fbc->next || fac->prev == a ||
-        fac->prev == b)
-      fail(v);
+    if (!fac || !fbc || fac == fbc || fac->prev != fbc->next || fac->prev == a || fac->prev == b) fail(v);
     const std::uint32_t c = fac->prev;
     const Vec3 x = p.points[v];
     SubdivisionHex h;
@@ -72,9 +70,7 @@ std::vector<SubdivisionHex> midpoint_subdivide(const Polyhedron& p) {
                  centroid[fac->face],
                  centre,
                  centroid[fbc->face]};
-    auto face_key = [](std::uint32_t f) {
-      return SubdivisionPointKey{Kind::kFace, static_cast<std::uint8_t>(f), 0};
-    };
+    auto face_key = [](std::uint32_t f) { return SubdivisionPointKey{Kind::kFace, static_cast<std::uint8_t>(f), 0}; };
     h.keys = {SubdivisionPointKey{Kind::kVertex, key_of(v), 0},
               edge_key(v, a),
               face_key(inc[0].face),

@@ -47,8 +47,8 @@ namespace mchex {
 // through that symmetry.
 struct VolumeCentreOffsetRule {
   std::array<Subcase, 2> subcases{};
-  std::uint8_t region_corners = 0;       // bit c <=> cell corner c (VTK order)
-  std::array<std::uint8_t, 6> edges{};   // the crossings s_j, as Table-1 edges (0-based)
+  std::uint8_t region_corners = 0;                      // bit c <=> cell corner c (VTK order)
+  std::array<std::uint8_t, 6> edges{};                  // the crossings s_j, as Table-1 edges (0-based)
   std::array<std::array<double, 7>, 3> coefficients{};  // [axis][0: constant, 1 + j: s_j - 1/2]
 };
 const VolumeCentreOffsetRule& volume_centre_offset_rule();

@@ -14,11 +14,11 @@
 #include <vector>
 
 #include "core/base/geometry.h"
-#include "core/grid/hex_complex.h"
 #include "core/cutting/mc33.h"
+#include "core/grid/hex_complex.h"
 #include "core/grid/refinement_error.h"
-#include "core/sdf/shapes.h"
 #include "core/mesh/surface.h"
+#include "core/sdf/shapes.h"
 
 namespace mchex {
 
@@ -57,9 +57,9 @@ std::array<std::uint32_t, 2> encode_cell_words(const CellCode& c);
 // compare every field with core's; decode_cell_words reads them). Decoding every cell into a
 // CellCode on the host is what made classification slow end to end (perf/GPU_RUNS.md).
 struct CellClassification {
-  std::span<std::uint8_t> subcases;       // cells entries: core/cutting/mc33.h Subcase
-  std::span<std::uint64_t> offsets;       // cells + 1 entries; offsets.back() the total
-  std::span<std::uint32_t> words = {};    // empty, or 2 * cells (core/device/device_scene.h layout)
+  std::span<std::uint8_t> subcases;     // cells entries: core/cutting/mc33.h Subcase
+  std::span<std::uint64_t> offsets;     // cells + 1 entries; offsets.back() the total
+  std::span<std::uint32_t> words = {};  // empty, or 2 * cells (core/device/device_scene.h layout)
   // Empty, or 12 * cells: the crossing parameter on each of the cell's Table-1 edges, as core's
   // classify() gives it (core/cutting/mc33.h CellClass::crossing: f_a / (f_a - f_b) from the edge's first
   // corner on a cut edge, after the zero rule; NaN on an uncut edge; not yet clamped).
@@ -87,7 +87,7 @@ struct DeviceInfo {
   std::string backend;   // "cpu" | "opencl" | "vulkan"
   std::string platform;  // OpenCL platform / Vulkan driver name
   std::string name;
-  std::string type;      // "cpu" | "gpu" | "other"
+  std::string type;  // "cpu" | "gpu" | "other"
   bool fp64 = false;
   // How a backend computes on it: "fp64" (the kernels repeat core's double arithmetic), or "fp32"
   // (no fp64, or MCHEX_FORCE_FP32: single-precision kernels decide what they can prove, the host
@@ -96,9 +96,9 @@ struct DeviceInfo {
   std::string precision;
   std::uint64_t max_buffer_bytes = 0;  // largest single allocation / storage buffer range
   std::uint64_t global_memory_bytes = 0;
-  std::uint32_t compute_units = 0;      // 0: the API does not say (Vulkan has no such property)
-  std::string version;   // API version and driver version, as the driver states them
-  std::string note;      // why the backend cannot use this device, if it cannot (e.g. no fp64)
+  std::uint32_t compute_units = 0;  // 0: the API does not say (Vulkan has no such property)
+  std::string version;              // API version and driver version, as the driver states them
+  std::string note;                 // why the backend cannot use this device, if it cannot (e.g. no fp64)
   // How a backend made for this device runs its stages here (the shader or kernel variants it
   // chose), for reports and profiling; empty in device lists.
   std::string kernels;
@@ -110,8 +110,7 @@ class Backend {
   virtual const DeviceInfo& device() const = 0;
 
   // Signed distance (f > 0 inside) at every point; values.size() == points.size().
-  virtual void signed_distance(const SdfSource& source, std::span<const Vec3> points,
-                               std::span<double> values) = 0;
+  virtual void signed_distance(const SdfSource& source, std::span<const Vec3> points, std::span<double> values) = 0;
 
   // The refinement error of core/grid/refinement_error.h for cells.size() cells: lattice[i] holds the
   // 64 child-lattice values of cell i, sizes[i] its edge length.
@@ -123,8 +122,8 @@ class Backend {
   // local_refinement_hexes(subcase): 8 + 2 * cut edges for a cell cut directly, the sum over its
   // leaves for one refined locally). See CellClassification and ClassifyOptions. Throws InputError
   // when a corner value is not finite (as core's classify()).
-  virtual void classify_cells(const HexComplex& complex, std::span<const double> values,
-                              const CellClassification& out, const ClassifyOptions& options = {}) = 0;
+  virtual void classify_cells(const HexComplex& complex, std::span<const double> values, const CellClassification& out,
+                              const ClassifyOptions& options = {}) = 0;
 };
 
 // backend.classify_cells with the words asked for and decoded: every field of every cell, for

@@ -11,7 +11,8 @@ std::vector<uint32_t> packed_mc33_configs() {
     for (int faces = 0; faces < 64; ++faces) {
       const Mc33Config& c = mc33_config(uint8_t(mask), uint8_t(faces));
       words[mask * 64 + faces] = uint32_t(c.subcase) | uint32_t(c.map[0]) << kConfigMap0Shift |
-                                 uint32_t(c.map[1]) << kConfigMap1Shift | uint32_t(c.preferred) << kConfigPreferredShift;
+                                 uint32_t(c.map[1]) << kConfigMap1Shift |
+                                 uint32_t(c.preferred) << kConfigPreferredShift;
     }
   for (int s = 0; s < kNumSubcases; ++s) {
     const auto& info = kSubcaseInfo[s];

@@ -22,7 +22,8 @@ static_assert(sizeof(WideNode::axis) + sizeof(WideNode::lo) + sizeof(WideNode::h
 static_assert(offsetof(WideNode, axis) == 0 && offsetof(WideNode, lo) == 36 * sizeof(float) &&
               offsetof(WideNode, hi) == 48 * sizeof(float));
 static_assert(offsetof(TriangleLeaf, normal) == 0 && offsetof(TriangleLeaf, slot) == kLeafBoundFloats * sizeof(float));
-static_assert(offsetof(TriangleLeaf, plane_lo) == 12 * sizeof(float) && offsetof(TriangleLeaf, edge) == 20 * sizeof(float) &&
+static_assert(offsetof(TriangleLeaf, plane_lo) == 12 * sizeof(float) &&
+              offsetof(TriangleLeaf, edge) == 20 * sizeof(float) &&
               offsetof(TriangleLeaf, edge_hi) == 56 * sizeof(float));
 
 void build_wide_tree(const TriangleSurface& s, const TriangleBvh& bvh, DeviceScene& out) {
@@ -57,8 +58,8 @@ void build_wide_tree(const TriangleSurface& s, const TriangleBvh& bvh, DeviceSce
   }
   out.wide_stack = std::max<uint32_t>(1, need[0]);
   if (out.wide_stack > uint32_t(kSdfWideStack))
-    throw std::logic_error("device SDF tree: the walk needs " + std::to_string(out.wide_stack) + " stack entries, over " +
-                           std::to_string(kSdfWideStack));
+    throw std::logic_error("device SDF tree: the walk needs " + std::to_string(out.wide_stack) +
+                           " stack entries, over " + std::to_string(kSdfWideStack));
 }
 
 }  // namespace
@@ -72,7 +73,8 @@ DeviceScene DeviceScene::build(const TriangleSurface& s, Search search) {
   out.slot_corners.resize(9 * n);
   for (std::size_t k = 0; k < n; ++k)
     for (int c = 0; c < 3; ++c)
-      for (int i = 0; i < 3; ++i) out.slot_corners[9 * k + 3 * c + i] = s.vertices[s.triangles[out.slot_triangle[k]][c]][i];
+      for (int i = 0; i < 3; ++i)
+        out.slot_corners[9 * k + 3 * c + i] = s.vertices[s.triangles[out.slot_triangle[k]][c]][i];
   if (search == Search::kFp64) {
     const Pseudonormals normals(s);
     out.slot_features.resize(6 * n);
@@ -113,7 +115,8 @@ DeviceScene32 DeviceScene32::build(const DeviceScene& d) {
     const Vec3 ab = b - a, ac = cc - a;
     const double ab2 = dot(ab, ab), ac2 = dot(ac, ac), cross2 = squared_norm(cross(ab, ac));
     // 1 + 2^-40 covers this double evaluation's own rounding.
-    double s = 12 * std::ldexp(1.0, -41) * ab2 * ac2 / (std::sqrt(std::min(ab2, ac2)) * cross2) * (1 + std::ldexp(1.0, -40));
+    double s =
+        12 * std::ldexp(1.0, -41) * ab2 * ac2 / (std::sqrt(std::min(ab2, ac2)) * cross2) * (1 + std::ldexp(1.0, -40));
     if (!(s < kDegenerate)) s = kDegenerate;
     out.slot_slack[k] = std::nextafter(float(s), INFINITY);
   }
@@ -124,8 +127,7 @@ DeviceScene32 DeviceScene32::build(const DeviceScene& d) {
     float s = 0;
     if (node.count > 0)
       for (uint32_t k = node.index; k < node.index + node.count; ++k) s = std::max(s, out.slot_slack[k]);
-    else
-      s = std::max(out.node_slack[i + 1], out.node_slack[node.index]);
+    else s = std::max(out.node_slack[i + 1], out.node_slack[node.index]);
     out.node_slack[i] = s;
   }
   return out;

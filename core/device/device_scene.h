@@ -19,22 +19,22 @@
 #include <cstdint>
 #include <vector>
 
-#include "core/sdf/bvh.h"
 #include "core/base/geometry.h"
-#include "core/sdf/pseudonormals.h"
 #include "core/mesh/surface.h"
+#include "core/sdf/bvh.h"
+#include "core/sdf/pseudonormals.h"
 
 namespace mchex {
 
 struct DeviceScene {
-  std::vector<BvhNode> nodes;                 // core/sdf/bvh.h layout
-  std::vector<uint32_t> slot_triangle;        // leaf slot -> triangle id
-  std::vector<double> slot_corners;           // 9 per slot: a.xyz b.xyz c.xyz
-  std::vector<uint32_t> slot_features;        // 6 per slot: vertex ids of a, b, c; edge ids of ab, bc, ca
-  std::vector<double> face_normals;           // 3 per slot (the slot's triangle's face pseudonormal)
-  std::vector<double> edge_normals;           // 3 per edge
-  std::vector<double> vertex_normals;         // 3 per vertex
-  double scale = 0;                           // largest coordinate magnitude of the surface
+  std::vector<BvhNode> nodes;           // core/sdf/bvh.h layout
+  std::vector<uint32_t> slot_triangle;  // leaf slot -> triangle id
+  std::vector<double> slot_corners;     // 9 per slot: a.xyz b.xyz c.xyz
+  std::vector<uint32_t> slot_features;  // 6 per slot: vertex ids of a, b, c; edge ids of ab, bc, ca
+  std::vector<double> face_normals;     // 3 per slot (the slot's triangle's face pseudonormal)
+  std::vector<double> edge_normals;     // 3 per edge
+  std::vector<double> vertex_normals;   // 3 per vertex
+  double scale = 0;                     // largest coordinate magnitude of the surface
 
   // The search tree of the fp64 kernels (kernels/sdf.h): the shape of core/sdf/sdf.cpp's reference
   // search, so that a device prunes as much as the reference does. The binary BVH above

@@ -28,8 +28,7 @@ struct Table {
 std::optional<CellTypeMatch> match_in(const std::vector<CellType>& types, const HexCorners& c) {
   for (std::size_t t = 0; t < types.size(); ++t)
     for (int r = 0; r < kNumCubeRotations; ++r)
-      if (affinely_equivalent(transform_hex(types[t].corners, r), c))
-        return CellTypeMatch{static_cast<int>(t), r};
+      if (affinely_equivalent(transform_hex(types[t].corners, r), c)) return CellTypeMatch{static_cast<int>(t), r};
   return std::nullopt;
 }
 

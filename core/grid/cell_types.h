@@ -32,16 +32,16 @@
 #include <span>
 #include <string>
 
-#include "core/mesh/quality.h"
 #include "core/grid/templates.h"
+#include "core/mesh/quality.h"
 
 namespace mchex {
 
 struct CellType {
-  std::string name;        // "cube", "node", "edge-1", ..., "face-4"
-  HexCorners corners{};    // representative, in the unit cube (template coordinates / 12)
-  TemplateKind source{};   // the template the representative comes from
-  int source_hex = 0;      // its index in template_hexes(source)
+  std::string name;          // "cube", "node", "edge-1", ..., "face-4"
+  HexCorners corners{};      // representative, in the unit cube (template coordinates / 12)
+  TemplateKind source{};     // the template the representative comes from
+  int source_hex = 0;        // its index in template_hexes(source)
   int refinement_level = 0;  // 0 for the basic cells; 1, 2 for local refinement (not landed)
 };
 

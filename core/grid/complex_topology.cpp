@@ -5,9 +5,9 @@
 #include <stdexcept>
 #include <string>
 
-#include "core/mesh/hex_faces.h"
-#include "core/mesh/cube.h"
 #include "core/base/parallel.h"
+#include "core/mesh/cube.h"
+#include "core/mesh/hex_faces.h"
 
 namespace mchex {
 namespace {
@@ -38,8 +38,7 @@ struct FaceEntry {
 template <class Entry, class LowPoint>
 void sort_by_lowest_point(std::vector<Entry>& v, std::size_t num_points, const LowPoint& low) {
   const KeyGroups g = group_by_key(
-      num_points,
-      [&](auto&& f) { parallel_for(v.size(), [&](std::size_t i) { f(static_cast<std::uint32_t>(i)); }); },
+      num_points, [&](auto&& f) { parallel_for(v.size(), [&](std::size_t i) { f(static_cast<std::uint32_t>(i)); }); },
       [&](std::uint32_t i) { return low(v[i]); });
   std::vector<Entry> out(v.size());
   parallel_for(v.size(), [&](std::size_t j) { out[j] = v[g.items[j]]; });
@@ -66,8 +65,8 @@ ComplexTopology build_topology(const HexComplex& complex) {
     const CellCorners& p = complex.cells[c];
     for (int i = 0; i < 8; ++i)
       if (p[i] >= complex.points.size())
-        throw std::invalid_argument("hex complex: cell " + std::to_string(c) + " names point " +
-                                    std::to_string(p[i]) + " of " + std::to_string(complex.points.size()));
+        throw std::invalid_argument("hex complex: cell " + std::to_string(c) + " names point " + std::to_string(p[i]) +
+                                    " of " + std::to_string(complex.points.size()));
     for (int i = 0; i < 8; ++i)
       for (int j = i + 1; j < 8; ++j)
         if (p[i] == p[j])
@@ -90,8 +89,7 @@ ComplexTopology build_topology(const HexComplex& complex) {
 
   for (std::size_t i = 0; i < edges.size();) {
     const auto id = static_cast<std::uint32_t>(t.edge_points.size());
-    t.edge_points.push_back({static_cast<std::uint32_t>(edges[i].key >> 32),
-                             static_cast<std::uint32_t>(edges[i].key)});
+    t.edge_points.push_back({static_cast<std::uint32_t>(edges[i].key >> 32), static_cast<std::uint32_t>(edges[i].key)});
     t.edge_owner.push_back(static_cast<std::uint32_t>(edges[i].slot / 12));
     std::size_t j = i;
     for (; j < edges.size() && edges[j].key == edges[i].key; ++j)
@@ -114,8 +112,8 @@ ComplexTopology build_topology(const HexComplex& complex) {
     for (; j < faces.size() && faces[j].sorted == faces[i].sorted; ++j)
       t.cell_faces[faces[j].slot / 6][faces[j].slot % 6] = id;
     if (j - i > 2)
-      throw std::invalid_argument("hex complex: a face is shared by " + std::to_string(j - i) +
-                                  " cells (point " + std::to_string(q[0]) + ")");
+      throw std::invalid_argument("hex complex: a face is shared by " + std::to_string(j - i) + " cells (point " +
+                                  std::to_string(q[0]) + ")");
     t.face_cells.push_back(static_cast<std::uint8_t>(j - i));
     i = j;
   }

@@ -28,9 +28,7 @@ UniformGrid::UniformGrid(const Box& cube, int depth) : box_(cube), depth_(depth)
 
 Vec3 UniformGrid::vertex(uint32_t i, uint32_t j, uint32_t k) const {
   // Interpolate from both ends so that the last vertex is exactly box.hi.
-  auto at = [this](double lo, double hi, uint32_t t) {
-    return t == n_ ? hi : lo + (hi - lo) * (double(t) / n_);
-  };
+  auto at = [this](double lo, double hi, uint32_t t) { return t == n_ ? hi : lo + (hi - lo) * (double(t) / n_); };
   return {at(box_.lo.x, box_.hi.x, i), at(box_.lo.y, box_.hi.y, j), at(box_.lo.z, box_.hi.z, k)};
 }
 
@@ -43,10 +41,12 @@ std::vector<Vec3> UniformGrid::vertices() const {
 }
 
 std::array<uint32_t, 8> UniformGrid::cell_corners(uint32_t i, uint32_t j, uint32_t k) const {
+  // clang-format off
   return {vertex_index(i, j, k),         vertex_index(i + 1, j, k),
           vertex_index(i + 1, j + 1, k), vertex_index(i, j + 1, k),
           vertex_index(i, j, k + 1),     vertex_index(i + 1, j, k + 1),
           vertex_index(i + 1, j + 1, k + 1), vertex_index(i, j + 1, k + 1)};
+  // clang-format on
 }
 
 }  // namespace mchex

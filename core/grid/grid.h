@@ -26,9 +26,7 @@ class UniformGrid {
   const Box& box() const { return box_; }
   double cell_size() const { return h_; }
 
-  uint32_t vertex_index(uint32_t i, uint32_t j, uint32_t k) const {
-    return i + (n_ + 1) * (j + (n_ + 1) * k);
-  }
+  uint32_t vertex_index(uint32_t i, uint32_t j, uint32_t k) const { return i + (n_ + 1) * (j + (n_ + 1) * k); }
   // Grid vertex positions are computed from integer coordinates (never accumulated), so the same
   // vertex has bit-identical coordinates wherever it is computed.
   Vec3 vertex(uint32_t i, uint32_t j, uint32_t k) const;

@@ -20,9 +20,9 @@ namespace mchex {
 using CellCorners = std::array<std::uint32_t, 8>;
 
 struct HexComplex {
-  Box box;                          // the region the cells fill
-  std::vector<Vec3> points;         // grid points; the SDF is sampled at each
-  std::vector<CellCorners> cells;   // point ids, VTK order
+  Box box;                         // the region the cells fill
+  std::vector<Vec3> points;        // grid points; the SDF is sampled at each
+  std::vector<CellCorners> cells;  // point ids, VTK order
   // Optional, per cell: the edge length of the cube the cell came from (the octree cell size;
   // h for every cell of a uniform grid). Zero tolerances and error measures scale with it.
   std::vector<double> cell_size;

@@ -10,11 +10,11 @@
 
 #include <fmt/format.h>
 
-#include "core/grid/cell_types.h"
 #include "core/base/error.h"
-#include "core/mesh/cube.h"
 #include "core/base/parallel.h"
+#include "core/grid/cell_types.h"
 #include "core/grid/refinement_error.h"
+#include "core/mesh/cube.h"
 
 namespace mchex {
 
@@ -374,8 +374,7 @@ bool Octree::sampled_value(std::uint64_t finest_key, double* value) const {
 
 // ---- Refinement ----------------------------------------------------------------------------------
 
-Octree refine_octree(const SignedDistance& sdf, const Box& cube, const AdaptiveOptions& options,
-                     OctreeStats* stats) {
+Octree refine_octree(const SignedDistance& sdf, const Box& cube, const AdaptiveOptions& options, OctreeStats* stats) {
   if (!(options.threshold > 0) || !std::isfinite(options.threshold))
     throw InputError(fmt::format("--threshold must be a positive number, got {}", options.threshold));
   Octree tree(cube, options.max_depth);
@@ -454,7 +453,8 @@ Octree refine_octree(const SignedDistance& sdf, const Box& cube, const AdaptiveO
       std::size_t out = key_offset[g];
       for (int bit = 0; bit < w * w * w; ++bit)
         if (need[g][bit / 64] >> (bit % 64) & 1)
-          keys[out++] = packed.pack((9 * i + bit % w) * step, (9 * j + bit / w % w) * step, (9 * k + bit / (w * w)) * step);
+          keys[out++] =
+              packed.pack((9 * i + bit % w) * step, (9 * j + bit / w % w) * step, (9 * k + bit / (w * w)) * step);
     });
     std::vector<std::uint32_t> id(keys.size());  // a group's key -> its point's index in `fresh`
     std::vector<std::uint64_t> fresh = sorted_distinct(std::move(keys), packed.bits, id);
@@ -468,7 +468,8 @@ Octree refine_octree(const SignedDistance& sdf, const Box& cube, const AdaptiveO
       if (!std::isfinite(v)) throw InputError("the signed distance is not finite at a grid point");
     // Decisions, in parallel; each refined candidate's 64 values kept for its children's corners.
     // Not zeroed (only sampled candidates' arrays are written, and only refined ones read).
-    std::unique_ptr<std::array<double, kChildLatticePoints>[]> lattice(new std::array<double, kChildLatticePoints>[num_candidates]);
+    std::unique_ptr<std::array<double, kChildLatticePoints>[]> lattice(
+        new std::array<double, kChildLatticePoints>[num_candidates]);
     std::vector<std::uint8_t> refine(num_candidates, 0);
     parallel_chunks(groups, 16, [&](std::size_t gb, std::size_t ge) {
       std::array<std::uint16_t, 1000> rank;
@@ -617,12 +618,15 @@ bool octree_balanced(const Octree& tree, std::string* why) {
     for (std::uint64_t leaf : tree.leaves(level)) {
       const auto [i, j, k] = octree_unkey(leaf);
       if (holding.contains(leaf)) {
-        if (why) *why = fmt::format("leaf ({}, {}, {}) of level {} holds a mark of level {}", i, j, k, level, level + 1);
+        if (why)
+          *why = fmt::format("leaf ({}, {}, {}) of level {} holds a mark of level {}", i, j, k, level, level + 1);
         return false;
       }
       const std::uint8_t m = tree.marks(level, leaf);
       if (!template_for_marks(m).valid) {
-        if (why) *why = fmt::format("leaf ({}, {}, {}) of level {} has marked corners {:#04x}, which no template handles", i, j, k, level, m);
+        if (why)
+          *why = fmt::format("leaf ({}, {}, {}) of level {} has marked corners {:#04x}, which no template handles", i,
+                             j, k, level, m);
         return false;
       }
     }
@@ -652,7 +656,8 @@ const RotatedTemplates& rotated_templates() {
     for (int k = 0; k < kNumTemplateKinds; ++k) {
       const auto hexes = template_hexes(static_cast<TemplateKind>(k));
       for (std::size_t h = 0; h < hexes.size(); ++h) {
-        t.type[k].push_back(static_cast<std::uint8_t>(template_hex_type(static_cast<TemplateKind>(k), static_cast<int>(h)).type));
+        t.type[k].push_back(
+            static_cast<std::uint8_t>(template_hex_type(static_cast<TemplateKind>(k), static_cast<int>(h)).type));
         t.child[k].push_back(hexes[h].child ? 1 : 0);
       }
       for (int r = 0; r < kNumCubeRotations; ++r) {
@@ -690,11 +695,11 @@ AdaptiveGrid build_adaptive_complex(const Octree& tree) {
   constexpr std::uint8_t kRefinedChild = 0xFF;
 
   struct Group {
-    std::uint64_t first_child;  // the lowest child's cell key at `level`
-    std::uint8_t level;         // of the children
-    std::uint8_t n;             // children per axis: 3, or 1 for the unrefined root
+    std::uint64_t first_child;           // the lowest child's cell key at `level`
+    std::uint8_t level;                  // of the children
+    std::uint8_t n;                      // children per axis: 3, or 1 for the unrefined root
     std::array<std::uint8_t, 27> child;  // kind * 24 + rotation, or kRefinedChild
-    std::uint64_t lattice = 0;  // bit a + (n + 1) (b + (n + 1) c): a corner of a cube leaf
+    std::uint64_t lattice = 0;           // bit a + (n + 1) (b + (n + 1) c): a corner of a cube leaf
   };
   std::vector<Group> groups;
   if (!tree.is_refined(0, 0)) groups.push_back({0, 0, 1, {}, 0});
@@ -724,7 +729,8 @@ AdaptiveGrid build_adaptive_complex(const Octree& tree) {
       if (choice.kind == TemplateKind::kCube) {
         ++cells;
         for (int q = 0; q < 8; ++q)
-          gr.lattice |= std::uint64_t{1} << ((x + kCubeCorners[q][0]) + w * ((y + kCubeCorners[q][1]) + w * (z + kCubeCorners[q][2])));
+          gr.lattice |= std::uint64_t{1} << ((x + kCubeCorners[q][0]) +
+                                             w * ((y + kCubeCorners[q][1]) + w * (z + kCubeCorners[q][2])));
       } else {
         const RotatedTemplate& t = rt.rotated[static_cast<int>(choice.kind)][choice.rotation];
         cells += t.corners.size();
@@ -746,7 +752,8 @@ AdaptiveGrid build_adaptive_complex(const Octree& tree) {
   }
   const std::size_t num_cells = cell_offset.back(), num_keys = key_offset.back();
   if (num_keys > std::numeric_limits<std::uint32_t>::max())
-    throw ResourceError(fmt::format("the adaptive grid would have {} cells, more than this program indexes", num_cells));
+    throw ResourceError(
+        fmt::format("the adaptive grid would have {} cells, more than this program indexes", num_cells));
   // Pass 2: keys, and each cell corner's key slot.
   std::vector<std::uint64_t> keys(num_keys);
   out.complex.cells.resize(num_cells);
@@ -814,7 +821,8 @@ AdaptiveGrid build_adaptive_complex(const Octree& tree) {
     out.complex.points[p] = position(cube, key, units);
     const auto [x, y, z] = octree_unkey(key);
     double v = std::numeric_limits<double>::quiet_NaN();
-    if (x % 4 == 0 && y % 4 == 0 && z % 4 == 0 && tree.sampled_value(octree_key(x / 4, y / 4, z / 4), &v)) sampled[p] = 1;
+    if (x % 4 == 0 && y % 4 == 0 && z % 4 == 0 && tree.sampled_value(octree_key(x / 4, y / 4, z / 4), &v))
+      sampled[p] = 1;
     out.values[p] = v;
   });
   for (std::size_t p = 0; p < points.size(); ++p)

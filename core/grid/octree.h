@@ -81,8 +81,8 @@
 #include "core/base/geometry.h"
 #include "core/grid/hex_complex.h"
 #include "core/grid/refinement_error.h"
-#include "core/sdf/sdf.h"
 #include "core/grid/templates.h"
+#include "core/sdf/sdf.h"
 
 namespace mchex {
 
@@ -181,13 +181,13 @@ class Octree {
 std::uint8_t mark_closure(std::uint8_t marks);
 
 struct OctreeLevelStats {
-  std::size_t candidates = 0;          // cells that could refine (children of refined cells)
-  std::size_t sampled = 0;             // candidates whose corners did not rule the surface out
-  std::size_t sdf_points = 0;          // distinct new points in this level's batch
+  std::size_t candidates = 0;  // cells that could refine (children of refined cells)
+  std::size_t sampled = 0;     // candidates whose corners did not rule the surface out
+  std::size_t sdf_points = 0;  // distinct new points in this level's batch
   std::size_t refined_by_error = 0;
   std::size_t refined_by_balance = 0;
-  std::size_t marks_added = 0;         // by the closure, beyond the refined cells' corners
-  std::size_t leaves = 0;              // after balancing
+  std::size_t marks_added = 0;  // by the closure, beyond the refined cells' corners
+  std::size_t leaves = 0;       // after balancing
 };
 struct OctreeStats {
   std::vector<OctreeLevelStats> levels;

@@ -153,9 +153,7 @@ std::string_view template_name(TemplateKind k) {
   return "?";
 }
 
-std::span<const TemplateHex> template_hexes(TemplateKind k) {
-  return tables().hexes[static_cast<int>(k)];
-}
+std::span<const TemplateHex> template_hexes(TemplateKind k) { return tables().hexes[static_cast<int>(k)]; }
 
 std::uint8_t template_canonical_marks(TemplateKind k) { return kCanonicalMarks[static_cast<int>(k)]; }
 

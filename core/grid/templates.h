@@ -77,7 +77,7 @@ using TemplatePoint = std::array<std::int8_t, 3>;
 
 struct TemplateHex {
   std::array<TemplatePoint, 8> corners;  // VTK order, right-handed (det J > 0)
-  bool child = false;  // a child cube (edge 1/3 of the leaf): a cell of the next level
+  bool child = false;                    // a child cube (edge 1/3 of the leaf): a cell of the next level
 };
 
 // The hexes of a template in its canonical orientation: child cubes first.

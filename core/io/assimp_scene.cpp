@@ -66,14 +66,13 @@ bool check_scene(const fs::path& path, const aiScene& scene) {
       const aiVector3D& p = mesh->mVertices[v];
       if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) {
         char buffer[128];
-        std::snprintf(buffer, sizeof buffer, "(%g, %g, %g)", static_cast<double>(p.x),
-                      static_cast<double>(p.y), static_cast<double>(p.z));
+        std::snprintf(buffer, sizeof buffer, "(%g, %g, %g)", static_cast<double>(p.x), static_cast<double>(p.y),
+                      static_cast<double>(p.z));
         fail(path, std::string("has a vertex with a non-finite coordinate ") + buffer +
                        "; NaN and infinity cannot be meshed");
       }
     }
-    if (mesh->mNumFaces > 0 && mesh->mFaces == nullptr)
-      fail(path, "the reader returned a mesh without faces");
+    if (mesh->mNumFaces > 0 && mesh->mFaces == nullptr) fail(path, "the reader returned a mesh without faces");
     for (unsigned f = 0; f < mesh->mNumFaces; ++f) {
       const aiFace& face = mesh->mFaces[f];
       if (face.mNumIndices == 0 || face.mIndices == nullptr) fail(path, "has a face without vertices");
@@ -98,8 +97,7 @@ bool check_scene(const fs::path& path, const aiScene& scene) {
 Collected collect_triangles(const fs::path& path, const aiScene& scene) {
   Collected out;
   if (scene.mRootNode == nullptr) return out;
-  std::vector<std::pair<const aiNode*, aiMatrix4x4>> stack{
-      {scene.mRootNode, scene.mRootNode->mTransformation}};
+  std::vector<std::pair<const aiNode*, aiMatrix4x4>> stack{{scene.mRootNode, scene.mRootNode->mTransformation}};
   std::vector<uint32_t> remap;
   while (!stack.empty()) {
     const auto [node, transform] = stack.back();
@@ -110,8 +108,7 @@ Collected collect_triangles(const fs::path& path, const aiScene& scene) {
     }
     const bool identity = transform.IsIdentity();
     for (unsigned i = 0; i < node->mNumMeshes; ++i) {
-      if (node->mMeshes[i] >= scene.mNumMeshes)
-        fail(path, "the reader returned a scene that refers to a missing mesh");
+      if (node->mMeshes[i] >= scene.mNumMeshes) fail(path, "the reader returned a scene that refers to a missing mesh");
       const aiMesh& mesh = *scene.mMeshes[node->mMeshes[i]];
       remap.assign(mesh.mNumVertices, std::numeric_limits<uint32_t>::max());
       for (unsigned f = 0; f < mesh.mNumFaces; ++f) {
@@ -147,7 +144,8 @@ Collected collect_triangles(const fs::path& path, const aiScene& scene) {
 
 }  // namespace
 
-Collected import_scene(const std::filesystem::path& path, std::string_view bytes, const char* hint, const char* format) {
+Collected import_scene(const std::filesystem::path& path, std::string_view bytes, const char* hint,
+                       const char* format) {
   Assimp::Importer importer;
   importer.SetIOHandler(new NoFileAccess);  // the importer owns it
   const aiScene* scene = nullptr;
@@ -158,8 +156,7 @@ Collected import_scene(const std::filesystem::path& path, std::string_view bytes
     }
     if (check_scene(path, *scene)) {
       scene = importer.ApplyPostProcessing(aiProcess_Triangulate);
-      if (scene == nullptr)
-        fail(path, "its polygons could not be split into triangles: " + assimp_reason(importer));
+      if (scene == nullptr) fail(path, "its polygons could not be split into triangles: " + assimp_reason(importer));
     }
   } catch (const std::bad_alloc&) {
     fail(path, "ran out of memory while reading");

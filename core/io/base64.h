@@ -40,7 +40,8 @@ class Base64Reader {
         if (value < 0 || (padding > 0 && c != '=')) throw FormatError("invalid base64 data");
         group[have++] = value;
       }
-      const std::uint32_t bits = (static_cast<std::uint32_t>(group[0]) << 18) | (static_cast<std::uint32_t>(group[1]) << 12) |
+      const std::uint32_t bits = (static_cast<std::uint32_t>(group[0]) << 18) |
+                                 (static_cast<std::uint32_t>(group[1]) << 12) |
                                  (static_cast<std::uint32_t>(group[2]) << 6) | static_cast<std::uint32_t>(group[3]);
       out.push_back(static_cast<unsigned char>(bits >> 16));
       if (padding < 2) out.push_back(static_cast<unsigned char>(bits >> 8));

@@ -166,9 +166,11 @@ class GmshReader {
       if (dim < 0 || dim > 3) in_.fail("entity dimension " + std::to_string(dim) + " is not 0..3");
       in_.integer<std::int64_t>("an entity tag");
       const auto parametric = in_.integer<std::int64_t>("the parametric flag");
-      if (parametric != 0 && parametric != 1) in_.fail("parametric flag " + std::to_string(parametric) + " is not 0 or 1");
+      if (parametric != 0 && parametric != 1)
+        in_.fail("parametric flag " + std::to_string(parametric) + " is not 0 or 1");
       const std::uint64_t k = in_.count("node", 4);
-      if (k > total - tags.size()) in_.fail("the node blocks hold more than the " + std::to_string(total) + " nodes announced");
+      if (k > total - tags.size())
+        in_.fail("the node blocks hold more than the " + std::to_string(total) + " nodes announced");
       for (std::uint64_t i = 0; i < k; ++i) {
         tags.push_back(in_.integer<std::uint64_t>("a node tag"));
         if (tags.back() == 0) in_.fail("node tag 0 (tags start at 1)");
@@ -213,7 +215,8 @@ class GmshReader {
       const auto entity = in_.integer<std::int64_t>("an entity tag");
       const auto type = in_.integer<std::int64_t>("an element type");
       const std::uint64_t k = in_.count("element", 2);
-      if (k > total - seen) in_.fail("the element blocks hold more than the " + std::to_string(total) + " elements announced");
+      if (k > total - seen)
+        in_.fail("the element blocks hold more than the " + std::to_string(total) + " elements announced");
       seen += k;
       if (dim < 0 || dim > 3) in_.fail("entity dimension " + std::to_string(dim) + " is not 0..3");
       if (dim < 3) {
@@ -233,7 +236,9 @@ class GmshReader {
         for (uint32_t& v : hex) {
           const auto tag = in_.integer<std::uint64_t>("a node tag");
           const std::optional<uint32_t> index = nodes_.index(tag);
-          if (!index) in_.fail("element " + std::to_string(tags.back()) + " uses node " + std::to_string(tag) + ", which $Nodes does not define");
+          if (!index)
+            in_.fail("element " + std::to_string(tags.back()) + " uses node " + std::to_string(tag) +
+                     ", which $Nodes does not define");
           v = *index;
         }
         mesh_.hexes.push_back(hex);
@@ -338,7 +343,8 @@ void write_gmsh(const HexMesh& mesh, AtomicFile& out) {
   const std::size_t n = mesh.points.size();
   const std::size_t any_node = n == 0 ? 0 : 1;
   put_line(s, {any_node, n, any_node, n});
-  if (n != 0) put_line<int64_t>(s, {3, bare_nodes ? int64_t{1} : entity_of(values.front()), 0, static_cast<int64_t>(n)});
+  if (n != 0)
+    put_line<int64_t>(s, {3, bare_nodes ? int64_t{1} : entity_of(values.front()), 0, static_cast<int64_t>(n)});
   out.write(s);
   write_records(out, n, [](std::size_t begin, std::size_t end, std::string& text) {
     text.reserve((end - begin) * 12);

@@ -14,9 +14,7 @@
 namespace mchex::io_detail {
 namespace {
 
-std::string errno_message(int e) {
-  return e != 0 ? std::generic_category().message(e) : std::string("I/O error");
-}
+std::string errno_message(int e) { return e != 0 ? std::generic_category().message(e) : std::string("I/O error"); }
 
 }  // namespace
 

@@ -18,7 +18,9 @@ class MappedFile {
   MappedFile& operator=(const MappedFile&) = delete;
   ~MappedFile();
 
-  std::string_view text() const { return data_ != nullptr ? std::string_view(static_cast<const char*>(data_), size_) : ""; }
+  std::string_view text() const {
+    return data_ != nullptr ? std::string_view(static_cast<const char*>(data_), size_) : "";
+  }
 
  private:
   void map();

@@ -27,8 +27,8 @@ struct MeditSection {
   std::string_view name;
   int fixed;
   int per_dim;
-  bool volume;    // another kind of volume element: the file is not an all-hex mesh
-  bool counted;   // the section starts with its number of records
+  bool volume;   // another kind of volume element: the file is not an all-hex mesh
+  bool counted;  // the section starts with its number of records
 };
 constexpr MeditSection kMeditSections[] = {
     {"Edges", 3, 0, false, true},

@@ -28,8 +28,7 @@ void check_writable(const HexMesh& mesh) {
   if (mesh.points.size() > kMaxPoints)
     throw FormatError(std::to_string(mesh.points.size()) + " points are more than 32-bit indices can address");
   for (std::size_t i = 0; i < mesh.points.size(); ++i)
-    if (!is_finite(mesh.points[i]))
-      throw FormatError("point " + std::to_string(i) + " has a non-finite coordinate");
+    if (!is_finite(mesh.points[i])) throw FormatError("point " + std::to_string(i) + " has a non-finite coordinate");
   const std::size_t n = mesh.points.size();
   for (std::size_t h = 0; h < mesh.hexes.size(); ++h)
     for (const uint32_t v : mesh.hexes[h])

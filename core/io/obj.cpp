@@ -62,14 +62,12 @@ ObjGeometry check_obj(const fs::path& path, std::string_view text) {
       while (tokens.next(token) && !token.starts_with('#')) {
         const std::string_view index_text = token.substr(0, token.find('/'));
         int64_t index = 0;
-        const auto [end, error] =
-            std::from_chars(index_text.data(), index_text.data() + index_text.size(), index);
+        const auto [end, error] = std::from_chars(index_text.data(), index_text.data() + index_text.size(), index);
         if (index_text.empty() || error != std::errc{} || end != index_text.data() + index_text.size()) {
           fail_at(path, lines.number(),
                   quote(token) + " is not a face corner (vertex index, optionally /texture/normal)");
         }
-        if (index == 0)
-          fail_at(path, lines.number(), "face index 0 is invalid: OBJ vertex indices start at 1");
+        if (index == 0) fail_at(path, lines.number(), "face index 0 is invalid: OBJ vertex indices start at 1");
         if (index > 0 && static_cast<uint64_t>(index) > total_vertices) {
           fail_at(path, lines.number(),
                   "face refers to vertex " + std::to_string(index) + ", but the file defines only " +

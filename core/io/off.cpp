@@ -100,8 +100,7 @@ void check_off(const fs::path& path, std::string_view text) {
   for (std::size_t k = 0; k < 3; ++k) {
     const auto count = parse_count(count_text[k]);
     if (!count) {
-      fail_at(path, lines.number(),
-              "expected the vertex, face and edge counts, found " + quote(count_text[k]));
+      fail_at(path, lines.number(), "expected the vertex, face and edge counts, found " + quote(count_text[k]));
     }
     counts[k] = *count;
   }
@@ -109,8 +108,8 @@ void check_off(const fs::path& path, std::string_view text) {
   const uint64_t vertex_count = counts[0], face_count = counts[1];
   if (vertex_count >= (uint64_t{1} << 31) || face_count >= (uint64_t{1} << 31)) {
     fail_at(path, header_line,
-            "the header declares " + std::to_string(vertex_count) + " vertices and " +
-                std::to_string(face_count) + " faces, more than the file can hold");
+            "the header declares " + std::to_string(vertex_count) + " vertices and " + std::to_string(face_count) +
+                " faces, more than the file can hold");
   }
   if (face_count == 0) fail(path, "contains no triangles (the OFF header declares 0 faces)");
   if (vertex_count == 0) fail(path, "contains no vertices (the OFF header declares 0 vertices)");
@@ -123,15 +122,14 @@ void check_off(const fs::path& path, std::string_view text) {
     std::string_view first;
     for (;;) {
       if (!lines.next(line)) {
-        fail(path, "the file ends after " + std::to_string(index) + " of the " + std::to_string(count) + " " +
-                       what + " its header declares (one per line is expected)");
+        fail(path, "the file ends after " + std::to_string(index) + " of the " + std::to_string(count) + " " + what +
+                       " its header declares (one per line is expected)");
       }
       if (line.empty()) continue;
       const bool has_token = Tokens(line).next(first);
       if (first_body_line && (!has_token || first.starts_with('#'))) continue;
       if (!has_token)
-        fail_at(path, lines.number(),
-                std::string("expected one of the ") + what + ", found a line of spaces");
+        fail_at(path, lines.number(), std::string("expected one of the ") + what + ", found a line of spaces");
       if (first.starts_with('#'))
         fail_at(path, lines.number(), std::string("comments between the ") + what + " are not supported");
       break;
@@ -174,8 +172,7 @@ void check_off(const fs::path& path, std::string_view text) {
     }
     for (uint64_t k = 0; k < *corners; ++k) {
       if (!tokens.next(token) || token.starts_with('#')) {
-        fail_at(path, lines.number(),
-                "face has fewer indices than its corner count " + std::to_string(*corners));
+        fail_at(path, lines.number(), "face has fewer indices than its corner count " + std::to_string(*corners));
       }
       const auto index = parse_count(token);
       if (!index) fail_at(path, lines.number(), quote(token) + " is not a vertex index");

@@ -69,8 +69,7 @@ std::optional<uint64_t> read_ply_count(const char* data, PlyType type, bool big_
 // two values.
 bool is_ply_integer(std::string_view token, bool is_signed) {
   if (is_signed && token.starts_with('-')) token.remove_prefix(1);
-  return !token.empty() && token.size() <= 10 &&
-         token.find_first_not_of("0123456789") == std::string_view::npos;
+  return !token.empty() && token.size() <= 10 && token.find_first_not_of("0123456789") == std::string_view::npos;
 }
 
 }  // namespace
@@ -141,15 +140,13 @@ PlyLayout check_ply(const fs::path& path, std::string_view bytes) {
       element.count = *count;
       // Assimp 5.2 reads the count of an element it does not know as 0 and then parses the
       // following data as if that element were absent.
-      if (element.name != "vertex" && element.name != "face" && element.name != "edge" &&
-          element.name != "material") {
+      if (element.name != "vertex" && element.name != "face" && element.name != "edge" && element.name != "material") {
         fail_at(path, n,
                 "the element " + quote(element.name) +
                     " is not supported (only vertex, face, edge and material elements are read)");
       }
       for (const PlyElement& other : elements) {
-        if (other.name == element.name)
-          fail_at(path, n, "the element " + quote(element.name) + " is declared twice");
+        if (other.name == element.name) fail_at(path, n, "the element " + quote(element.name) + " is declared twice");
       }
       elements.push_back(element);
       in_element = true;
@@ -192,9 +189,8 @@ PlyLayout check_ply(const fs::path& path, std::string_view bytes) {
   const auto vertex =
       std::find_if(elements.begin(), elements.end(), [](const PlyElement& e) { return e.name == "vertex"; });
   const auto has_axis = [&](std::string_view axis) {
-    return vertex != elements.end() &&
-           std::any_of(vertex->properties.begin(), vertex->properties.end(),
-                       [&](const PlyProperty& p) { return !p.list && p.name == axis; });
+    return vertex != elements.end() && std::any_of(vertex->properties.begin(), vertex->properties.end(),
+                                                   [&](const PlyProperty& p) { return !p.list && p.name == axis; });
   };
   if (!has_axis("x") || !has_axis("y") || !has_axis("z")) {
     fail(path, "has no 'vertex' element with x, y and z properties, so it holds no positions");
@@ -256,8 +252,7 @@ PlyLayout check_ply(const fs::path& path, std::string_view bytes) {
       Tokens tokens(line);
       const auto value = [&](PlyType type) {
         if (!tokens.next(token)) fail_at(path, n, "too few values for a " + quote(element.name) + " element");
-        const bool ok =
-            type.is_float ? parse_number(token).has_value() : is_ply_integer(token, type.is_signed);
+        const bool ok = type.is_float ? parse_number(token).has_value() : is_ply_integer(token, type.is_signed);
         if (!ok) fail_at(path, n, quote(token) + " is not " + (type.is_float ? "a number" : "an integer"));
       };
       for (const PlyProperty& property : element.properties) {
@@ -268,14 +263,13 @@ PlyLayout check_ply(const fs::path& path, std::string_view bytes) {
         if (!tokens.next(token)) fail_at(path, n, "too few values for a " + quote(element.name) + " element");
         const auto length = parse_count(token);
         if (!length) fail_at(path, n, quote(token) + " is not a list length");
-        if (*length > line.size())
-          fail_at(path, n, "too few values for a " + quote(element.name) + " element");
+        if (*length > line.size()) fail_at(path, n, "too few values for a " + quote(element.name) + " element");
         for (uint64_t k = 0; k < *length; ++k) value(property.value);
       }
       if (tokens.next(token)) {
-        fail_at(path, n,
-                "more values than a " + quote(element.name) +
-                    " element has properties (one element per line is expected)");
+        fail_at(
+            path, n,
+            "more values than a " + quote(element.name) + " element has properties (one element per line is expected)");
       }
     }
   }

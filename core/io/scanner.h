@@ -22,7 +22,10 @@ class Scanner {
  public:
   // `part` is a piece of `file`; lines are counted from the start of `file`.
   Scanner(std::string_view file, std::string_view part, bool hash_comments)
-      : file_begin_(file.data()), p_(part.data()), end_(part.data() + part.size()), last_(p_),
+      : file_begin_(file.data()),
+        p_(part.data()),
+        end_(part.data() + part.size()),
+        last_(p_),
         hash_comments_(hash_comments) {}
 
   std::string_view next() {
@@ -75,12 +78,9 @@ class Scanner {
     const std::string_view t = token(what);
     double v = 0;
     switch (parse_real(t, v)) {
-      case RealParse::kOk:
-        return v;
-      case RealParse::kNotFinite:
-        fail(std::string(what) + " '" + shown(t) + "' is not a finite number");
-      case RealParse::kMalformed:
-        break;
+      case RealParse::kOk: return v;
+      case RealParse::kNotFinite: fail(std::string(what) + " '" + shown(t) + "' is not a finite number");
+      case RealParse::kMalformed: break;
     }
     fail("expected " + std::string(what) + " (a number), found '" + shown(t) + "'");
   }

@@ -83,24 +83,20 @@ uint64_t check_ascii_stl(const fs::path& path, std::string_view text) {
         if (!tokens.next(token)) fail_at(path, tokens.line(), "the file ends inside a facet");
         if (token != "vertex") break;
         for (int k = 0; k < 3; ++k) {
-          if (!tokens.next_in_line(token))
-            fail_at(path, tokens.line(), "a vertex needs three coordinates on its line");
+          if (!tokens.next_in_line(token)) fail_at(path, tokens.line(), "a vertex needs three coordinates on its line");
           parse_coordinate(path, tokens.line(), token);
         }
         ++corners;
       }
-      if (token != "endloop")
-        fail_at(path, tokens.line(), "expected 'vertex' or 'endloop', found " + quote(token));
+      if (token != "endloop") fail_at(path, tokens.line(), "expected 'vertex' or 'endloop', found " + quote(token));
       if (corners != 3) {
-        fail_at(path, facet_line,
-                "facet has " + std::to_string(corners) + " vertices; STL facets must be triangles");
+        fail_at(path, facet_line, "facet has " + std::to_string(corners) + " vertices; STL facets must be triangles");
       }
       expect("endfacet", "after 'endloop'");
       ++facets;
     } else {
       fail_at(path, tokens.line(),
-              std::string(in_solid ? "expected 'facet' or 'endsolid'"
-                                   : "expected 'solid' or the end of the file") +
+              std::string(in_solid ? "expected 'facet' or 'endsolid'" : "expected 'solid' or the end of the file") +
                   ", found " + quote(token));
     }
   }
@@ -133,18 +129,17 @@ StlLayout check_stl(const fs::path& path, std::string_view bytes) {
   }
 
   if (size < 84) {
-    fail(path,
-         "is neither an ASCII STL (it does not start with 'solid') nor a binary STL (shorter than the "
-         "84-byte header)");
+    fail(path, "is neither an ASCII STL (it does not start with 'solid') nor a binary STL (shorter than the "
+               "84-byte header)");
   }
   uint32_t declared = 0;
   std::memcpy(&declared, bytes.data() + 80, sizeof declared);
-  fail(path, std::string("is not an ASCII STL (") +
-                 (starts_with_solid ? "it starts with 'solid' but holds binary zeros"
-                                    : "it does not start with 'solid'") +
-                 "), and as a binary STL its header declares " + std::to_string(declared) +
-                 " triangles, which need " + std::to_string(84 + 50 * uint64_t{declared}) +
-                 " bytes, but the file has " + std::to_string(size) + " bytes: it is truncated or corrupt");
+  fail(path,
+       std::string("is not an ASCII STL (") +
+           (starts_with_solid ? "it starts with 'solid' but holds binary zeros" : "it does not start with 'solid'") +
+           "), and as a binary STL its header declares " + std::to_string(declared) + " triangles, which need " +
+           std::to_string(84 + 50 * uint64_t{declared}) + " bytes, but the file has " + std::to_string(size) +
+           " bytes: it is truncated or corrupt");
 }
 
 std::string_view stl_assimp_input(const StlLayout& layout, std::string& patched) {
@@ -154,8 +149,8 @@ std::string_view stl_assimp_input(const StlLayout& layout, std::string& patched)
   // that way. The header means nothing here.
   const auto starts_with = [&](std::string_view mark) { return to_parse.starts_with(mark); };
   using namespace std::string_view_literals;
-  if (layout.binary && (starts_with("\xEF\xBB\xBF"sv) || starts_with("\xFE\xFF"sv) ||
-                        starts_with("\xFF\xFE"sv) || starts_with("\x00\x00\xFE\xFF"sv))) {
+  if (layout.binary && (starts_with("\xEF\xBB\xBF"sv) || starts_with("\xFE\xFF"sv) || starts_with("\xFF\xFE"sv) ||
+                        starts_with("\x00\x00\xFE\xFF"sv))) {
     patched = std::string(to_parse);
     std::fill_n(patched.begin(), 4, '\0');
     to_parse = patched;

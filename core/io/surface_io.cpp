@@ -42,14 +42,10 @@ enum class Format { stl, obj, off, ply };
 
 const char* format_name(Format format) {
   switch (format) {
-    case Format::stl:
-      return "STL";
-    case Format::obj:
-      return "OBJ";
-    case Format::off:
-      return "OFF";
-    case Format::ply:
-      return "PLY";
+    case Format::stl: return "STL";
+    case Format::obj: return "OBJ";
+    case Format::off: return "OFF";
+    case Format::ply: return "PLY";
   }
   return "";
 }
@@ -65,8 +61,8 @@ Format format_of(const fs::path& path) {
   if (extension == ".off") return Format::off;
   if (extension == ".ply") return Format::ply;
   if (extension.empty()) fail(path, "has no file extension; name it .stl, .obj, .off or .ply");
-  fail(path, "unknown file extension " + quote(path.extension().string()) +
-                 "; supported are .stl, .obj, .off and .ply");
+  fail(path,
+       "unknown file extension " + quote(path.extension().string()) + "; supported are .stl, .obj, .off and .ply");
 }
 
 std::string read_bytes(const fs::path& path) {
@@ -135,20 +131,20 @@ TriangleSurface read_surface(const std::filesystem::path& path, std::size_t* wel
   Collected collected = import_scene(path, to_parse, hint, format_name(format));
   TriangleSurface& surface = collected.surface;
   if (surface.triangles.empty()) {
-    fail(path, collected.other_primitives > 0 ? "contains no triangles, only points or lines"
-                                              : "contains no triangles");
+    fail(path,
+         collected.other_primitives > 0 ? "contains no triangles, only points or lines" : "contains no triangles");
   }
   if (expected_triangles && surface.triangles.size() != *expected_triangles) {
-    fail(path, "the STL reader found " + std::to_string(surface.triangles.size()) +
-                   " triangles where the file has " + std::to_string(*expected_triangles) + " facets");
+    fail(path, "the STL reader found " + std::to_string(surface.triangles.size()) + " triangles where the file has " +
+                   std::to_string(*expected_triangles) + " facets");
   }
 
   const std::size_t merged = weld_vertices(surface);
   if (welded != nullptr) {
-    *welded = !vertex_records
-                  ? merged
-                  : static_cast<std::size_t>(*vertex_records -
-                                             std::min<uint64_t>(*vertex_records, surface.vertices.size()));
+    *welded =
+        !vertex_records
+            ? merged
+            : static_cast<std::size_t>(*vertex_records - std::min<uint64_t>(*vertex_records, surface.vertices.size()));
   }
   return surface;
 }

@@ -82,8 +82,7 @@ std::optional<double> parse_number(std::string_view token) {
       wide = std::copysign(tiny ? 0.0L : HUGE_VALL, token.starts_with('-') ? -1.0L : 1.0L);
       result.ec = std::errc{};
     }
-    value = std::fabs(wide) > DBL_MAX ? std::copysign(HUGE_VAL, static_cast<double>(wide))
-                                      : static_cast<double>(wide);
+    value = std::fabs(wide) > DBL_MAX ? std::copysign(HUGE_VAL, static_cast<double>(wide)) : static_cast<double>(wide);
   }
   if (result.ec != std::errc{} || result.ptr != last) return std::nullopt;
   return value;

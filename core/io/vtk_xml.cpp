@@ -27,7 +27,8 @@ XmlDocument parse_vtk_xml(std::string_view text) {
     if (lt == std::string_view::npos) break;
     auto skip_to = [&](std::string_view end_marker) {
       const std::size_t e = text.find(end_marker, lt + 2);
-      if (e == std::string_view::npos) xml_fail("unterminated '" + std::string(text.substr(lt, 4)) + "' (truncated file?)");
+      if (e == std::string_view::npos)
+        xml_fail("unterminated '" + std::string(text.substr(lt, 4)) + "' (truncated file?)");
       pos = e + end_marker.size();
     };
     if (text.compare(lt, 4, "<!--") == 0) {
@@ -79,7 +80,8 @@ XmlDocument parse_vtk_xml(std::string_view text) {
       while (i < text.size() && is_name_char(text[i])) ++i;
       const std::string_view key = text.substr(key_begin, i - key_begin);
       while (i < text.size() && is_blank(text[i])) ++i;
-      if (key.empty() || i >= text.size() || text[i] != '=') xml_fail("malformed attribute in <" + shown(element.name) + ">");
+      if (key.empty() || i >= text.size() || text[i] != '=')
+        xml_fail("malformed attribute in <" + shown(element.name) + ">");
       ++i;
       while (i < text.size() && is_blank(text[i])) ++i;
       if (i >= text.size() || (text[i] != '"' && text[i] != '\'')) xml_fail("unquoted attribute '" + shown(key) + "'");

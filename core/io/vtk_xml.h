@@ -31,9 +31,9 @@ struct XmlElement {
 inline constexpr std::size_t kNoParent = std::numeric_limits<std::size_t>::max();
 
 struct XmlDocument {
-  std::vector<XmlElement> elements;   // in document order, elements[0] the root
-  std::size_t appended = kNoParent;   // the AppendedData element, if any
-  std::size_t appended_begin = 0;     // offset of the byte after its '_'
+  std::vector<XmlElement> elements;  // in document order, elements[0] the root
+  std::size_t appended = kNoParent;  // the AppendedData element, if any
+  std::size_t appended_begin = 0;    // offset of the byte after its '_'
 };
 
 XmlDocument parse_vtk_xml(std::string_view text);

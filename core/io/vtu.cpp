@@ -38,9 +38,9 @@ enum class Scalar { kInt8, kUInt8, kInt16, kUInt16, kInt32, kUInt32, kInt64, kUI
 
 std::optional<Scalar> scalar_type(std::string_view name) {
   static constexpr std::pair<std::string_view, Scalar> kTypes[] = {
-      {"Int8", Scalar::kInt8},     {"UInt8", Scalar::kUInt8},     {"Int16", Scalar::kInt16},
-      {"UInt16", Scalar::kUInt16}, {"Int32", Scalar::kInt32},     {"UInt32", Scalar::kUInt32},
-      {"Int64", Scalar::kInt64},   {"UInt64", Scalar::kUInt64},   {"Float32", Scalar::kFloat32},
+      {"Int8", Scalar::kInt8},      {"UInt8", Scalar::kUInt8},   {"Int16", Scalar::kInt16},
+      {"UInt16", Scalar::kUInt16},  {"Int32", Scalar::kInt32},   {"UInt32", Scalar::kUInt32},
+      {"Int64", Scalar::kInt64},    {"UInt64", Scalar::kUInt64}, {"Float32", Scalar::kFloat32},
       {"Float64", Scalar::kFloat64}};
   for (const auto& [n, s] : kTypes)
     if (n == name) return s;
@@ -50,17 +50,13 @@ std::optional<Scalar> scalar_type(std::string_view name) {
 std::size_t scalar_size(Scalar s) {
   switch (s) {
     case Scalar::kInt8:
-    case Scalar::kUInt8:
-      return 1;
+    case Scalar::kUInt8: return 1;
     case Scalar::kInt16:
-    case Scalar::kUInt16:
-      return 2;
+    case Scalar::kUInt16: return 2;
     case Scalar::kInt32:
     case Scalar::kUInt32:
-    case Scalar::kFloat32:
-      return 4;
-    default:
-      return 8;
+    case Scalar::kFloat32: return 4;
+    default: return 8;
   }
 }
 
@@ -164,7 +160,8 @@ class VtuReader {
           hex[k] = static_cast<uint32_t>(v);
         }
         if (labels[c] < std::numeric_limits<int32_t>::min() || labels[c] > std::numeric_limits<int32_t>::max())
-          fail("region label " + std::to_string(labels[c]) + " of cell " + std::to_string(c) + " does not fit in 32 bits");
+          fail("region label " + std::to_string(labels[c]) + " of cell " + std::to_string(c) +
+               " does not fit in 32 bits");
         mesh.hexes.push_back(hex);
         mesh.region.push_back(static_cast<int32_t>(labels[c]));
       }
@@ -186,7 +183,8 @@ class VtuReader {
     for (std::size_t i = 0; i < doc_.elements.size(); ++i) {
       if (doc_.elements[i].parent != parent || doc_.elements[i].name != name) continue;
       if (found != kNoParent)
-        fail("more than one <" + std::string(name) + ">" + (name == "Piece" ? ": only single-piece files can be read" : ""));
+        fail("more than one <" + std::string(name) + ">" +
+             (name == "Piece" ? ": only single-piece files can be read" : ""));
       found = i;
     }
     if (found == kNoParent) fail("no <" + std::string(name) + "> in <" + shown(doc_.elements[parent].name) + ">");
@@ -252,7 +250,8 @@ class VtuReader {
       Base64Reader reader(encoded);
       if (!reader.read(bytes, header_size_)) fail(what + ": the data ends inside its header (truncated file?)");
       check_block_size(what, block_size(bytes.data()), expected);
-      if (!reader.read(bytes, header_size_ + expected)) fail(what + ": the data is shorter than its header says (truncated file?)");
+      if (!reader.read(bytes, header_size_ + expected))
+        fail(what + ": the data is shorter than its header says (truncated file?)");
       data_begin = header_size_;
     } else if (format == "appended") {
       if (doc_.appended == kNoParent) fail(what + " is appended but the file has no <AppendedData>");
@@ -396,7 +395,8 @@ void write_vtu(const HexMesh& mesh, AtomicFile& out) {
 
   block_header(bytes[3]);
   const std::vector<std::uint8_t> types(std::min<std::size_t>(m, kChunk), kVtkHexahedron);
-  for (std::size_t begin = 0; begin < m; begin += kChunk) out.write(types.data(), std::min<std::size_t>(m - begin, kChunk));
+  for (std::size_t begin = 0; begin < m; begin += kChunk)
+    out.write(types.data(), std::min<std::size_t>(m - begin, kChunk));
 
   block_header(bytes[4]);
   out.write(mesh.region.data(), bytes[4]);

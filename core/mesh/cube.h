@@ -17,14 +17,16 @@ namespace mchex {
 // ---- Cube topology ---------------------------------------------------------------------------
 
 // Corner coordinates in the paper's Eq. 8 order.
-inline constexpr std::array<std::array<int, 3>, 8> kCubeCorners = {{
-    {0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}}};
+inline constexpr std::array<std::array<int, 3>, 8> kCubeCorners = {
+    {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}}};
 
 // The 12 edges in the order of the paper's Table 1 (its points 1..12), each from the corner where
 // s = 0 to the corner where s = 1: point i lies at (1 - s_i) * corner[a] + s_i * corner[b].
+// clang-format off
 inline constexpr std::array<std::array<int, 2>, 12> kCubeEdges = {{
     {0, 1}, {0, 3}, {0, 4}, {1, 2}, {1, 5}, {3, 2},
     {2, 6}, {3, 7}, {4, 5}, {4, 7}, {5, 6}, {7, 6}}};
+// clang-format on
 
 // ---- The 48 symmetries of the cube -----------------------------------------------------------
 
@@ -49,15 +51,11 @@ inline constexpr int kNumCubeRotations = 24;  // indices 0..23 are rotations, 24
 
 namespace detail {
 
-constexpr int cube_corner_index(int x, int y, int z) {
-  return 4 * z + (y ? (x ? 2 : 3) : (x ? 1 : 0));
-}
+constexpr int cube_corner_index(int x, int y, int z) { return 4 * z + (y ? (x ? 2 : 3) : (x ? 1 : 0)); }
 
 constexpr int cube_edge_index(int a, int b) {
   for (int e = 0; e < 12; ++e)
-    if ((kCubeEdges[e][0] == a && kCubeEdges[e][1] == b) ||
-        (kCubeEdges[e][0] == b && kCubeEdges[e][1] == a))
-      return e;
+    if ((kCubeEdges[e][0] == a && kCubeEdges[e][1] == b) || (kCubeEdges[e][0] == b && kCubeEdges[e][1] == a)) return e;
   return -1;
 }
 
@@ -90,8 +88,7 @@ constexpr CubeSymmetry make_cube_symmetry(std::array<int, 3> axis, int flip) {
   for (int f = 0; f < 6; ++f) {
     const int k = f / 2, v = f % 2;
     for (int i = 0; i < 3; ++i)
-      if (axis[i] == k)
-        g.face[f] = static_cast<std::uint8_t>(2 * i + ((flip >> i & 1) ? 1 - v : v));
+      if (axis[i] == k) g.face[f] = static_cast<std::uint8_t>(2 * i + ((flip >> i & 1) ? 1 - v : v));
   }
   return g;
 }
@@ -120,7 +117,6 @@ constexpr std::array<CubeSymmetry, 48> make_cube_symmetries() {
 
 }  // namespace detail
 
-inline constexpr std::array<CubeSymmetry, kNumCubeSymmetries> kCubeSymmetries =
-    detail::make_cube_symmetries();
+inline constexpr std::array<CubeSymmetry, kNumCubeSymmetries> kCubeSymmetries = detail::make_cube_symmetries();
 
 }  // namespace mchex

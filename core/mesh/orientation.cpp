@@ -152,7 +152,7 @@ EdgeClasses classify_edges(const TriangleSurface& surface, const SurfaceEdges& e
       for (auto [from, to] : {std::pair{uses[0], uses[1]}, std::pair{uses[1], uses[0]}}) {
         auto& links = classes.links[from.triangle];
         *std::find_if(links.begin(), links.end(), [](const Link& l) { return l.triangle == kNone; }) = {to.triangle,
-                                                                                                         same};
+                                                                                                        same};
       }
     } else if (uses.size() >= 3) {
       ++report.nonmanifold_edges;
@@ -344,7 +344,8 @@ std::vector<uint64_t> find_self_intersections(const TriangleSurface& surface, co
   for (int a = 0; a < 3; ++a) dims[a] = std::min<uint64_t>(uint64_t(size[a] / cell) + 1, 1 << 20);
   const auto cell_of = [&](const Vec3& p) {
     std::array<uint64_t, 3> c;
-    for (int a = 0; a < 3; ++a) c[a] = std::min<uint64_t>(uint64_t(std::max(0.0, (p[a] - all.lo[a]) / cell)), dims[a] - 1);
+    for (int a = 0; a < 3; ++a)
+      c[a] = std::min<uint64_t>(uint64_t(std::max(0.0, (p[a] - all.lo[a]) / cell)), dims[a] - 1);
     return c;
   };
   const auto id = [&](const std::array<uint64_t, 3>& c) { return (c[2] * dims[1] + c[1]) * dims[0] + c[0]; };
@@ -505,8 +506,8 @@ std::string count(std::size_t n, const char* one, const char* many) {
 }  // namespace
 
 std::string describe(const OrientationReport& r) {
-  std::string line = count(r.components, "component", "components") + " (" + std::to_string(r.closed_components) +
-                     " closed";
+  std::string line =
+      count(r.components, "component", "components") + " (" + std::to_string(r.closed_components) + " closed";
   if (r.cavities > 0) line += ", " + count(r.cavities, "cavity", "cavities");
   if (r.nonorientable_components > 0) line += ", " + std::to_string(r.nonorientable_components) + " non-orientable";
   line += "), ";
@@ -517,7 +518,7 @@ std::string describe(const OrientationReport& r) {
                                            : count(r.nonmanifold_edges, "non-manifold edge", "non-manifold edges"));
   if (r.zero_area_faces > 0) line += ", " + count(r.zero_area_faces, "zero-area face", "zero-area faces");
   line += ", self-intersections: ";
-  line += !r.self_intersection_checked   ? std::string("not checked")
+  line += !r.self_intersection_checked     ? std::string("not checked")
           : r.self_intersecting_pairs == 0 ? std::string("none")
                                            : count(r.self_intersecting_pairs, "pair", "pairs");
   std::vector<std::string> done;

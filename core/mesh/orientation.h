@@ -62,27 +62,27 @@ namespace mchex {
 
 struct OrientationReport {
   // Step 1.
-  std::size_t degenerate_faces_removed = 0;  // a repeated vertex index
-  std::size_t duplicate_faces_removed = 0;   // includes both faces of each cancelled pair
-  std::size_t cancelled_pairs = 0;           // opposite-orientation duplicate pairs (zero-thickness sheets)
-  std::size_t zero_area_faces = 0;           // distinct vertices, zero area: kept
-  std::size_t orphaned_vertices_removed = 0; // used only by removed faces
+  std::size_t degenerate_faces_removed = 0;   // a repeated vertex index
+  std::size_t duplicate_faces_removed = 0;    // includes both faces of each cancelled pair
+  std::size_t cancelled_pairs = 0;            // opposite-orientation duplicate pairs (zero-thickness sheets)
+  std::size_t zero_area_faces = 0;            // distinct vertices, zero area: kept
+  std::size_t orphaned_vertices_removed = 0;  // used only by removed faces
   // Step 2, over the cleaned surface.
-  std::size_t components = 0;                // connected through manifold edges
+  std::size_t components = 0;  // connected through manifold edges
   std::size_t nonorientable_components = 0;
-  std::size_t flipped_triangles = 0;         // the minority of each component's walk
-  std::size_t boundary_edges = 0;            // one triangle (holes)
-  std::size_t boundary_loops = 0;            // connected pieces of the boundary-edge graph
-  std::size_t nonmanifold_edges = 0;         // three or more triangles
+  std::size_t flipped_triangles = 0;  // the minority of each component's walk
+  std::size_t boundary_edges = 0;     // one triangle (holes)
+  std::size_t boundary_loops = 0;     // connected pieces of the boundary-edge graph
+  std::size_t nonmanifold_edges = 0;  // three or more triangles
   // Step 3.
-  std::size_t closed_components = 0;         // see step 3
-  std::size_t cavities = 0;                  // closed components oriented inward (odd nesting)
-  std::size_t reversed_components = 0;       // closed components turned over to face the right way
-  std::size_t reversed_triangles = 0;        // the triangles of those components
-  bool nesting_checked = true;               // false: kNestingBudget exceeded, all oriented outward
+  std::size_t closed_components = 0;    // see step 3
+  std::size_t cavities = 0;             // closed components oriented inward (odd nesting)
+  std::size_t reversed_components = 0;  // closed components turned over to face the right way
+  std::size_t reversed_triangles = 0;   // the triangles of those components
+  bool nesting_checked = true;          // false: kNestingBudget exceeded, all oriented outward
   // Step 4.
-  bool self_intersection_checked = false;    // false: past a bound (see step 4)
-  std::size_t self_intersecting_pairs = 0;   // exact count of intersecting pairs when checked
+  bool self_intersection_checked = false;   // false: past a bound (see step 4)
+  std::size_t self_intersecting_pairs = 0;  // exact count of intersecting pairs when checked
 
   friend bool operator==(const OrientationReport&, const OrientationReport&) = default;
   bool changed() const {

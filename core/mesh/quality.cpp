@@ -37,9 +37,8 @@ struct Edges {
         zeta[u][v] = p[corner_index(u, v, 1)] - p[corner_index(u, v, 0)];
       }
     }
-    auto same = [](const Vec3 (&e)[2][2]) {
-      return std::memcmp(&e[0][0], &e[0][1], sizeof(Vec3)) == 0 &&
-             std::memcmp(&e[0][0], &e[1][0], sizeof(Vec3)) == 0 &&
+    auto same = [](const Vec3(&e)[2][2]) {
+      return std::memcmp(&e[0][0], &e[0][1], sizeof(Vec3)) == 0 && std::memcmp(&e[0][0], &e[1][0], sizeof(Vec3)) == 0 &&
              std::memcmp(&e[0][0], &e[1][1], sizeof(Vec3)) == 0;
     };
     parallel = shortcuts && same(xi) && same(eta) && same(zeta);
@@ -176,9 +175,7 @@ BernsteinCoefficients bernstein_from_edges(const Edges& e) {
 // corner coefficient, i.e. det J = 0 at a corner (a degenerate corner), and with coefficients
 // computed in floating point a 0 may be a rounded negative. The paper applies it to symbolic
 // polynomials over the open parameter box; for a concrete element in doubles we keep strict.
-double min_of(const BernsteinCoefficients& beta) {
-  return *std::min_element(beta.begin(), beta.end());
-}
+double min_of(const BernsteinCoefficients& beta) { return *std::min_element(beta.begin(), beta.end()); }
 
 double mean_edge(const std::array<double, 12>& lengths) {
   double sum = 0;
@@ -213,9 +210,7 @@ double volume_of(const BernsteinCoefficients& beta) {
   return sum / 27;
 }
 
-double scaled_triple(Vec3 a, Vec3 b, Vec3 c) {
-  return triple(normalized(a), normalized(b), normalized(c));
-}
+double scaled_triple(Vec3 a, Vec3 b, Vec3 c) { return triple(normalized(a), normalized(b), normalized(c)); }
 
 // normalized(v) from v's length already known (the same operations, so the same doubles).
 Vec3 normalized_by(Vec3 v, double length) { return length > 0 ? v / length : Vec3{}; }
@@ -245,8 +240,7 @@ std::array<double, 9> scaled_from_edges(const Edges& e, const std::array<double,
       }
     }
   }
-  s[8] = scaled_triple(bilinear(e.xi, 0.5, 0.5), bilinear(e.eta, 0.5, 0.5),
-                       bilinear(e.zeta, 0.5, 0.5));
+  s[8] = scaled_triple(bilinear(e.xi, 0.5, 0.5), bilinear(e.eta, 0.5, 0.5), bilinear(e.zeta, 0.5, 0.5));
   return s;
 }
 
@@ -262,9 +256,7 @@ double jacobian_determinant(const HexCorners& c, double xi, double eta, double z
   return triple(j[0], j[1], j[2]);
 }
 
-BernsteinCoefficients bernstein_jacobian(const HexCorners& c) {
-  return bernstein_from_edges(Edges(c));
-}
+BernsteinCoefficients bernstein_jacobian(const HexCorners& c) { return bernstein_from_edges(Edges(c)); }
 
 bool bernstein_certified(const HexCorners& c) { return min_bernstein(c) > 0; }
 

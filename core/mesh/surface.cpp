@@ -40,8 +40,7 @@ uint64_t mix(uint64_t h) {
 }
 
 bool same_position(const Vec3& a, const Vec3& b) {
-  return weld_bits(a.x) == weld_bits(b.x) && weld_bits(a.y) == weld_bits(b.y) &&
-         weld_bits(a.z) == weld_bits(b.z);
+  return weld_bits(a.x) == weld_bits(b.x) && weld_bits(a.y) == weld_bits(b.y) && weld_bits(a.z) == weld_bits(b.z);
 }
 
 // Neumaier's compensated sum: a closed mesh's volume is a sum of many terms of both signs that
@@ -179,8 +178,8 @@ SurfaceEdges surface_edges(const TriangleSurface& surface) {
         edges.vertices.push_back({static_cast<uint32_t>(lo), hi});
         edges.first_use.push_back(edges.uses.size());
       }
-      edges.uses.push_back({static_cast<uint32_t>((*use & 0xffffffffu) >> 2), (*use & kForwardBit) != 0,
-                            (*use & kCollapsedBit) != 0});
+      edges.uses.push_back(
+          {static_cast<uint32_t>((*use & 0xffffffffu) >> 2), (*use & kForwardBit) != 0, (*use & kCollapsedBit) != 0});
     }
   }
   edges.first_use.push_back(edges.uses.size());
@@ -188,7 +187,8 @@ SurfaceEdges surface_edges(const TriangleSurface& surface) {
 }
 
 double signed_volume(const TriangleSurface& surface, std::span<const uint32_t> triangles, Vec3 origin) {
-  return signed_volume_of(surface, triangles.size(), [&](std::size_t i) { return triangles[i]; }, origin);
+  return signed_volume_of(
+      surface, triangles.size(), [&](std::size_t i) { return triangles[i]; }, origin);
 }
 
 SurfaceReport validate_surface(const TriangleSurface& surface, std::size_t welded_vertices) {
@@ -207,8 +207,8 @@ SurfaceReport validate_surface(const TriangleSurface& surface, std::size_t welde
   }
   // About the centre of the bounds, to keep far-off models accurate.
   const Box box = surface.bounds();
-  report.volume = signed_volume_of(surface, triangles.size(), [](std::size_t t) { return t; },
-                                   box.empty() ? Vec3{} : box.center());
+  report.volume = signed_volume_of(
+      surface, triangles.size(), [](std::size_t t) { return t; }, box.empty() ? Vec3{} : box.center());
 
   DisjointSets components(triangles.size());
   for (std::size_t e = 0; e < edges.size(); ++e) {

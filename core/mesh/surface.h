@@ -26,16 +26,16 @@ struct TriangleSurface {
 struct SurfaceReport {
   std::size_t vertices = 0;
   std::size_t triangles = 0;
-  std::size_t welded_vertices = 0;       // duplicates merged by the reader's weld
+  std::size_t welded_vertices = 0;  // duplicates merged by the reader's weld
   std::size_t edges = 0;
-  std::size_t boundary_edges = 0;        // edges with one triangle (holes)
-  std::size_t nonmanifold_edges = 0;     // edges with three or more triangles
-  std::size_t degenerate_faces = 0;      // repeated vertex index or zero area
-  std::size_t inconsistent_edges = 0;    // two-triangle edges traversed the same way by both
-  std::size_t components = 0;            // connected by shared edges
-  bool closed = false;                   // no boundary and no non-manifold edge
+  std::size_t boundary_edges = 0;      // edges with one triangle (holes)
+  std::size_t nonmanifold_edges = 0;   // edges with three or more triangles
+  std::size_t degenerate_faces = 0;    // repeated vertex index or zero area
+  std::size_t inconsistent_edges = 0;  // two-triangle edges traversed the same way by both
+  std::size_t components = 0;          // connected by shared edges
+  bool closed = false;                 // no boundary and no non-manifold edge
   bool consistently_oriented = false;
-  double volume = 0;                     // signed volume (divergence theorem); > 0 means outward normals
+  double volume = 0;  // signed volume (divergence theorem); > 0 means outward normals
 };
 
 // Merges vertices with bit-identical coordinates (+0 and -0 are the same), drops nothing else.

@@ -50,11 +50,13 @@ class TimedSdf final : public SignedDistance {
 // per point, RO one hex per cell.
 void check_memory_budget(const UniformGrid& grid, const std::string& method) {
   const double hexes_per_cell = method == "mchex" ? 8 : 1, bytes_per_hex = method == "mchex" ? 200 : 80;
-  const double bytes = double(grid.vertex_count()) * (3 * 24 + 8) + double(grid.cell_count()) * hexes_per_cell * bytes_per_hex;
+  const double bytes =
+      double(grid.vertex_count()) * (3 * 24 + 8) + double(grid.cell_count()) * hexes_per_cell * bytes_per_hex;
   const double physical = double(sysconf(_SC_PHYS_PAGES)) * double(sysconf(_SC_PAGE_SIZE));
   if (physical > 0 && bytes > 0.8 * physical)
-    throw ResourceError(fmt::format("depth {} needs about {:.1f} GiB, more than 80% of this machine's {:.1f} GiB; use a smaller --depth",
-                                    grid.depth(), bytes / (1 << 30), physical / (1 << 30)));
+    throw ResourceError(fmt::format(
+        "depth {} needs about {:.1f} GiB, more than 80% of this machine's {:.1f} GiB; use a smaller --depth",
+        grid.depth(), bytes / (1 << 30), physical / (1 << 30)));
 }
 
 // The adaptive 3-refinement grid (core/grid/octree.h) as a HexComplex, each part timed.
@@ -147,8 +149,7 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
     return run.clock.run("mchex", [&] {
       if constexpr (std::is_same_v<std::decay_t<decltype(where)>, HexComplex>)
         return mesh_mchex(where, values, o.eps, &run.mchex, {device_subcases, device_offsets});
-      else
-        return mesh_mchex(where, values, o.eps, &run.mchex);
+      else return mesh_mchex(where, values, o.eps, &run.mchex);
     });
   };
   run.meshes = run.adaptive ? run_method(run.adaptive->complex)

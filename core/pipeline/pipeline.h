@@ -38,8 +38,8 @@ struct MeshOptions {
   // threshold x the finest cell size (core/grid/octree.h AdaptiveOptions), to max_depth.
   double threshold = 0;
   int max_depth = 5;
-  double pad = 0.1;    // padding around the solid, as a fraction of its largest extent
-  double eps = 1e-3;   // method mchex: crossings clamped to [eps, 1 - eps]
+  double pad = 0.1;   // padding around the solid, as a fraction of its largest extent
+  double eps = 1e-3;  // method mchex: crossings clamped to [eps, 1 - eps]
   bool fidelity = false;
   std::size_t lattice = 128;  // fidelity: IoU samples per axis
   bool quiet = false;         // no progress lines, no warning about an open surface
@@ -59,31 +59,31 @@ struct MeshRequest {
 // Where the adaptive grid's time went (stage "octree" is their sum): the refinement's SDF batches
 // apart, wall and CPU seconds (all threads), for the benchmarks' cells-per-second figures.
 struct OctreeTimes {
-  double refine = 0;   // less its SDF batches
+  double refine = 0;  // less its SDF batches
   double balance = 0;
   double complex = 0;  // the templates: build_adaptive_complex
   double sdf = 0, sdf_cpu = 0;
-  double cpu = 0;      // refine + balance + complex, CPU seconds, SDF batches taken out
+  double cpu = 0;  // refine + balance + complex, CPU seconds, SDF batches taken out
 };
 
 struct MeshRun {
   MeshOptions options;
   SolidFacts input;
-  Box cube;                               // the padded cube the grid fills
-  std::optional<UniformGrid> uniform;     // the grid: uniform ...
-  std::optional<AdaptiveGrid> adaptive;   // ... or adaptive (its values moved to the mesher)
-  std::size_t unsampled_points = 0;       // adaptive: points the refinement did not sample (the
-                                          // SDF stage's batch; adaptive->unsampled is empty after it)
+  Box cube;                              // the padded cube the grid fills
+  std::optional<UniformGrid> uniform;    // the grid: uniform ...
+  std::optional<AdaptiveGrid> adaptive;  // ... or adaptive (its values moved to the mesher)
+  std::size_t unsampled_points = 0;      // adaptive: points the refinement did not sample (the
+                                         // SDF stage's batch; adaptive->unsampled is empty after it)
   OctreeStats octree;
   OctreeTimes octree_times;
-  DeviceInfo device;                      // the backend's facts
-  int threads = 0;                        // worker threads the machine offers
+  DeviceInfo device;  // the backend's facts
+  int threads = 0;    // worker threads the machine offers
   MeshPair meshes;
   MeshCheck check;
-  MchexStats mchex;                       // method mchex
-  std::optional<Fidelity> fidelity;       // when asked for
-  StageClock clock{true};                 // read, bvh, octree, sdf, classify, mchex | ro, check, fidelity, write
-  std::size_t peak_memory_bytes = 0;      // of the process, after the last stage
+  MchexStats mchex;                   // method mchex
+  std::optional<Fidelity> fidelity;   // when asked for
+  StageClock clock{true};             // read, bvh, octree, sdf, classify, mchex | ro, check, fidelity, write
+  std::size_t peak_memory_bytes = 0;  // of the process, after the last stage
 };
 
 // The whole pipeline from request.solid.

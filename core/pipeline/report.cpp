@@ -34,8 +34,13 @@ json adaptive_grid_json(const AdaptiveGrid& g, std::size_t unsampled, const Octr
   for (int k = 0; k < kNumTemplateKinds; ++k)
     per_template[std::string(template_name(static_cast<TemplateKind>(k)))] = g.leaves_per_template[k];
   for (const OctreeLevelStats& l : stats.levels)
-    per_level.push_back({{"candidates", l.candidates}, {"sampled", l.sampled}, {"sdf_points", l.sdf_points}, {"refined_by_error", l.refined_by_error},
-                         {"refined_by_balance", l.refined_by_balance}, {"marks_added", l.marks_added}, {"leaves", l.leaves}});
+    per_level.push_back({{"candidates", l.candidates},
+                         {"sampled", l.sampled},
+                         {"sdf_points", l.sdf_points},
+                         {"refined_by_error", l.refined_by_error},
+                         {"refined_by_balance", l.refined_by_balance},
+                         {"marks_added", l.marks_added},
+                         {"leaves", l.leaves}});
   const Box& cube = g.complex.box;
   return {{"kind", "adaptive"},
           {"threshold", o.threshold},
@@ -55,14 +60,15 @@ json adaptive_grid_json(const AdaptiveGrid& g, std::size_t unsampled, const Octr
 }
 
 json mchex_json(const MchexStats& s, double eps) {
-  return {{"eps", eps},
-          {"refined_cells", s.refined_cells},
-          {"refined_cells_two_levels", s.refined_cells_two_levels},
-          {"moved_volume_centres", s.moved_centres},
-          {"uncertified_polyhedra", s.uncertified_polyhedra},
-          {"perturbed_zero_values", s.perturbed_values},
-          {"points", s.points},
-          {"seconds", {{"topology", s.seconds_topology}, {"cells", s.seconds_cells}, {"assembly", s.seconds_assembly}}}};
+  return {
+      {"eps", eps},
+      {"refined_cells", s.refined_cells},
+      {"refined_cells_two_levels", s.refined_cells_two_levels},
+      {"moved_volume_centres", s.moved_centres},
+      {"uncertified_polyhedra", s.uncertified_polyhedra},
+      {"perturbed_zero_values", s.perturbed_values},
+      {"points", s.points},
+      {"seconds", {{"topology", s.seconds_topology}, {"cells", s.seconds_cells}, {"assembly", s.seconds_assembly}}}};
 }
 
 }  // namespace
@@ -108,7 +114,8 @@ json report_json(const MeshRun& run, const MeshOutputs* outputs) {
         {"precision", d.precision},
         {"kernels", d.kernels},
         {"threads", run.threads}}},
-      {"grid", run.adaptive ? adaptive_grid_json(*run.adaptive, run.unsampled_points, run.octree, run.options) : uniform_grid_json(*run.uniform)},
+      {"grid", run.adaptive ? adaptive_grid_json(*run.adaptive, run.unsampled_points, run.octree, run.options)
+                            : uniform_grid_json(*run.uniform)},
       {"elements",
        {{"inside_hexes", run.meshes.inside.hexes.size()},
         {"outside_hexes", run.meshes.outside.hexes.size()},

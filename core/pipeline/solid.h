@@ -55,10 +55,10 @@ inline constexpr const char* kDefaultShape = "torus";
 
 // What the report says about the input (core/pipeline/report.h input_json).
 struct SolidFacts {
-  std::string name;       // the file, the in-memory surface's name, or the shape
-  bool analytic = false;  // a built-in shape
-  SurfaceReport surface;  // core/mesh/surface.h validate_surface, for a surface
-  std::size_t welded = 0; // duplicate vertices the reader merged
+  std::string name;        // the file, the in-memory surface's name, or the shape
+  bool analytic = false;   // a built-in shape
+  SurfaceReport surface;   // core/mesh/surface.h validate_surface, for a surface
+  std::size_t welded = 0;  // duplicate vertices the reader merged
 };
 
 class Solid {

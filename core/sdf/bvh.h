@@ -34,7 +34,6 @@ struct TriangleBvh {
   // For every node, the range [first, last) of leaf slots under it: one contiguous range, since
   // the layout is depth-first.
   std::vector<std::pair<uint32_t, uint32_t>> subtree_slots() const;
-
 };
 
 }  // namespace mchex

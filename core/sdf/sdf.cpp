@@ -15,9 +15,9 @@
 #include <xmmintrin.h>
 #endif
 
+#include "core/base/parallel.h"
 #include "core/sdf/bvh.h"
 #include "core/sdf/pseudonormals.h"
-#include "core/base/parallel.h"
 #include "core/sdf/search_tree.h"
 #include "core/sdf/winding_number.h"
 
@@ -91,7 +91,6 @@ double signed_value(Vec3 p, const ClosestPoint& cp, Vec3 pseudonormal) {
 // drop out of a subtree cost only a bit of a mask each.
 constexpr int kPacket = 32;
 static_assert(kPacket % 4 == 0 && kPacket <= 32, "lane masks are 32-bit, points go four to a vector");
-
 
 // The lanes of a comparison as four bits (lane i -> bit i): one instruction on SSE (the portable
 // form made the whole search 6 % slower).
@@ -199,7 +198,7 @@ struct SurfaceSdf::Impl {
     const Four far = {INFINITY, INFINITY, INFINITY, INFINITY};
     while (top > 0) {
       const Entry& e = stack[--top];  // read before this step's pushes overwrite its slot
-      unsigned active = 0;  // the points this node is (still) in range of
+      unsigned active = 0;            // the points this node is (still) in range of
       for (int k = 0; k < kPacket / 4; ++k) active |= mask_of(e.d2[k] <= best2v[k]) << (4 * k);
       if (!active) continue;
       const WideNode& w = tree.nodes[e.node];
@@ -324,8 +323,7 @@ struct SurfaceSdf::Impl {
   }
 };
 
-SurfaceSdf::SurfaceSdf(const TriangleSurface& surface, SignRule sign)
-    : impl_(std::make_unique<Impl>(surface, sign)) {}
+SurfaceSdf::SurfaceSdf(const TriangleSurface& surface, SignRule sign) : impl_(std::make_unique<Impl>(surface, sign)) {}
 SurfaceSdf::~SurfaceSdf() = default;
 
 Box SurfaceSdf::bounds() const { return impl_->box; }
@@ -346,8 +344,7 @@ void SurfaceSdf::evaluate(std::span<const Vec3> points, std::span<double> values
 }
 
 void SurfaceSdf::distance(std::span<const Vec3> points, std::span<double> values) const {
-  impl_->run(points, values,
-             [](Vec3, const Impl::Query& q) { return std::sqrt(q.best.squared_distance); });
+  impl_->run(points, values, [](Vec3, const Impl::Query& q) { return std::sqrt(q.best.squared_distance); });
 }
 
 std::vector<uint32_t> morton_order(std::span<const Vec3> points) {
@@ -381,17 +378,15 @@ std::vector<uint32_t> morton_order(std::span<const Vec3> points) {
   return order;
 }
 
-
-void brute_force_sdf(const TriangleSurface& surface, std::span<const Vec3> points,
-                     std::span<double> values) {
+void brute_force_sdf(const TriangleSurface& surface, std::span<const Vec3> points, std::span<double> values) {
   const Pseudonormals normals(surface);
   parallel_for(points.size(), [&](std::size_t i) {
     ClosestPoint best{points[i], std::numeric_limits<double>::infinity(), -1};
     uint32_t best_t = 0;
     for (uint32_t t = 0; t < surface.triangles.size(); ++t) {
       const auto& tri = surface.triangles[t];
-      const ClosestPoint cp = closest_point_on_triangle(
-          points[i], surface.vertices[tri[0]], surface.vertices[tri[1]], surface.vertices[tri[2]]);
+      const ClosestPoint cp = closest_point_on_triangle(points[i], surface.vertices[tri[0]], surface.vertices[tri[1]],
+                                                        surface.vertices[tri[2]]);
       if (cp.squared_distance < best.squared_distance) best = cp, best_t = t;
     }
     values[i] = best.region < 0 ? -std::numeric_limits<double>::infinity()

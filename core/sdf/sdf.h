@@ -16,10 +16,10 @@
 // Either way |f| is the exact closest-point distance and a point on the surface gets 0.
 #pragma once
 
+#include <cstdint>
 #include <memory>
 #include <span>
 #include <vector>
-#include <cstdint>
 
 #include "core/base/geometry.h"
 #include "core/mesh/surface.h"
@@ -65,8 +65,7 @@ std::vector<uint32_t> morton_order(std::span<const Vec3> points);
 
 // Reference for the benchmarks and tests: the paper's method, every point against every
 // triangle, with the same sign rule. O(points x triangles).
-void brute_force_sdf(const TriangleSurface& surface, std::span<const Vec3> points,
-                     std::span<double> values);
+void brute_force_sdf(const TriangleSurface& surface, std::span<const Vec3> points, std::span<double> values);
 
 // Closest point on triangle (a, b, c) to p, and which feature it lies on, so that the caller can
 // pick the feature's pseudonormal. Region: 0..2 vertex a/b/c, 3 edge ab, 4 edge bc, 5 edge ca,

@@ -75,7 +75,8 @@ OrientedBox bound_triangles(const TriangleSurface& s, std::span<const uint32_t> 
   }
   OrientedBox out;
   const Vec3 a2 = cross(a0, a1);
-  for (int i = 0; i < 3; ++i) out.axis[0][i] = float(a0[i]), out.axis[1][i] = float(a1[i]), out.axis[2][i] = float(a2[i]);
+  for (int i = 0; i < 3; ++i)
+    out.axis[0][i] = float(a0[i]), out.axis[1][i] = float(a1[i]), out.axis[2][i] = float(a2[i]);
   // Extents along exactly the float axes that distance2() will use, computed in double and
   // rounded outward, so every triangle lies inside its box.
   Vec3 axes[3];
@@ -96,80 +97,81 @@ OrientedBox bound_triangles(const TriangleSurface& s, std::span<const uint32_t> 
 }  // namespace
 
 TriangleLeaf::TriangleLeaf(const TriangleSurface& s, std::span<const uint32_t> triangles, uint32_t first_slot) {
-    for (int c = 0; c < 4; ++c) {  // absent lanes: an empty plane interval, never in range
-      plane_lo[c] = INFINITY, plane_hi[c] = -INFINITY, slot[c] = 0;
-      for (int e = 0; e < 3; ++e) {
-        edge_hi[e][c] = 0;
-        for (int i = 0; i < 3; ++i) edge[e][i][c] = normal[i][c] = 0;
-      }
-    }
-    for (int c = 0; c < int(triangles.size()); ++c) {
-      const auto& tri = s.triangles[triangles[c]];
-      const Vec3 v[3] = {s.vertices[tri[0]], s.vertices[tri[1]], s.vertices[tri[2]]};
-      slot[c] = first_slot + uint32_t(c);
-      const Vec3 cr = cross(v[1] - v[0], v[2] - v[0]);
-      const bool flat = norm(cr) > 0 && std::isfinite(norm(cr));
-      const Vec3 n = flat ? normalized(cr) : Vec3{1, 0, 0};
-      // Every interval from the float vectors the query will use, in double, rounded outward.
-      auto to_float = [](Vec3 a) { return Vec3{float(a.x), float(a.y), float(a.z)}; };
-      const Vec3 nf = to_float(n);
-      double lo = INFINITY, hi = -INFINITY;
-      for (const Vec3& x : v) lo = std::min(lo, dot(nf, x)), hi = std::max(hi, dot(nf, x));
-      for (int i = 0; i < 3; ++i) normal[i][c] = float(nf[i]);
-      plane_lo[c] = std::nextafter(float(lo), -INFINITY);
-      plane_hi[c] = std::nextafter(float(hi), INFINITY);
-      if (!flat) continue;
-      for (int e = 0; e < 3; ++e) {
-        Vec3 m = normalized(cross(v[(e + 1) % 3] - v[e], n));
-        if (dot(m, v[(e + 2) % 3] - v[e]) > 0) m = -1.0 * m;
-        const Vec3 mf = to_float(m);
-        double top = -INFINITY;
-        for (const Vec3& x : v) top = std::max(top, dot(mf, x));
-        for (int i = 0; i < 3; ++i) edge[e][i][c] = float(mf[i]);
-        edge_hi[e][c] = std::nextafter(float(top), INFINITY);
-      }
+  for (int c = 0; c < 4; ++c) {  // absent lanes: an empty plane interval, never in range
+    plane_lo[c] = INFINITY, plane_hi[c] = -INFINITY, slot[c] = 0;
+    for (int e = 0; e < 3; ++e) {
+      edge_hi[e][c] = 0;
+      for (int i = 0; i < 3; ++i) edge[e][i][c] = normal[i][c] = 0;
     }
   }
+  for (int c = 0; c < int(triangles.size()); ++c) {
+    const auto& tri = s.triangles[triangles[c]];
+    const Vec3 v[3] = {s.vertices[tri[0]], s.vertices[tri[1]], s.vertices[tri[2]]};
+    slot[c] = first_slot + uint32_t(c);
+    const Vec3 cr = cross(v[1] - v[0], v[2] - v[0]);
+    const bool flat = norm(cr) > 0 && std::isfinite(norm(cr));
+    const Vec3 n = flat ? normalized(cr) : Vec3{1, 0, 0};
+    // Every interval from the float vectors the query will use, in double, rounded outward.
+    auto to_float = [](Vec3 a) { return Vec3{float(a.x), float(a.y), float(a.z)}; };
+    const Vec3 nf = to_float(n);
+    double lo = INFINITY, hi = -INFINITY;
+    for (const Vec3& x : v) lo = std::min(lo, dot(nf, x)), hi = std::max(hi, dot(nf, x));
+    for (int i = 0; i < 3; ++i) normal[i][c] = float(nf[i]);
+    plane_lo[c] = std::nextafter(float(lo), -INFINITY);
+    plane_hi[c] = std::nextafter(float(hi), INFINITY);
+    if (!flat) continue;
+    for (int e = 0; e < 3; ++e) {
+      Vec3 m = normalized(cross(v[(e + 1) % 3] - v[e], n));
+      if (dot(m, v[(e + 2) % 3] - v[e]) > 0) m = -1.0 * m;
+      const Vec3 mf = to_float(m);
+      double top = -INFINITY;
+      for (const Vec3& x : v) top = std::max(top, dot(mf, x));
+      for (int i = 0; i < 3; ++i) edge[e][i][c] = float(mf[i]);
+      edge_hi[e][c] = std::nextafter(float(top), INFINITY);
+    }
+  }
+}
 
 SearchTree::SearchTree(const TriangleSurface& s, const TriangleBvh& bvh) {
-    if (bvh.nodes.empty()) return;
-    const auto slots = bvh.subtree_slots();
-    const std::span<const uint32_t> all(bvh.leaf_triangles);
-    auto subtree = [&](uint32_t n) { return all.subspan(slots[n].first, slots[n].second - slots[n].first); };
-    std::vector<OrientedBox> boxes(bvh.nodes.size());
-    parallel_chunks(bvh.nodes.size(), 1024, [&](std::size_t b, std::size_t e) {
-      std::vector<uint32_t> seen(s.vertices.size(), UINT32_MAX);
-      for (std::size_t n = b; n < e; ++n) boxes[n] = bound_triangles(s, subtree(uint32_t(n)), seen, uint32_t(n));
-    });
+  if (bvh.nodes.empty()) return;
+  const auto slots = bvh.subtree_slots();
+  const std::span<const uint32_t> all(bvh.leaf_triangles);
+  auto subtree = [&](uint32_t n) { return all.subspan(slots[n].first, slots[n].second - slots[n].first); };
+  std::vector<OrientedBox> boxes(bvh.nodes.size());
+  parallel_chunks(bvh.nodes.size(), 1024, [&](std::size_t b, std::size_t e) {
+    std::vector<uint32_t> seen(s.vertices.size(), UINT32_MAX);
+    for (std::size_t n = b; n < e; ++n) boxes[n] = bound_triangles(s, subtree(uint32_t(n)), seen, uint32_t(n));
+  });
 
-    auto leaf = [&](uint32_t n) {
-      const BvhNode& node = bvh.nodes[n];
-      if (node.count > 4) throw std::logic_error("SDF search tree: a leaf holds more than four triangles");
-      leaves.emplace_back(s, all.subspan(node.index, node.count), node.index);
-      return uint32_t(leaves.size() - 1);
-    };
-    auto build = [&](auto&& self, std::vector<uint32_t> kids) -> uint32_t {
-      while (kids.size() < 4) {
-        int open = -1;
-        for (int k = 0; k < int(kids.size()); ++k)
-          if (bvh.nodes[kids[k]].count == 0 && (open < 0 || subtree(kids[k]).size() > subtree(kids[open]).size())) open = k;
-        if (open < 0) break;
-        const uint32_t n = kids[open];
-        kids[open] = n + 1;
-        kids.push_back(bvh.nodes[n].index);
-      }
-      const uint32_t self_index = uint32_t(nodes.size());
-      nodes.emplace_back();
-      WideNode w = WideNode::empty();
-      for (int c = 0; c < int(kids.size()); ++c) {
-        const BvhNode& node = bvh.nodes[kids[c]];
-        w.set(c, boxes[kids[c]], node.count ? leaf(kids[c]) : self(self, {kids[c] + 1, node.index}), node.count);
-      }
-      nodes[self_index] = w;
-      return self_index;
-    };
-    if (bvh.nodes[0].count) build(build, {0});  // a single leaf
-    else build(build, {1, bvh.nodes[0].index});
-  }
+  auto leaf = [&](uint32_t n) {
+    const BvhNode& node = bvh.nodes[n];
+    if (node.count > 4) throw std::logic_error("SDF search tree: a leaf holds more than four triangles");
+    leaves.emplace_back(s, all.subspan(node.index, node.count), node.index);
+    return uint32_t(leaves.size() - 1);
+  };
+  auto build = [&](auto&& self, std::vector<uint32_t> kids) -> uint32_t {
+    while (kids.size() < 4) {
+      int open = -1;
+      for (int k = 0; k < int(kids.size()); ++k)
+        if (bvh.nodes[kids[k]].count == 0 && (open < 0 || subtree(kids[k]).size() > subtree(kids[open]).size()))
+          open = k;
+      if (open < 0) break;
+      const uint32_t n = kids[open];
+      kids[open] = n + 1;
+      kids.push_back(bvh.nodes[n].index);
+    }
+    const uint32_t self_index = uint32_t(nodes.size());
+    nodes.emplace_back();
+    WideNode w = WideNode::empty();
+    for (int c = 0; c < int(kids.size()); ++c) {
+      const BvhNode& node = bvh.nodes[kids[c]];
+      w.set(c, boxes[kids[c]], node.count ? leaf(kids[c]) : self(self, {kids[c] + 1, node.index}), node.count);
+    }
+    nodes[self_index] = w;
+    return self_index;
+  };
+  if (bvh.nodes[0].count) build(build, {0});  // a single leaf
+  else build(build, {1, bvh.nodes[0].index});
+}
 
 }  // namespace mchex

@@ -8,9 +8,9 @@
 #include <span>
 #include <vector>
 
-#include "core/sdf/bvh.h"
 #include "core/base/geometry.h"
 #include "core/mesh/surface.h"
+#include "core/sdf/bvh.h"
 
 namespace mchex {
 

@@ -57,10 +57,8 @@ int shape_euler_characteristic(ShapeKind kind) {
 
 double ShapeSdf::operator()(Vec3 p) const {
   switch (kind_) {
-    case ShapeKind::kSphere:
-      return kSphereRadius - norm(p);
-    case ShapeKind::kTorus:
-      return kTorusMinor - planar_norm(planar_norm(p.x, p.y) - kTorusMajor, p.z);
+    case ShapeKind::kSphere: return kSphereRadius - norm(p);
+    case ShapeKind::kTorus: return kTorusMinor - planar_norm(planar_norm(p.x, p.y) - kTorusMajor, p.z);
     case ShapeKind::kRoundedBox: {
       // Distance to the inner box shrunk by the rounding radius, minus that radius: exact for a
       // box whose edges and corners are rounded with it.
@@ -74,8 +72,8 @@ double ShapeSdf::operator()(Vec3 p) const {
       // Outside the tube, r - dist(p, curve) is exactly minus the distance to the tube surface.
       // Inside, it is exact wherever the nearest curve point is unique and non-junction; near the
       // junction at the origin it underestimates the depth (a lower bound), never the sign.
-      const double d = std::min(circle_distance(p, -kEightRing, kEightRing),
-                                circle_distance(p, kEightRing, kEightRing));
+      const double d =
+          std::min(circle_distance(p, -kEightRing, kEightRing), circle_distance(p, kEightRing, kEightRing));
       return kEightTube - d;
     }
   }
@@ -94,8 +92,7 @@ Box ShapeSdf::bounds() const {
       const double r = kTorusMajor + kTorusMinor;
       return {{-r, -r, -kTorusMinor}, {r, r, kTorusMinor}};
     }
-    case ShapeKind::kRoundedBox:
-      return {-1.0 * kBoxHalf, kBoxHalf};
+    case ShapeKind::kRoundedBox: return {-1.0 * kBoxHalf, kBoxHalf};
     case ShapeKind::kTwoHoled: {
       const double x = 2 * kEightRing + kEightTube, y = kEightRing + kEightTube;
       return {{-x, -y, -kEightTube}, {x, y, kEightTube}};
@@ -134,8 +131,8 @@ TriangleSurface tessellate(ShapeKind kind, int segments) {
   for (int j = 1; j < nv; ++j)
     for (int i = 0; i < nu; ++i) {
       const double v = -pi / 2 + pi * j / nv, u = 2 * pi * i / nu;
-      s.vertices.push_back({kSphereRadius * std::cos(v) * std::cos(u),
-                            kSphereRadius * std::cos(v) * std::sin(u), kSphereRadius * std::sin(v)});
+      s.vertices.push_back({kSphereRadius * std::cos(v) * std::cos(u), kSphereRadius * std::cos(v) * std::sin(u),
+                            kSphereRadius * std::sin(v)});
     }
   s.vertices.push_back({0, 0, kSphereRadius});
   const uint32_t south = 0, north = uint32_t(s.vertices.size() - 1);

@@ -122,8 +122,9 @@ void WindingNumber::build(const TriangleSurface& s, const TriangleBvh& bvh) {
       // The second moment of the triangle about the centre, int |x - c|^2 dA =
       // area / 6 (sum |v_i|^2 + sum_{i<j} v_i . v_j), v the corners from the centre.
       const Vec3 va = a - node.centre, vb = b - node.centre, vc = c - node.centre;
-      node.second_moment += norm(av) / 6 *
-                            (squared_norm(va) + squared_norm(vb) + squared_norm(vc) + dot(va, vb) + dot(vb, vc) + dot(vc, va));
+      node.second_moment +=
+          norm(av) / 6 *
+          (squared_norm(va) + squared_norm(vb) + squared_norm(vc) + dot(va, vb) + dot(vb, vc) + dot(vc, va));
       node.normal += av;
       for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j) node.moment[i][j] += av[i] * g[j];
@@ -192,7 +193,9 @@ double WindingNumber::at(Vec3 p) const {
   };
   thread_local std::vector<Far> far, next;
   far.clear();
-  double exact = descend(0, p, kBeta, [](uint32_t node, double value, double bound) { far.push_back({node, value, bound}); });
+  double exact = descend(0, p, kBeta, [](uint32_t node, double value, double bound) {
+    far.push_back({node, value, bound});
+  });
   for (;;) {
     // Sums in the list's order, which depends on the point alone.
     double w = exact, bound = 0;

@@ -32,9 +32,9 @@
 // bounds of the far nodes it used; while |w_approx - 1/2| is within that sum (plus a rounding
 // allowance, kRoundingAllowance) the far nodes whose bounds exceed an equal share of the margin
 // are replaced by their children (deeper descent; a leaf by its exact solid angles), until the
-// sum decides or nothing is far. So inside(p) equals the exact test w(p) > 1/2 except for points whose exact w is within
-// rounding of 1/2. Each point is computed alone, in an order that depends on it alone:
-// deterministic on any thread count.
+// sum decides or nothing is far. So inside(p) equals the exact test w(p) > 1/2 except for points whose exact w is
+// within rounding of 1/2. Each point is computed alone, in an order that depends on it alone: deterministic on any
+// thread count.
 #pragma once
 
 #include <cstdint>
@@ -77,12 +77,12 @@ class WindingNumber {
  private:
   struct Node {
     Vec3 centre;
-    double radius;  // of a ball about centre that holds the node's triangles
+    double radius;         // of a ball about centre that holds the node's triangles
     double second_moment;  // I = sum_t int_t |x - centre|^2 dA
-    Vec3 normal;    // sum of the area vectors (half the edge cross products)
-    double moment[3][3];  // sum_t a_t[i] (g_t - centre)[j]
-    uint32_t index;  // inner: right child; leaf: first slot
-    uint32_t count;  // leaf: triangles; 0 for an inner node
+    Vec3 normal;           // sum of the area vectors (half the edge cross products)
+    double moment[3][3];   // sum_t a_t[i] (g_t - centre)[j]
+    uint32_t index;        // inner: right child; leaf: first slot
+    uint32_t count;        // leaf: triangles; 0 for an inner node
   };
   void build(const TriangleSurface& surface, const TriangleBvh& bvh);
   // Sums the exact solid angles of the near leaves under `root` and hands each far node to

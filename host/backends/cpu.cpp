@@ -4,9 +4,8 @@
 #include <cmath>
 #include <stdexcept>
 
-
-#include "core/cutting/local_refinement.h"
 #include "core/base/parallel.h"
+#include "core/cutting/local_refinement.h"
 #include "core/sdf/sdf.h"
 #include "core/sdf/shapes.h"
 
@@ -54,8 +53,8 @@ class CpuBackend final : public Backend {
     sdf_->evaluate(points, values);
   }
 
-  void refinement_error(std::span<const std::array<double, kChildLatticePoints>> lattice,
-                        std::span<const double> sizes, std::span<double> errors) override {
+  void refinement_error(std::span<const std::array<double, kChildLatticePoints>> lattice, std::span<const double> sizes,
+                        std::span<double> errors) override {
     if (lattice.size() != sizes.size() || lattice.size() != errors.size())
       throw std::invalid_argument("refinement_error: batch size mismatch");
     parallel_for(lattice.size(), [&](std::size_t i) { errors[i] = mchex::refinement_error(lattice[i], sizes[i]); });

@@ -58,8 +58,8 @@ void host_values_at(std::unique_ptr<SurfaceSdf>& sdf, const TriangleSurface& sur
 class DeviceBackend : public Backend {
  public:
   void signed_distance(const SdfSource& source, std::span<const Vec3> points, std::span<double> values) final;
-  void refinement_error(std::span<const std::array<double, kChildLatticePoints>> lattice,
-                        std::span<const double> sizes, std::span<double> errors) final;
+  void refinement_error(std::span<const std::array<double, kChildLatticePoints>> lattice, std::span<const double> sizes,
+                        std::span<double> errors) final;
   void classify_cells(const HexComplex& complex, std::span<const double> values, const CellClassification& out,
                       const ClassifyOptions& options = {}) final;
 

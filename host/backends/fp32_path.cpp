@@ -89,7 +89,8 @@ void Fp32Surface::values_from_records(std::span<const Vec3> points, std::span<co
     const std::uint32_t c = records[kFp32RecordWords * i];
     if (c > kFp32Candidates) return;
     const std::size_t j = index(i);
-    values[j] = value_from_candidates(*surface_, normals_, slot_triangle_, points[j], &records[kFp32RecordWords * i + 1], c);
+    values[j] =
+        value_from_candidates(*surface_, normals_, slot_triangle_, points[j], &records[kFp32RecordWords * i + 1], c);
   });
   stats.points += count;
   stats.host_points += whole.size();

@@ -13,11 +13,11 @@
 #include <span>
 #include <vector>
 
-#include "core/sdf/bvh.h"
-#include "core/device/device_scene.h"
 #include "core/base/geometry.h"
-#include "core/sdf/sdf.h"
+#include "core/device/device_scene.h"
 #include "core/mesh/surface.h"
+#include "core/sdf/bvh.h"
+#include "core/sdf/sdf.h"
 
 namespace mchex {
 

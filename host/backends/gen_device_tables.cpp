@@ -1,6 +1,6 @@
 // Build-time generator of the tables that device code reads: the one source of truth is core/
-// (constexpr tables of core/cutting/mc33.h, core/mesh/hex_faces.h and core/cutting/local_refinement.h, the layouts of core/sdf/bvh.h and
-// core/device/device_scene.h); this program prints them as an OpenCL C header and a GLSL header with
+// (constexpr tables of core/cutting/mc33.h, core/mesh/hex_faces.h and core/cutting/local_refinement.h, the layouts of
+// core/sdf/bvh.h and core/device/device_scene.h); this program prints them as an OpenCL C header and a GLSL header with
 // the same names, so kernels/*.h (shared by kernels/*.cl and shaders/*.comp) read one set of
 // names in either dialect. No table is typed by hand in device code.
 //
@@ -14,14 +14,14 @@
 #include <string>
 #include <vector>
 
-#include "core/sdf/bvh.h"
-#include "core/device/device_scene.h"
-#include "core/mesh/hex_faces.h"
 #include "core/cutting/local_refinement.h"
 #include "core/cutting/mc33.h"
-#include "core/grid/refinement_error.h"
-#include "core/sdf/shapes.h"
 #include "core/device/cell_words.h"
+#include "core/device/device_scene.h"
+#include "core/grid/refinement_error.h"
+#include "core/mesh/hex_faces.h"
+#include "core/sdf/bvh.h"
+#include "core/sdf/shapes.h"
 
 namespace {
 
@@ -47,7 +47,8 @@ std::vector<Table> tables() {
     for (const auto& c : kCubeCorners) v.insert(v.end(), c.begin(), c.end());
   }
   {
-    auto& v = add("kCubeEdges", "core/cutting/mc33.h kCubeEdges (paper Table 1): edge e runs from corner [2e] to [2e+1]");
+    auto& v =
+        add("kCubeEdges", "core/cutting/mc33.h kCubeEdges (paper Table 1): edge e runs from corner [2e] to [2e+1]");
     for (const auto& e : kCubeEdges) v.insert(v.end(), e.begin(), e.end());
   }
   {
@@ -99,7 +100,8 @@ std::vector<Define> defines() {
       {"MCHEX_CONFIG_MAP0_SHIFT", kConfigMap0Shift, "core/device/device_scene.h packed_mc33_configs()"},
       {"MCHEX_CONFIG_MAP1_SHIFT", kConfigMap1Shift, ""},
       {"MCHEX_CONFIG_PREFERRED_SHIFT", kConfigPreferredShift, ""},
-      {"MCHEX_CONFIG_SUBCASE_BASE", kConfigSubcaseBase, "then one word per subcase: partner | (tunnel + 1) << 8 | hexes << 16"},
+      {"MCHEX_CONFIG_SUBCASE_BASE", kConfigSubcaseBase,
+       "then one word per subcase: partner | (tunnel + 1) << 8 | hexes << 16"},
       {"MCHEX_CONFIG_TUNNEL_SHIFT", kConfigTunnelShift, ""},
       {"MCHEX_CONFIG_HEXES_SHIFT", kConfigHexesShift, ""},
       {"MCHEX_CODE_SIGN_SHIFT", kCodeSignShift, "core/device/device_scene.h: CellCode word 0"},
@@ -110,10 +112,13 @@ std::vector<Define> defines() {
       {"MCHEX_CHILD_LATTICE_POINTS", kChildLatticePoints, "core/grid/refinement_error.h"},
       {"MCHEX_SLOT_CORNER_DOUBLES", 9, "core/device/device_scene.h slot_corners per slot"},
       {"MCHEX_SLOT_FEATURE_WORDS", 6, "core/device/device_scene.h slot_features per slot"},
-      {"MCHEX_FP32_CANDIDATES", kFp32Candidates, "core/device/device_scene.h: candidate slots per point, kernels/sdf_fp32.h"},
-      {"MCHEX_WIDE_NODE_FLOAT4S", kWideNodeFloats / 4, "core/device/device_scene.h wide_boxes per node, in float4 groups"},
+      {"MCHEX_FP32_CANDIDATES", kFp32Candidates,
+       "core/device/device_scene.h: candidate slots per point, kernels/sdf_fp32.h"},
+      {"MCHEX_WIDE_NODE_FLOAT4S", kWideNodeFloats / 4,
+       "core/device/device_scene.h wide_boxes per node, in float4 groups"},
       {"MCHEX_WIDE_NODE_LINKS", kWideNodeLinks, "core/device/device_scene.h wide_links per node"},
-      {"MCHEX_LEAF_BOUND_FLOAT4S", kLeafBoundFloats / 4, "core/device/device_scene.h leaf_bounds per leaf, in float4 groups"},
+      {"MCHEX_LEAF_BOUND_FLOAT4S", kLeafBoundFloats / 4,
+       "core/device/device_scene.h leaf_bounds per leaf, in float4 groups"},
       {"MCHEX_SDF_WIDE_STACK", kSdfWideStack, "core/device/device_scene.h: entries of kernels/sdf.h's walk stack"},
   };
 }
@@ -121,11 +126,10 @@ std::vector<Define> defines() {
 // core/sdf/shapes.h dimensions, printed so that they read back as the same doubles.
 std::vector<std::pair<std::string, double>> shape_constants() {
   using namespace shape_dimensions;
-  return {{"MCHEX_SPHERE_RADIUS", kSphereRadius}, {"MCHEX_TORUS_MAJOR", kTorusMajor},
-          {"MCHEX_TORUS_MINOR", kTorusMinor},     {"MCHEX_BOX_HALF_X", kBoxHalf.x},
-          {"MCHEX_BOX_HALF_Y", kBoxHalf.y},       {"MCHEX_BOX_HALF_Z", kBoxHalf.z},
-          {"MCHEX_BOX_ROUNDING", kBoxRounding},   {"MCHEX_EIGHT_RING", kEightRing},
-          {"MCHEX_EIGHT_TUBE", kEightTube}};
+  return {
+      {"MCHEX_SPHERE_RADIUS", kSphereRadius}, {"MCHEX_TORUS_MAJOR", kTorusMajor}, {"MCHEX_TORUS_MINOR", kTorusMinor},
+      {"MCHEX_BOX_HALF_X", kBoxHalf.x},       {"MCHEX_BOX_HALF_Y", kBoxHalf.y},   {"MCHEX_BOX_HALF_Z", kBoxHalf.z},
+      {"MCHEX_BOX_ROUNDING", kBoxRounding},   {"MCHEX_EIGHT_RING", kEightRing},   {"MCHEX_EIGHT_TUBE", kEightTube}};
 }
 
 // A double literal that parses back to v: 17 significant digits; GLSL needs the lf suffix (an
@@ -169,8 +173,8 @@ std::string opencl() {
   o << "\n// core/sdf/bvh.h BvhNode (32 bytes)\ntypedef struct BvhNode {\n  float lo[3];\n  uint index;\n  float hi[3];\n"
        "  uint count;\n} BvhNode;\n\n";
   for (const auto& t : tables())
-    o << "// " << t.comment << "\n__constant int " << t.name << "[" << t.values.size() << "] = {\n    " << list(t.values)
-      << "};\n";
+    o << "// " << t.comment << "\n__constant int " << t.name << "[" << t.values.size() << "] = {\n    "
+      << list(t.values) << "};\n";
   o << "\n#endif\n";
   return o.str();
 }
@@ -211,7 +215,8 @@ int main(int argc, char** argv) {
     return 1;
   }
   const std::string dir = argv[1];
-  for (const auto& [name, text] : {std::pair{"/mchex_tables.cl.h", opencl()}, std::pair{"/mchex_tables.glsl.h", glsl()}})
+  for (const auto& [name, text] :
+       {std::pair{"/mchex_tables.cl.h", opencl()}, std::pair{"/mchex_tables.glsl.h", glsl()}})
     if (!write_if_changed(dir + name, text)) {
       std::fprintf(stderr, "gen_device_tables: cannot write %s%s\n", dir.c_str(), name);
       return 1;

@@ -16,13 +16,13 @@
 
 #include <fmt/format.h>
 
-#include "core/device/device_scene.h"
 #include "core/base/error.h"
 #include "core/base/parallel.h"
+#include "core/device/cell_words.h"
+#include "core/device/device_scene.h"
 #include "core/grid/refinement_error.h"
 #include "core/sdf/sdf.h"
 #include "core/sdf/shapes.h"
-#include "core/device/cell_words.h"
 
 namespace mchex::embedded {
 extern const char* const kOpenclSources[];
@@ -134,8 +134,8 @@ struct OpenclBackend::Impl {
   OpenclProfile profile;
   cl::Buffer configs;
   std::map<std::string, cl::Kernel> kernels;  // made once per program (PoCL: ~ms each)
-  bool host_unified = false;  // CL_DEVICE_HOST_UNIFIED_MEMORY: buffers may live in host memory
-  bool fp32 = false;          // the single-precision path (kernels/sdf_fp32.h)
+  bool host_unified = false;                  // CL_DEVICE_HOST_UNIFIED_MEMORY: buffers may live in host memory
+  bool fp32 = false;                          // the single-precision path (kernels/sdf_fp32.h)
   Fp32Stats fp32_stats;
 
   // The fp32 path's scene of the last surface: DeviceScene's nodes with DeviceScene32's float
@@ -157,7 +157,8 @@ struct OpenclBackend::Impl {
 
   // The device scene of the last surface.
   SurfaceKey scene_key;
-  std::vector<cl::Buffer> scene;  // kernels/sdf.h SCENE_PARAMS_ order: wide tree, leaf bounds and slots, slot arrays, normals
+  std::vector<cl::Buffer>
+      scene;  // kernels/sdf.h SCENE_PARAMS_ order: wide tree, leaf bounds and slots, slot arrays, normals
   double scene_scale = 0;
 
   std::size_t max_alloc() const { return std::size_t(info.max_buffer_bytes); }
@@ -182,8 +183,9 @@ struct OpenclBackend::Impl {
       }
     }
     if (!any_platform)
-      throw InputError(options.platform.empty() ? "opencl backend: no OpenCL platform found (is an ICD such as PoCL installed?)"
-                                                : "opencl backend: no OpenCL platform named '" + options.platform + "'");
+      throw InputError(options.platform.empty()
+                           ? "opencl backend: no OpenCL platform found (is an ICD such as PoCL installed?)"
+                           : "opencl backend: no OpenCL platform named '" + options.platform + "'");
     if (usable.empty()) throw InputError("opencl backend: the OpenCL platform has no devices");
     // A GPU first (when preferred), then a device with fp64 (the direct path) before one without.
     auto rank = [&](const cl::Device& d) {
@@ -286,8 +288,9 @@ struct OpenclBackend::Impl {
 
   void record(const std::string& name, const cl::Event& e) {
     e.wait();
-    const double s = double(e.getProfilingInfo<CL_PROFILING_COMMAND_END>() -
-                            e.getProfilingInfo<CL_PROFILING_COMMAND_START>()) * 1e-9;
+    const double s =
+        double(e.getProfilingInfo<CL_PROFILING_COMMAND_END>() - e.getProfilingInfo<CL_PROFILING_COMMAND_START>()) *
+        1e-9;
     auto& entry = profile.kernels[name];
     entry.calls++;
     entry.seconds += s;
@@ -342,8 +345,9 @@ struct OpenclBackend::Impl {
   template <class T>
   cl::Buffer constant_buffer(const std::vector<T>& v) {
     if (v.size() * sizeof(T) > max_alloc())
-      throw ResourceError(fmt::format("opencl backend: a {:.0f} MiB buffer exceeds {}'s largest allocation ({:.0f} MiB)",
-                                      v.size() * sizeof(T) / 1048576.0, info.name, max_alloc() / 1048576.0));
+      throw ResourceError(
+          fmt::format("opencl backend: a {:.0f} MiB buffer exceeds {}'s largest allocation ({:.0f} MiB)",
+                      v.size() * sizeof(T) / 1048576.0, info.name, max_alloc() / 1048576.0));
     // An empty vector still needs a valid buffer object.
     return cl::Buffer(context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, std::max<std::size_t>(1, v.size()) * sizeof(T),
                       const_cast<T*>(v.empty() ? reinterpret_cast<const T*>(&scene_scale) : v.data()));
@@ -547,9 +551,10 @@ void OpenclBackend::device_classify_cells(const HexComplex& complex, std::span<c
   try {
     // Per cell: 1 subcase byte, 8 offset bytes, 8 word bytes when asked for, 32 corner bytes
     // unless uniform; the chunk is limited by the largest of these buffers.
-    const std::size_t n =
-        std::min(m.chunk(want_crossings ? 12 * sizeof(double) : uniform ? sizeof(cl_ulong) : 8 * sizeof(std::uint32_t)),
-                 cells);
+    const std::size_t n = std::min(m.chunk(want_crossings ? 12 * sizeof(double)
+                                           : uniform      ? sizeof(cl_ulong)
+                                                          : 8 * sizeof(std::uint32_t)),
+                                   cells);
     const std::size_t max_blocks = (n + kBlock - 1) / kBlock;
     // The value window is limited by the allocation size only (max_chunk counts cells).
     const std::size_t window_limit = std::min<std::size_t>(m.max_alloc() / sizeof(double), std::size_t(1) << 31);
@@ -581,8 +586,9 @@ void OpenclBackend::device_classify_cells(const HexComplex& complex, std::span<c
         m.write(value_buf, values.data(), values.size());
       }
     }
-    cl::Kernel &classify = m.kernel(want_crossings ? "classify_crossings" : "classify"), &block_sums = m.kernel("hex_block_sums"),
-               &scan = m.kernel("hex_scan_sums"), &block_offsets = m.kernel("hex_block_offsets");
+    cl::Kernel &classify = m.kernel(want_crossings ? "classify_crossings" : "classify"),
+               &block_sums = m.kernel("hex_block_sums"), &scan = m.kernel("hex_scan_sums"),
+               &block_offsets = m.kernel("hex_block_offsets");
     static_assert(sizeof(cl_ulong) == sizeof(std::uint64_t) && sizeof(CellCorners) == 8 * sizeof(std::uint32_t));
     std::uint64_t total = 0;
     for (std::size_t first = 0; first < cells;) {
@@ -635,7 +641,8 @@ void OpenclBackend::device_classify_cells(const HexComplex& complex, std::span<c
       classify.setArg(arg++, cl_uint(count));
       const cl_uint cells_per_item = m.classify_cells_per_item();
       classify.setArg(arg++, cells_per_item);
-      m.run(want_crossings ? "classify_crossings" : "classify", classify, (count + cells_per_item - 1) / cells_per_item);
+      m.run(want_crossings ? "classify_crossings" : "classify", classify,
+            (count + cells_per_item - 1) / cells_per_item);
 
       const cl_uint blocks = cl_uint((count + kBlock - 1) / kBlock);
       block_sums.setArg(0, subcase_buf);

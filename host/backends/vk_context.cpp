@@ -2,6 +2,7 @@
 
 #include "core/base/error.h"
 
+#include <unistd.h>
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
@@ -9,7 +10,6 @@
 #include <fstream>
 #include <stdexcept>
 #include <system_error>
-#include <unistd.h>
 #include <utility>
 
 namespace mchex::vk {
@@ -17,8 +17,7 @@ namespace mchex::vk {
 const char* result_name(VkResult r) {
   switch (r) {
 #define MCHEX_VK_RESULT(x) \
-  case x:                  \
-    return #x;
+  case x: return #x;
     MCHEX_VK_RESULT(VK_SUCCESS)
     MCHEX_VK_RESULT(VK_NOT_READY)
     MCHEX_VK_RESULT(VK_TIMEOUT)
@@ -42,27 +41,23 @@ const char* result_name(VkResult r) {
     MCHEX_VK_RESULT(VK_ERROR_INVALID_OPAQUE_CAPTURE_ADDRESS)
     MCHEX_VK_RESULT(VK_PIPELINE_COMPILE_REQUIRED)
 #undef MCHEX_VK_RESULT
-    default:
-      return "an unknown VkResult";
+    default: return "an unknown VkResult";
   }
 }
 
 void check(VkResult result, const char* call) {
   if (result != VK_SUCCESS)
-    throw std::runtime_error(std::string("vulkan: ") + call + " failed: " + result_name(result) +
-                             " (" + std::to_string(static_cast<int>(result)) + ")");
+    throw std::runtime_error(std::string("vulkan: ") + call + " failed: " + result_name(result) + " (" +
+                             std::to_string(static_cast<int>(result)) + ")");
 }
 
 std::string PhysicalDevice::type_name() const {
   switch (type) {
-    case VK_PHYSICAL_DEVICE_TYPE_CPU:
-      return "cpu";
+    case VK_PHYSICAL_DEVICE_TYPE_CPU: return "cpu";
     case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU:
     case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU:
-    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU:
-      return "gpu";
-    default:
-      return "other";
+    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return "gpu";
+    default: return "other";
   }
 }
 
@@ -147,8 +142,8 @@ Instance::Instance() {
     d.max_push_constants_size = p.limits.maxPushConstantsSize;
     if (vendor == &nv_sm) d.compute_units = nv_sm.shaderSMCount;
     if (vendor == &amd_core)
-      d.compute_units = amd_core.shaderEngineCount * amd_core.shaderArraysPerEngineCount *
-                        amd_core.computeUnitsPerShaderArray;
+      d.compute_units =
+          amd_core.shaderEngineCount * amd_core.shaderArraysPerEngineCount * amd_core.computeUnitsPerShaderArray;
     VkPhysicalDeviceFeatures features{};
     vkGetPhysicalDeviceFeatures(h, &features);
     d.shader_float64 = features.shaderFloat64;
@@ -333,8 +328,7 @@ std::filesystem::path cache_file_for(const std::filesystem::path& dir, const Phy
 
 }  // namespace
 
-Device::Device(const Instance& instance, const PhysicalDevice& physical,
-               std::filesystem::path cache_dir)
+Device::Device(const Instance& instance, const PhysicalDevice& physical, std::filesystem::path cache_dir)
     : physical_(physical) {
   (void)instance;
   if (physical.compute_queue_family < 0)
@@ -368,7 +362,8 @@ Device::Device(const Instance& instance, const PhysicalDevice& physical,
       vkDestroyBuffer(device_, probe, nullptr);
       const int type = buffer_memory_type(memory_, req.memoryTypeBits);
       if (type < 0)
-        throw std::runtime_error("vulkan: device '" + physical.name + "' has no host-visible, host-coherent memory type");
+        throw std::runtime_error("vulkan: device '" + physical.name +
+                                 "' has no host-visible, host-coherent memory type");
       buffer_memory_type_ = static_cast<std::uint32_t>(type);
     }
     vkGetDeviceQueue(device_, queue.queueFamilyIndex, 0, &queue_);
@@ -431,8 +426,7 @@ void Device::save_cache() const {
   // failure. Written to a temporary name and renamed, so a concurrent run never reads half a file.
   std::error_code ec;
   std::filesystem::create_directories(cache_file_.parent_path(), ec);
-  const std::filesystem::path tmp =
-      cache_file_.string() + ".tmp" + std::to_string(static_cast<long>(::getpid()));
+  const std::filesystem::path tmp = cache_file_.string() + ".tmp" + std::to_string(static_cast<long>(::getpid()));
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
     if (!out) return;
@@ -503,8 +497,7 @@ Pipeline Device::make_pipeline(std::span<const std::uint32_t> spirv, std::uint32
     dsl.sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO;
     dsl.bindingCount = num_buffers;
     dsl.pBindings = bindings.data();
-    check(vkCreateDescriptorSetLayout(device_, &dsl, nullptr, &p.set_layout),
-          "vkCreateDescriptorSetLayout");
+    check(vkCreateDescriptorSetLayout(device_, &dsl, nullptr, &p.set_layout), "vkCreateDescriptorSetLayout");
     VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, push_bytes};
     VkPipelineLayoutCreateInfo pl{};
     pl.sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO;
@@ -520,8 +513,7 @@ Pipeline Device::make_pipeline(std::span<const std::uint32_t> spirv, std::uint32
     cp.stage.module = p.module;
     cp.stage.pName = "main";
     cp.layout = p.layout;
-    check(vkCreateComputePipelines(device_, cache_, 1, &cp, nullptr, &p.pipeline),
-          "vkCreateComputePipelines");
+    check(vkCreateComputePipelines(device_, cache_, 1, &cp, nullptr, &p.pipeline), "vkCreateComputePipelines");
   } catch (...) {
     destroy(p);
     throw;
@@ -539,8 +531,7 @@ void Device::destroy(Pipeline& p) {
 
 void Device::dispatch(const Pipeline& p, std::span<const BufferRange> buffers, const void* push,
                       std::uint32_t groups_x) {
-  if (buffers.size() != p.num_buffers)
-    throw std::logic_error("vulkan: dispatch with the wrong number of buffers");
+  if (buffers.size() != p.num_buffers) throw std::logic_error("vulkan: dispatch with the wrong number of buffers");
   if (groups_x == 0) return;
   if (groups_x > physical_.max_work_group_count[0])
     throw std::logic_error("vulkan: dispatch over maxComputeWorkGroupCount[0]");
@@ -603,18 +594,16 @@ void Device::dispatch(const Pipeline& p, std::span<const BufferRange> buffers, c
   begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
   check(vkBeginCommandBuffer(command_buffer_, &begin), "vkBeginCommandBuffer");
   vkCmdBindPipeline(command_buffer_, VK_PIPELINE_BIND_POINT_COMPUTE, p.pipeline);
-  vkCmdBindDescriptorSets(command_buffer_, VK_PIPELINE_BIND_POINT_COMPUTE, p.layout, 0, 1, &set, 0,
-                          nullptr);
-  if (p.push_bytes)
-    vkCmdPushConstants(command_buffer_, p.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, p.push_bytes, push);
+  vkCmdBindDescriptorSets(command_buffer_, VK_PIPELINE_BIND_POINT_COMPUTE, p.layout, 0, 1, &set, 0, nullptr);
+  if (p.push_bytes) vkCmdPushConstants(command_buffer_, p.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, p.push_bytes, push);
   vkCmdDispatch(command_buffer_, groups_x, 1, 1);
   // Make the shader's writes visible to the host's reads of the mapped memory.
   VkMemoryBarrier barrier{};
   barrier.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER;
   barrier.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
   barrier.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
-  vkCmdPipelineBarrier(command_buffer_, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-                       VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &barrier, 0, nullptr, 0, nullptr);
+  vkCmdPipelineBarrier(command_buffer_, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1,
+                       &barrier, 0, nullptr, 0, nullptr);
   check(vkEndCommandBuffer(command_buffer_), "vkEndCommandBuffer");
   VkSubmitInfo submit{};
   submit.sType = VK_STRUCTURE_TYPE_SUBMIT_INFO;

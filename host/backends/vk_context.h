@@ -159,13 +159,12 @@ class Device {
   // The property flags of the memory type that make_buffer allocates from.
   VkMemoryPropertyFlags buffer_memory_flags() const { return memory_.memoryTypes[buffer_memory_type_].propertyFlags; }
   VkDeviceSize pooled_bytes() const { return pool_.bytes(); }  // memory the pool holds now
-  Pipeline make_pipeline(std::span<const std::uint32_t> spirv, std::uint32_t num_buffers,
-                         std::uint32_t push_bytes, std::vector<VkFormat> texel_formats = {});
+  Pipeline make_pipeline(std::span<const std::uint32_t> spirv, std::uint32_t num_buffers, std::uint32_t push_bytes,
+                         std::vector<VkFormat> texel_formats = {});
   void destroy(Pipeline& p);
   // Records, submits and waits for one dispatch of groups_x workgroups. A texel binding's range
   // must hold at most maxTexelBufferElements texels (std::logic_error otherwise).
-  void dispatch(const Pipeline& p, std::span<const BufferRange> buffers, const void* push,
-                std::uint32_t groups_x);
+  void dispatch(const Pipeline& p, std::span<const BufferRange> buffers, const void* push, std::uint32_t groups_x);
 
   // The file the pipeline cache is read from and written to (empty when there is none), and how
   // many bytes of it this device loaded at creation (0: no file, or one the driver rejected).

@@ -12,15 +12,15 @@
 
 #include <fmt/format.h>
 
-#include "core/sdf/sdf.h"
-#include "core/device/device_scene.h"
 #include "core/base/error.h"
 #include "core/base/parallel.h"
+#include "core/device/cell_words.h"
+#include "core/device/device_scene.h"
 #include "core/grid/refinement_error.h"
+#include "core/sdf/sdf.h"
 #include "core/sdf/shapes.h"
 #include "host/backends/vk_context.h"
 #include "host/backends/vk_spirv.h"
-#include "core/device/cell_words.h"
 
 namespace mchex {
 
@@ -43,9 +43,13 @@ constexpr std::size_t kSdfPointsPerInvocation = 16;
 constexpr std::uint32_t kLlvmpipeLoopLimit = 65535, kLoopBudgetMargin = 1024;
 
 // The texel formats of shaders/surface_sdf.glsl's MCHEX_TEXEL_SCENE bindings.
-constexpr std::array<VkFormat, 7> kSceneTexelFormats = {
-    VK_FORMAT_R32G32B32A32_SFLOAT, VK_FORMAT_R32G32B32A32_UINT, VK_FORMAT_R32G32B32A32_SFLOAT, VK_FORMAT_R32_UINT,
-    VK_FORMAT_R32_UINT,            VK_FORMAT_R32G32B32A32_UINT, VK_FORMAT_R32_UINT};
+constexpr std::array<VkFormat, 7> kSceneTexelFormats = {VK_FORMAT_R32G32B32A32_SFLOAT,
+                                                        VK_FORMAT_R32G32B32A32_UINT,
+                                                        VK_FORMAT_R32G32B32A32_SFLOAT,
+                                                        VK_FORMAT_R32_UINT,
+                                                        VK_FORMAT_R32_UINT,
+                                                        VK_FORMAT_R32G32B32A32_UINT,
+                                                        VK_FORMAT_R32_UINT};
 
 VkPhysicalDeviceSubgroupProperties subgroup_properties(const vk::PhysicalDevice& d) {
   VkPhysicalDeviceSubgroupProperties sub{};
@@ -65,8 +69,7 @@ bool has_subgroup_arithmetic(const VkPhysicalDeviceSubgroupProperties& sub) {
 }
 
 std::string api_string(std::uint32_t v) {
-  return fmt::format("{}.{}.{}", VK_API_VERSION_MAJOR(v), VK_API_VERSION_MINOR(v),
-                     VK_API_VERSION_PATCH(v));
+  return fmt::format("{}.{}.{}", VK_API_VERSION_MAJOR(v), VK_API_VERSION_MINOR(v), VK_API_VERSION_PATCH(v));
 }
 
 DeviceInfo device_info(const vk::PhysicalDevice& d) {
@@ -88,7 +91,6 @@ DeviceInfo device_info(const vk::PhysicalDevice& d) {
   info.precision = d.shader_float64 && d.shader_int64 && !fp32_forced_by_environment() ? "fp64" : "fp32";
   return info;
 }
-
 
 // Adds the seconds f takes to `total`.
 template <class F>
@@ -115,13 +117,13 @@ struct VulkanBackend::Impl {
   VulkanBackend::Profile profile;
 
   vk::Pipeline refinement, classify, classify_crossings, scan_blocks, scan_totals, scan_add, surface_sdf, shape_sdf;
-  bool sdf_subgroup = false;  // surface_sdf is shaders/surface_sdf.comp (else surface_sdf_single*.comp)
-  vk::Pipeline surface_sdf_texel;  // on llvmpipe: surface_sdf over texel buffers (kSceneTexelFormats)
+  bool sdf_subgroup = false;          // surface_sdf is shaders/surface_sdf.comp (else surface_sdf_single*.comp)
+  vk::Pipeline surface_sdf_texel;     // on llvmpipe: surface_sdf over texel buffers (kSceneTexelFormats)
   std::uint32_t sdf_loop_budget = 0;  // kernels/sdf.h (0: none)
   std::size_t sdf_points_per_invocation = kSdfPointsPerInvocation;
   std::unique_ptr<SurfaceSdf> host_sdf;  // core's, of the scene's surface, for points past the loop budget
-  bool fp32 = false;                      // the fp32 path (VulkanOptions::force_fp32)
-  vk::Pipeline surface_sdf32;             // shaders/surface_sdf32*.comp, the fp32 path's only pipeline
+  bool fp32 = false;                     // the fp32 path (VulkanOptions::force_fp32)
+  vk::Pipeline surface_sdf32;            // shaders/surface_sdf32*.comp, the fp32 path's only pipeline
   Fp32Stats fp32_stats;
   vk::Buffer configs;  // core/device/device_scene.h packed_mc33_configs()
 
@@ -132,8 +134,8 @@ struct VulkanBackend::Impl {
     const void* vertices = nullptr;
     const void* triangles = nullptr;
     std::size_t num_vertices = 0, num_triangles = 0;
-    vk::Buffer wide_boxes, wide_links, leaf_bounds, leaf_slot, slot_triangle, slot_corners, slot_features,
-        face_normals, edge_normals, vertex_normals;
+    vk::Buffer wide_boxes, wide_links, leaf_bounds, leaf_slot, slot_triangle, slot_corners, slot_features, face_normals,
+        edge_normals, vertex_normals;
     double scale = 0;
     bool texel_fits = false;  // every texel binding within maxTexelBufferElements
   };
@@ -215,7 +217,7 @@ struct VulkanBackend::Impl {
     out.edge_normals = upload(ds.edge_normals, "edge pseudonormals");
     out.vertex_normals = upload(ds.vertex_normals, "vertex pseudonormals");
     out.scale = ds.scale;
-    const vk::Buffer* texel_bound[] = {&out.wide_boxes, &out.wide_links, &out.leaf_bounds, &out.leaf_slot,
+    const vk::Buffer* texel_bound[] = {&out.wide_boxes,    &out.wide_links,   &out.leaf_bounds,  &out.leaf_slot,
                                        &out.slot_triangle, &out.slot_corners, &out.slot_features};
     static_assert(std::size(texel_bound) == kSceneTexelFormats.size());
     out.texel_fits = true;
@@ -225,7 +227,6 @@ struct VulkanBackend::Impl {
     scene.emplace(std::move(out));
     return *scene;
   }
-
 
   explicit Impl(const VulkanOptions& options) {
     std::string want = options.device;
@@ -293,9 +294,9 @@ struct VulkanBackend::Impl {
     // kernel against 7.7 ms for one walk per invocation, perf/GPU_RUNS.md), one walk per
     // invocation on CPU devices (lavapipe: the subgroup walk about 15x the cpu reference's time
     // against 11x, perf/bench_backends).
-    sdf_subgroup = options.sdf_walk == VulkanOptions::SdfWalk::kSubgroup ||
-                   (options.sdf_walk == VulkanOptions::SdfWalk::kAuto && subgroups &&
-                    chosen->type != VK_PHYSICAL_DEVICE_TYPE_CPU);
+    sdf_subgroup =
+        options.sdf_walk == VulkanOptions::SdfWalk::kSubgroup ||
+        (options.sdf_walk == VulkanOptions::SdfWalk::kAuto && subgroups && chosen->type != VK_PHYSICAL_DEVICE_TYPE_CPU);
     // A subgroup's shared walk opens every node in range of any of its points, so one packet per
     // invocation already takes many steps (under llvmpipe's loop budget, 16 ran out for most).
     if (sdf_subgroup) sdf_points_per_invocation = 1;
@@ -324,8 +325,8 @@ struct VulkanBackend::Impl {
     surface_sdf = device->make_pipeline(code, 12, 24);
     shape_sdf = device->make_pipeline(spirv::shape_sdf, 2, 8);
     info.kernels = fmt::format(
-        "surface SDF: {}, {} point(s) per invocation, {}{}{}", sdf_subgroup ? "one walk per subgroup" : "one walk per invocation",
-        sdf_points_per_invocation,
+        "surface SDF: {}, {} point(s) per invocation, {}{}{}",
+        sdf_subgroup ? "one walk per subgroup" : "one walk per invocation", sdf_points_per_invocation,
         surface_sdf_texel.pipeline ? "search arrays in texel buffers (storage buffers past maxTexelBufferElements), "
                                      "every triangle of a leaf in range measured"
                                    : "search arrays in storage buffers",
@@ -342,9 +343,10 @@ struct VulkanBackend::Impl {
 
   // The loop budget, as the report states it.
   std::string budget_text() const {
-    return sdf_loop_budget ? fmt::format(", loop budget {} per SIMD batch{}", sdf_loop_budget,
-                                         device->physical().driver_id == VK_DRIVER_ID_MESA_LLVMPIPE ? " (llvmpipe)" : "")
-                           : "";
+    return sdf_loop_budget
+               ? fmt::format(", loop budget {} per SIMD batch{}", sdf_loop_budget,
+                             device->physical().driver_id == VK_DRIVER_ID_MESA_LLVMPIPE ? " (llvmpipe)" : "")
+               : "";
   }
   // The memory the buffers live in (vk::buffer_memory_type), as the report states it.
   std::string memory_text() const {
@@ -356,9 +358,8 @@ struct VulkanBackend::Impl {
 
   ~Impl() {
     if (!device) return;
-    for (vk::Pipeline* p :
-         {&refinement, &classify, &classify_crossings, &scan_blocks, &scan_totals, &scan_add, &surface_sdf,
-          &surface_sdf_texel, &shape_sdf, &surface_sdf32})
+    for (vk::Pipeline* p : {&refinement, &classify, &classify_crossings, &scan_blocks, &scan_totals, &scan_add,
+                            &surface_sdf, &surface_sdf_texel, &shape_sdf, &surface_sdf32})
       device->destroy(*p);
   }
 
@@ -459,16 +460,23 @@ void VulkanBackend::device_surface_sdf(const TriangleSurface& surface, const Mor
     struct {
       std::uint32_t n, per_item, loop_budget, pad;
       double scale;
-    } push{static_cast<std::uint32_t>(count), static_cast<std::uint32_t>(per_item), m.sdf_loop_budget, 0,
-           scene.scale};
+    } push{static_cast<std::uint32_t>(count), static_cast<std::uint32_t>(per_item), m.sdf_loop_budget, 0, scene.scale};
     const bool texel = m.surface_sdf_texel.pipeline != VK_NULL_HANDLE && scene.texel_fits;
     m.run(texel ? m.surface_sdf_texel : m.surface_sdf,
-          {{&scene.wide_boxes}, {&scene.wide_links}, {&scene.leaf_bounds}, {&scene.leaf_slot}, {&scene.slot_triangle},
-           {&scene.slot_corners}, {&scene.slot_features}, {&scene.face_normals}, {&scene.edge_normals},
-           {&scene.vertex_normals}, {&in}, {&out}},
+          {{&scene.wide_boxes},
+           {&scene.wide_links},
+           {&scene.leaf_bounds},
+           {&scene.leaf_slot},
+           {&scene.slot_triangle},
+           {&scene.slot_corners},
+           {&scene.slot_features},
+           {&scene.face_normals},
+           {&scene.edge_normals},
+           {&scene.vertex_normals},
+           {&in},
+           {&out}},
           &push, (count + per_item - 1) / per_item, kGroup);
-    timed(m.profile.download,
-          [&] { points.scatter(begin, std::span(mapped<const double>(out), count), values); });
+    timed(m.profile.download, [&] { points.scatter(begin, std::span(mapped<const double>(out), count), values); });
   }
   if (m.sdf_loop_budget != 0) {
     // Points whose search ran out of the loop budget came back NaN (shaders/surface_sdf.glsl); a
@@ -533,12 +541,13 @@ void VulkanBackend::device_classify_cells(const HexComplex& complex, std::span<c
   const vk::PhysicalDevice& d = m.device->physical();
   // Point values bound whole when they fit one storage buffer (and the test cap does not ask
   // for chunks), else gathered per cell on the host, 8 per cell.
-  const bool gathered = values.size() * sizeof(double) > d.max_storage_buffer_range ||
-                        (m.max_chunk && values.size() > m.max_chunk);
+  const bool gathered =
+      values.size() * sizeof(double) > d.max_storage_buffer_range || (m.max_chunk && values.size() > m.max_chunk);
   // Chunks a multiple of 4 cells, so that a word of four subcase bytes never straddles two.
-  std::size_t chunk =
-      std::min(cells, m.chunk_for(want_crossings ? 12 * sizeof(double) : gathered ? 8 * sizeof(double) : sizeof(CellCorners),
-                                  kGroup));
+  std::size_t chunk = std::min(cells, m.chunk_for(want_crossings ? 12 * sizeof(double)
+                                                  : gathered     ? 8 * sizeof(double)
+                                                                 : sizeof(CellCorners),
+                                                  kGroup));
   if (chunk < cells) chunk = std::max<std::size_t>(4, chunk / 4 * 4);
   vk::Buffer value_buf;
   const vk::Buffer* values_bound = &value_buf;
@@ -581,7 +590,14 @@ void VulkanBackend::device_classify_cells(const HexComplex& complex, std::span<c
            gathered ? 0u : options.uniform_cells_per_axis, (gathered ? 1u : 0u) | (want_words ? 2u : 0u),
            options.zero_tolerance};
     m.run(want_crossings ? m.classify_crossings : m.classify,
-          {{values_bound}, {&cell_buf}, {&m.configs}, {&code_buf}, {&count_buf}, {&subcase_buf}, {&bad_buf}, {&crossing_buf}},
+          {{values_bound},
+           {&cell_buf},
+           {&m.configs},
+           {&code_buf},
+           {&count_buf},
+           {&subcase_buf},
+           {&bad_buf},
+           {&crossing_buf}},
           &push, count, kGroup);
 
     // Exclusive prefix sum of the counts (shaders/scan_*.comp), continuing from the chunks before.
@@ -634,10 +650,9 @@ std::vector<std::string> describe_vulkan_devices() {
           "maxStorageBufferRange {} MiB, maxComputeWorkGroupCount {}x{}x{}, maxComputeWorkGroupSize "
           "{}x{}x{} ({} invocations), heaps {}{}",
           d.name, d.type_name(), d.driver_name, d.driver_info, api_string(d.api_version),
-          d.shader_float64 ? "yes" : "no", d.shader_int64 ? "yes" : "no",
-          d.max_storage_buffer_range >> 20, d.max_work_group_count[0], d.max_work_group_count[1],
-          d.max_work_group_count[2], d.max_work_group_size[0], d.max_work_group_size[1],
-          d.max_work_group_size[2], d.max_work_group_invocations, heaps,
+          d.shader_float64 ? "yes" : "no", d.shader_int64 ? "yes" : "no", d.max_storage_buffer_range >> 20,
+          d.max_work_group_count[0], d.max_work_group_count[1], d.max_work_group_count[2], d.max_work_group_size[0],
+          d.max_work_group_size[1], d.max_work_group_size[2], d.max_work_group_invocations, heaps,
           d.api_version < VK_API_VERSION_1_2 ? " (below Vulkan 1.2: not used)" : ""));
     }
   } catch (const std::exception& e) {

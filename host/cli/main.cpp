@@ -46,29 +46,38 @@ int main(int argc, char** argv) {
                    "mchex: cut every cell by the isosurface (MC33, local refinement where the paper "
                    "needs it) and split the pieces into hexes; ro: keep the cells whose 8 corner "
                    "values sum above 0 (the paper's baseline)")
-      ->check(CLI::IsMember({"ro", "mchex"}))->capture_default_str();
+      ->check(CLI::IsMember({"ro", "mchex"}))
+      ->capture_default_str();
   mesh->add_option("--eps", mo.options.eps, "--method mchex: clamp edge crossings to [eps, 1 - eps], eps in (0, 0.5)")
-      ->check(CLI::Range(0.0, 0.5))->capture_default_str();
+      ->check(CLI::Range(0.0, 0.5))
+      ->capture_default_str();
   mesh->add_option("--depth", mo.options.depth, "uniform 3-refinement depth: 3^depth cells per axis")
-      ->check(CLI::Range(0, kMaxUniformDepth))->capture_default_str();
-  mesh->add_option("--threshold", mo.options.threshold,
-                   "adaptive 3-refinement instead of --depth: a cell the surface may pass through is refined while the "
-                   "paper's refinement error (how far its trilinear isosurface lies from its 27 children's) exceeds "
-                   "THRESHOLD times the finest cell size (box edge / 3^max-depth); cells the surface misses are never "
-                   "refined. --max-depth sets the resolution, THRESHOLD the accuracy asked of coarser cells in units of "
-                   "it; dimensionless, so it suits a model of any size (the paper's batch run: 0.05)")
+      ->check(CLI::Range(0, kMaxUniformDepth))
+      ->capture_default_str();
+  mesh->add_option(
+          "--threshold", mo.options.threshold,
+          "adaptive 3-refinement instead of --depth: a cell the surface may pass through is refined while the "
+          "paper's refinement error (how far its trilinear isosurface lies from its 27 children's) exceeds "
+          "THRESHOLD times the finest cell size (box edge / 3^max-depth); cells the surface misses are never "
+          "refined. --max-depth sets the resolution, THRESHOLD the accuracy asked of coarser cells in units of "
+          "it; dimensionless, so it suits a model of any size (the paper's batch run: 0.05)")
       ->check(CLI::PositiveNumber);
   mesh->add_option("--max-depth", mo.options.max_depth, "--threshold: deepest refinement level")
-      ->check(CLI::Range(0, kMaxAdaptiveDepth))->capture_default_str();
+      ->check(CLI::Range(0, kMaxAdaptiveDepth))
+      ->capture_default_str();
   mesh->add_option("--pad", mo.options.pad, "padding around the input, as a fraction of its largest extent")
-      ->check(CLI::Range(0.0, 10.0))->capture_default_str();
+      ->check(CLI::Range(0.0, 10.0))
+      ->capture_default_str();
   mesh->add_option("--backend", mo.backend,
                    "where the SDF runs: cpu (the reference), opencl, vulkan, or auto (a GPU with fp64 if "
                    "one is found, else cpu); every backend gives the same mesh")
-      ->check(CLI::IsMember({"auto", "cpu", "opencl", "vulkan"}))->capture_default_str();
+      ->check(CLI::IsMember({"auto", "cpu", "opencl", "vulkan"}))
+      ->capture_default_str();
   mesh->add_option("--report", mo.report, "write a JSON report to this file");
   mesh->add_flag("--fidelity", mo.options.fidelity, "measure IoU and Hausdorff distance against the input");
-  mesh->add_option("--lattice", mo.options.lattice, "samples per axis for the IoU")->check(CLI::Range(8, 1024))->capture_default_str();
+  mesh->add_option("--lattice", mo.options.lattice, "samples per axis for the IoU")
+      ->check(CLI::Range(8, 1024))
+      ->capture_default_str();
 
   CheckCommand co;
   auto* check = app.add_subcommand("check", "validate a hex mesh (and its outside mesh) and measure its quality");
@@ -77,14 +86,17 @@ int main(int argc, char** argv) {
   check->add_option("--input", co.input, "the input surface: measure IoU and Hausdorff distance");
   check->add_option("--shape", co.shape, "the built-in shape the mesh was made from, as --input");
   check->add_flag("--json", co.json, "print the results as JSON");
-  check->add_option("--lattice", co.lattice, "samples per axis for the IoU")->check(CLI::Range(8, 1024))->capture_default_str();
+  check->add_option("--lattice", co.lattice, "samples per axis for the IoU")
+      ->check(CLI::Range(8, 1024))
+      ->capture_default_str();
 
   CertifyOptions certify_options;
   auto* certify_cmd = app.add_subcommand(
       "certify", "re-check the positivity proof: every cell type x 24 rotations x MC33 subcase, crossings from random "
                  "and extreme corner values; every Bernstein coefficient of det J must be > 0 (exit 3 when not)");
   certify_cmd->add_option("--eps", certify_options.eps, "crossings clamped to [eps, 1 - eps], as mesh --eps")
-      ->check(CLI::Range(0.0, 0.5))->capture_default_str();
+      ->check(CLI::Range(0.0, 0.5))
+      ->capture_default_str();
 
   std::string convert_in, convert_out;
   auto* convert = app.add_subcommand("convert", "convert a hex mesh between .mesh, .vtu and .msh");

@@ -32,7 +32,8 @@ void print_summary(const MeshRun& run, const MeshOutputs& outputs) {
   const MeshOptions& o = run.options;
   if (run.adaptive)
     fmt::print("mchex-gpu: {} -> adaptive grid of {} cells, {} levels (threshold {}, max depth {}), method {}\n",
-               run.input.name, run.adaptive->complex.cells.size(), run.adaptive->levels, o.threshold, o.max_depth, o.method);
+               run.input.name, run.adaptive->complex.cells.size(), run.adaptive->levels, o.threshold, o.max_depth,
+               o.method);
   else
     fmt::print("mchex-gpu: {} -> {} grid of {}^3 cells (depth {}), method {}\n", run.input.name, "uniform",
                run.uniform->cells_per_axis(), run.uniform->depth(), o.method);

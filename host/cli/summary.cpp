@@ -8,12 +8,14 @@ namespace {
 std::string describe(const char* label, const MeshStats& m) {
   const QualityStats& q = m.quality;
   const BoundaryStats& b = m.boundary;
-  std::string s = fmt::format("  {} quality: min scaled Jacobian {:.4f} (mean {:.4f}), Bernstein-certified {}/{} ({:.2f}%), max edge ratio {:.3g}\n",
-                              label, q.min_scaled_jacobian, q.mean_scaled_jacobian, q.certified, q.count,
-                              q.count ? 100.0 * q.certified / q.count : 100.0, q.max_edge_ratio);
+  std::string s = fmt::format(
+      "  {} quality: min scaled Jacobian {:.4f} (mean {:.4f}), Bernstein-certified {}/{} ({:.2f}%), max edge ratio {:.3g}\n",
+      label, q.min_scaled_jacobian, q.mean_scaled_jacobian, q.certified, q.count,
+      q.count ? 100.0 * q.certified / q.count : 100.0, q.max_edge_ratio);
   s += fmt::format("  {} boundary: {} quads, {}, Euler characteristic {}, {} component(s)\n", label, b.quads,
                    b.closed_manifold() ? "closed 2-manifold"
-                                       : fmt::format("not a closed 2-manifold ({} edges, {} vertices off)", b.bad_edges, b.bad_vertices),
+                                       : fmt::format("not a closed 2-manifold ({} edges, {} vertices off)", b.bad_edges,
+                                                     b.bad_vertices),
                    b.euler_characteristic, b.components);
   return s;
 }
