@@ -21,6 +21,8 @@ pkgs=(
   libvulkan-dev mesa-vulkan-drivers glslang-tools spirv-tools vulkan-tools
   # independent readers for the tests (meshio), numpy for perf scripts
   python3 python3-meshio python3-numpy
+  # formatting check (tests/test_format.py), clang + libFuzzer runtime for CI's fuzz pass
+  clang clang-format libclang-rt-14-dev
   # test models: Assimp's sample files (valid and invalid) and OpenSCAD's bad STLs
   assimp-testmodels openscad-testing-data
 )
