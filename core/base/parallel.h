@@ -7,6 +7,8 @@
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
+#include <exception>
+#include <mutex>
 #include <numeric>
 #include <utility>
 #include <vector>
@@ -79,24 +81,50 @@ Acc deterministic_reduce(std::size_t n, std::size_t grain, const Acc& proto, con
 
 // Items [0, count) made on all threads and consumed in order on one: make(i) returns item i,
 // consume(item) takes them 0, 1, 2, ... At most a few items per thread are alive at once, so a
-// writer formats a large table in bounded memory.
+// writer formats a large table in bounded memory. An exception from make or consume is rethrown
+// here after the pipeline has drained: one thrown inside TBB's pipeline cancels it and abandons
+// the items between its filters undestroyed (a leak AddressSanitizer found on a failed write), so
+// the filters never throw; after the first failure the input stops and items in flight are
+// dropped.
 template <class Make, class Consume>
 void ordered_pipeline(std::size_t count, const Make& make, const Consume& consume) {
   using Item = decltype(make(std::size_t{0}));
   if (count == 0) return;
+  std::mutex failure_mutex;
+  std::exception_ptr failure;
+  std::atomic<bool> failed{false};
+  auto record = [&] {
+    const std::lock_guard<std::mutex> lock(failure_mutex);
+    if (!failure) failure = std::current_exception();
+    failed.store(true);
+  };
   std::size_t next = 0;
   const auto live = static_cast<std::size_t>(2 * std::max(1, tbb::this_task_arena::max_concurrency()));
   tbb::parallel_pipeline(
       live,
       tbb::make_filter<void, std::size_t>(tbb::filter_mode::serial_in_order, [&](tbb::flow_control& fc) -> std::size_t {
-        if (next == count) {
+        if (next == count || failed.load()) {
           fc.stop();
           return 0;
         }
         return next++;
-      }) & tbb::make_filter<std::size_t, Item>(tbb::filter_mode::parallel, [&](std::size_t i) {
-        return make(i);
-      }) & tbb::make_filter<Item, void>(tbb::filter_mode::serial_in_order, [&](const Item& item) { consume(item); }));
+      }) & tbb::make_filter<std::size_t, Item>(tbb::filter_mode::parallel, [&](std::size_t i) -> Item {
+        if (failed.load()) return Item{};
+        try {
+          return make(i);
+        } catch (...) {
+          record();
+          return Item{};
+        }
+      }) & tbb::make_filter<Item, void>(tbb::filter_mode::serial_in_order, [&](const Item& item) {
+        if (failed.load()) return;
+        try {
+          consume(item);
+        } catch (...) {
+          record();
+        }
+      }));
+  if (failure) std::rethrow_exception(failure);
 }
 
 // Threads: what the machine offers, and a scope that runs at most n (n >= 1) while it lives.
