@@ -216,7 +216,10 @@ int main(int argc, char** argv) {
       {"classify+scan", n_cells}, {"classify+scan codes", n_cells}, {"sdf+classify", n_cells}};
   std::map<std::string, std::map<std::string, Measured>> results;  // kernel -> backend -> measured
   std::map<std::string, Outputs> reference;                        // kernel -> cpu outputs
-  for (auto& [name, b] : backends) {
+  for (auto& entry : backends) {
+    // Named references, not a structured binding: clang 14 cannot capture one in a lambda.
+    const std::string& name = entry.name;
+    std::unique_ptr<Backend>& b = entry.backend;
     SdfSource surface;
     surface.surface = &w.surface;
     SdfSource shape;

@@ -313,7 +313,10 @@ TEST(HexmeshWrite, InconsistentMeshKeepsTheOldFile) {
       {&bad_index, "hex 5 refers to point 27 but the mesh has 27 points"},
       {&bad_regions, "the mesh has 8 hexes but 7 region labels"},
       {&bad_point, "point 3 has a non-finite coordinate"}};
-  for (const auto& [mesh, reason] : cases) {
+  for (const auto& c : cases) {
+    // Named copies, not a structured binding: clang 14 cannot capture one in a lambda.
+    const HexMesh* mesh = c.first;
+    const std::string& reason = c.second;
     EXPECT_EQ(input_error([&] { write_hex_mesh(*mesh, path); }), path.string() + ": " + reason);
     EXPECT_EQ(read_bytes(path), "old");
     EXPECT_EQ(listing(dir.path()), std::vector<std::string>{"out.vtu"});
