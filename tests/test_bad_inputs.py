@@ -81,8 +81,8 @@ class ResourceLimits(ScratchTestCase):
     def test_over_the_default_budget(self):
         # 729^3 cells, about 600 GB for MCHex: over any machine this runs on.
         line = self.refused("--depth", 6, "--quiet")
-        self.assertRegex(line, r"^mchex-gpu: depth 6 needs about [0-9.]+ GB .* over 80% of the available memory")
-        self.assertRegex(line, r"; --depth [0-5] would need about [0-9.]+ [MG]B$")
+        self.assertRegex(line, r"^mchex-gpu: depth 6 needs about [0-9.]+ GiB .* over 80% of the available memory")
+        self.assertRegex(line, r"; --depth [0-5] would need about [0-9.]+ [MG]iB$")
 
     def test_a_small_budget_refuses_a_run_that_fits_by_default(self):
         ok = run("mesh", "--shape", "torus", "--depth", 3, "-o", "fits.mesh", "--quiet", cwd=self.dir, timeout=120)
@@ -90,10 +90,10 @@ class ResourceLimits(ScratchTestCase):
         for f in os.listdir(self.dir):
             os.remove(os.path.join(self.dir, f))
         line = self.refused("--depth", 3, "--max-memory", "50M", "--quiet")
-        self.assertRegex(line, r"^mchex-gpu: depth 3 needs about [0-9]+ MB .* over --max-memory 50 MB; ")
+        self.assertRegex(line, r"^mchex-gpu: depth 3 needs about [0-9]+ MiB .* over --max-memory 50 MiB; ")
         # Adaptive: checked once the octree is refined, the suggestion a smaller --max-depth.
         line = self.refused("--threshold", 0.05, "--max-depth", 5, "--max-memory", "120M", "--quiet")
-        self.assertRegex(line, r"^mchex-gpu: the adaptive grid of [0-9]+ cells needs about .* over --max-memory 120 MB")
+        self.assertRegex(line, r"^mchex-gpu: the adaptive grid of [0-9]+ cells needs about .* over --max-memory 120 MiB")
         self.assertRegex(line, r"--max-depth [0-4] would need about")
 
     def test_sizes(self):

@@ -79,8 +79,8 @@ std::optional<std::size_t> parse_memory_size(const std::string& text) {
 }
 
 std::string format_memory_size(double bytes) {
-  if (bytes >= 0.95 * (1 << 30)) return fmt::format("{:.1f} GB", bytes / (1 << 30));
-  return fmt::format("{:.0f} MB", std::max(1.0, bytes / (1 << 20)));
+  if (bytes >= 0.95 * (1 << 30)) return fmt::format("{:.1f} GiB", bytes / (1 << 30));
+  return fmt::format("{:.0f} MiB", std::max(1.0, bytes / (1 << 20)));
 }
 
 void enforce_memory_budget(const std::string& what, const RunEstimate& estimate, std::size_t budget,
