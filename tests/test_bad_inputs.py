@@ -104,3 +104,20 @@ class ResourceLimits(ScratchTestCase):
             r = run("mesh", "--shape", "torus", "--depth", 1, "--max-memory", size, "-o", "a.mesh", "--quiet",
                     cwd=self.dir)
             self.assertEqual(r.returncode, 0, size + r.stderr)
+
+
+class BackendChoices(ScratchTestCase):
+    """--backend offers only the backends built into this binary (host/backends/registry.h): the
+    values its help lists are auto plus those `devices` does not call "not built"."""
+
+    def test_help_lists_the_built_backends(self):
+        devices = json.loads(run("devices", "--json").stdout)
+        built = {"auto"} | {d["backend"] for d in devices if "not built" not in d["note"]}
+        help_text = run("mesh", "--help").stdout
+        line = next(l for l in help_text.splitlines() if "--backend" in l)
+        offered = set(line[line.index("{") + 1:line.index("}")].split(","))
+        self.assertEqual(offered, built, line)
+        for name in {"cpu", "opencl", "vulkan"} - built:
+            r = run("mesh", "--backend", name, "--depth", 1, "-o", "a.mesh", cwd=self.dir)
+            self.assertEqual(r.returncode, 1)
+            self.assertIn("not in {", r.stderr)
