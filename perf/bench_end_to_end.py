@@ -11,7 +11,8 @@ torus of tests/models.py (a surface SDF over the device BVH), uniform at --depth
 adaptive at threshold 0.05 with --depth as its max depth. Each (input, backend) runs once cold (program and pipeline caches
 filled; its time is printed apart) and then R times; the best of those is the figure. Timings
 are the report's `total` (the process's own clock, without process start), so the ratios compare
-the pipelines, not the loader."""
+the pipelines, not the loader. "B/hex" is the report's peak memory per output hex (inside and
+outside together), the figure core/pipeline/estimate.h's memory estimate is calibrated on."""
 import argparse
 import filecmp
 import json
@@ -61,7 +62,7 @@ def main():
         ]
         results = {}
         print(f"bench_end_to_end: {exe}, best of {o.repeat} after one cold run")
-        header = f"{'workload':36} {'backend':8} {'hexes':>10} {'total s':>8} {'x cpu':>6} {'cold s':>7} {'M hex/s':>8}  stages (s)  same mesh"
+        header = f"{'workload':36} {'backend':8} {'hexes':>10} {'total s':>8} {'x cpu':>6} {'cold s':>7} {'M hex/s':>8} {'B/hex':>6}  stages (s)  same mesh"
         print(header)
         for name, tag, args in workloads:
             base = None
@@ -96,9 +97,11 @@ def main():
                 results.setdefault(name, {})[be] = {
                     "device": rep["backend"].get("device", be), "hexes": hexes, "total_s": total,
                     "cold_total_s": cold["report"]["times"]["total"], "time_ratio_to_cpu": ratio,
-                    "hexes_per_s": hexes / total, "stages_s": stages, "identical_to_cpu": same}
+                    "hexes_per_s": hexes / total, "peak_memory_bytes": rep["peak_memory_bytes"],
+                    "peak_bytes_per_hex": rep["peak_memory_bytes"] / hexes, "stages_s": stages,
+                    "identical_to_cpu": same}
                 print(f"{name:36} {be:8} {hexes:10d} {total:8.3f} {ratio:6.2f} {cold['report']['times']['total']:7.3f} "
-                      f"{hexes / total / 1e6:8.3f}  {' '.join(f'{k} {v:.3f}' for k, v in stages.items())}"
+                      f"{hexes / total / 1e6:8.3f} {rep['peak_memory_bytes'] / hexes:6.0f}  {' '.join(f'{k} {v:.3f}' for k, v in stages.items())}"
                       f"  {'-' if same is None else ('yes' if same else 'DIFFERS')}")
         print(json.dumps({"bench": "end_to_end", "repeat": o.repeat, "depth": o.depth, "results": results}))
         if any(r.get("identical_to_cpu") is False for w in results.values() for r in w.values()):

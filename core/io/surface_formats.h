@@ -39,7 +39,10 @@ struct ObjGeometry {
 
 ObjGeometry check_obj(const std::filesystem::path& path, std::string_view text);
 
-void check_off(const std::filesystem::path& path, std::string_view text);
+// What Assimp gets instead of the OFF file: "OFF", the counts, each vertex's position and each
+// face's indices, one per line, with comments, blank lines, colours, normals and texture
+// coordinates left out (off.cpp says why).
+std::string check_off(const std::filesystem::path& path, std::string_view text);
 
 // Where the parts of a checked PLY file start, for the padding read_surface adds.
 struct PlyLayout {

@@ -111,8 +111,8 @@ TriangleSurface read_surface(const std::filesystem::path& path, std::size_t* wel
       break;
     }
     case Format::off:
-      to_parse = strip_utf8_bom(bytes);
-      check_off(path, to_parse);
+      patched = check_off(path, strip_utf8_bom(bytes));
+      to_parse = patched;
       break;
     case Format::ply: {
       const PlyLayout layout = check_ply(path, bytes);

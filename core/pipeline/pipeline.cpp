@@ -1,8 +1,7 @@
 #include "core/pipeline/pipeline.h"
 
-#include <unistd.h>
-
 #include <chrono>
+#include <cmath>
 #include <cstdint>
 #include <span>
 #include <stdexcept>
@@ -17,6 +16,7 @@
 #include "core/cutting/ro.h"
 #include "core/grid/hex_complex.h"
 #include "core/io/mesh_io.h"
+#include "core/pipeline/estimate.h"
 
 namespace mchex {
 namespace {
@@ -43,20 +43,30 @@ class TimedSdf final : public SignedDistance {
   const SignedDistance& s_;
 };
 
-// Memory the mesher will need for a uniform grid, against what the machine has: refuse early
-// (ResourceError, exit 2) rather than die half-way.
-// Per output hex: the hex and its label, about one point, and the checker's face records; MCHex
-// makes at least 8 hexes per cell (midpoint subdivision of the uncut cube) plus a key map entry
-// per point, RO one hex per cell.
-void check_memory_budget(const UniformGrid& grid, const std::string& method) {
-  const double hexes_per_cell = method == "mchex" ? 8 : 1, bytes_per_hex = method == "mchex" ? 200 : 80;
-  const double bytes =
-      double(grid.vertex_count()) * (3 * 24 + 8) + double(grid.cell_count()) * hexes_per_cell * bytes_per_hex;
-  const double physical = double(sysconf(_SC_PHYS_PAGES)) * double(sysconf(_SC_PAGE_SIZE));
-  if (physical > 0 && bytes > 0.8 * physical)
-    throw ResourceError(fmt::format(
-        "depth {} needs about {:.1f} GiB, more than 80% of this machine's {:.1f} GiB; use a smaller --depth",
-        grid.depth(), bytes / (1 << 30), physical / (1 << 30)));
+// The run's estimated peak memory against its budget (core/pipeline/estimate.h): refused early
+// (ResourceError, exit 2) with a coarser setting that fits, rather than dying half-way. A uniform
+// grid is estimated before any work; an adaptive one once the octree is refined, from its cells
+// (a level less has about 1/9 of the cells near the surface).
+void check_memory_budget(const MeshRun& run) {
+  const MeshOptions& o = run.options;
+  const std::size_t budget = o.max_memory != 0 ? o.max_memory : default_memory_budget();
+  const std::string budget_name = o.max_memory != 0 ? "--max-memory" : "80% of the available memory,";
+  std::optional<std::pair<std::string, RunEstimate>> fits;
+  if (run.uniform) {
+    for (int d = o.depth - 1; d >= 0 && !fits; --d)
+      if (const RunEstimate e = estimate_uniform(d, o.method); e.bytes <= double(budget))
+        fits.emplace(fmt::format("--depth {}", d), e);
+    enforce_memory_budget(fmt::format("depth {}", o.depth), estimate_uniform(o.depth, o.method), budget, budget_name,
+                          fits);
+    return;
+  }
+  const double cells = double(run.adaptive->complex.cells.size()), n = std::pow(3.0, o.max_depth);
+  for (int k = 1; k <= o.max_depth && !fits; ++k)
+    if (const RunEstimate e = estimate_cells(cells / std::pow(9.0, k), n / std::pow(3.0, k), o.method);
+        e.bytes <= double(budget))
+      fits.emplace(fmt::format("--max-depth {}", o.max_depth - k), e);
+  enforce_memory_budget(fmt::format("the adaptive grid of {} cells", run.adaptive->complex.cells.size()),
+                        estimate_cells(cells, n, o.method), budget, budget_name, fits);
 }
 
 // The adaptive 3-refinement grid (core/grid/octree.h) as a HexComplex, each part timed.
@@ -112,8 +122,8 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
     run.adaptive = run.clock.run("octree", [&] { return build_adaptive_grid(solid, run); });
   } else {
     run.uniform.emplace(run.cube, o.depth);
-    check_memory_budget(*run.uniform, o.method);
   }
+  check_memory_budget(run);
 
   // The SDF batch runs on the chosen backend; every backend gives the cpu reference's values bit
   // for bit, so the mesh does not depend on the choice.

@@ -7,10 +7,10 @@
 //
 // Guarantees: the meshes do not depend on the backend (every backend gives the cpu reference's
 // SDF values bit for bit, tests/test_opencl.cpp), nor on how many threads run. Errors are
-// exceptions: InputError (bad input: exit 1 in the CLI), ResourceError (a uniform grid beyond
-// this machine's memory, refused before any work: exit 2). A mesh that fails its own check is
-// no exception here: the run says so in `check`, and the caller decides (the CLI writes the
-// report and no mesh, and exits 3).
+// exceptions: InputError (bad input: exit 1 in the CLI), ResourceError (a run whose estimated peak
+// memory is over its budget, core/pipeline/estimate.h: refused before the mesher's work, exit 2). A mesh that fails its
+// own check is no exception here: the run says so in `check`, and the caller decides (the CLI writes the report and no
+// mesh, and exits 3).
 #pragma once
 
 #include <cstddef>
@@ -43,6 +43,8 @@ struct MeshOptions {
   bool fidelity = false;
   std::size_t lattice = 128;  // fidelity: IoU samples per axis
   bool quiet = false;         // no progress lines, no warning about an open surface
+  // Peak memory allowed, bytes (core/pipeline/estimate.h); 0: 80 % of MemAvailable.
+  std::size_t max_memory = 0;
   bool adaptive() const { return threshold > 0; }
 };
 

@@ -63,6 +63,13 @@ std::unique_ptr<Backend> make_backend(const std::string& name) {
   throw InputError("unknown backend '" + name + "' (known: auto, cpu, opencl, vulkan)");
 }
 
+std::vector<std::string> built_backend_names() {
+  std::vector<std::string> names{"auto", "cpu"};
+  if (MCHEX_WITH_OPENCL) names.emplace_back("opencl");
+  if (MCHEX_WITH_VULKAN) names.emplace_back("vulkan");
+  return names;
+}
+
 std::vector<DeviceInfo> list_devices() {
   std::vector<DeviceInfo> out{make_cpu_backend()->device()};
 #if MCHEX_WITH_OPENCL

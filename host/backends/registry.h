@@ -14,6 +14,10 @@ namespace mchex {
 // that has no device here or is not built into this binary.
 std::unique_ptr<Backend> make_backend(const std::string& name);
 
+// The names make_backend accepts in this binary: "auto", "cpu", then each device backend it was
+// built with, so that the command line offers only what can run.
+std::vector<std::string> built_backend_names();
+
 // Every platform and device each backend finds (for `mchex-gpu devices`); a backend this binary
 // was configured without (CMake MCHEX_WITH_OPENCL / MCHEX_WITH_VULKAN OFF) is one entry with no
 // device whose note says "not built into this binary".

@@ -7,27 +7,34 @@
 // This file parses the command line and maps errors to exit codes; each subcommand is in its own
 // file (host/cli/commands.h). Every failure is one line on stderr and a non-zero exit: 1 bad input
 // or usage, 2 resource limit, 3 an internal failure (a mesh that fails its own check, a failed
-// certificate).
+// certificate). SIGINT and SIGTERM leave no file behind (core/io/atomic_file.h): `mesh` writes
+// all of its outputs or none.
 #include <cstdio>
 #include <new>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "core/base/error.h"
 #include "core/base/parallel.h"
 #include "core/cutting/certify.h"
 #include "core/grid/grid.h"
 #include "core/grid/octree.h"
+#include "core/io/atomic_file.h"
 #include "core/io/mesh_io.h"
+#include "core/pipeline/estimate.h"
+#include "host/backends/registry.h"
 #include "host/cli/commands.h"
 
 using namespace mchex;
 using namespace mchex::cli;
 
 int main(int argc, char** argv) {
+  install_signal_cleanup();
   CLI::App app{"mchex-gpu: all-hex meshes of a solid and of the box around it (MCHex, Tong & Zhang 2025)"};
   app.require_subcommand(1);
   app.fallthrough();  // --quiet and --threads also after the subcommand name
@@ -68,11 +75,23 @@ int main(int argc, char** argv) {
   mesh->add_option("--pad", mo.options.pad, "padding around the input, as a fraction of its largest extent")
       ->check(CLI::Range(0.0, 10.0))
       ->capture_default_str();
+  const std::vector<std::string> backends = built_backend_names();
   mesh->add_option("--backend", mo.backend,
-                   "where the SDF runs: cpu (the reference), opencl, vulkan, or auto (a GPU with fp64 if "
-                   "one is found, else cpu); every backend gives the same mesh")
-      ->check(CLI::IsMember({"auto", "cpu", "opencl", "vulkan"}))
+                   fmt::format("where the SDF runs: {} (auto: a GPU with fp64 if one is found, else cpu; cpu: "
+                               "the reference); every backend gives the same mesh",
+                               fmt::join(backends, ", ")))
+      ->check(CLI::IsMember(backends))
       ->capture_default_str();
+  mesh->add_option_function<std::string>(
+          "--max-memory",
+          [&](const std::string& text) {
+            const auto bytes = parse_memory_size(text);
+            if (!bytes) throw CLI::ValidationError("--max-memory", "expected a size such as 8G or 512M, got " + text);
+            mo.options.max_memory = *bytes;
+          },
+          "refuse (exit 2) a run whose estimated peak memory is over SIZE (8G, 512M; K, M, G, T are powers of "
+          "1024); default: 80% of the memory available now")
+      ->type_name("SIZE");
   mesh->add_option("--report", mo.report, "write a JSON report to this file");
   mesh->add_flag("--fidelity", mo.options.fidelity, "measure IoU and Hausdorff distance against the input");
   mesh->add_option("--lattice", mo.options.lattice, "samples per axis for the IoU")
@@ -120,7 +139,10 @@ int main(int argc, char** argv) {
   try {
     std::optional<ThreadLimit> limit;
     if (threads > 0) limit.emplace(threads);
-    if (mesh->parsed()) return run_mesh(mo, quiet);
+    if (mesh->parsed()) {
+      const OutputGroup outputs;
+      return run_mesh(mo, quiet);
+    }
     if (devices->parsed()) return run_devices(devices_json);
     if (certify_cmd->parsed()) {
       const CertifyResult r = certify(certify_options);

@@ -1,0 +1,123 @@
+"""Every broken or invalid surface the test packages ship either meshes to a valid mesh or fails
+cleanly: exit 0 with meshes that `check` passes (both conform, every hex Bernstein-certified), or
+exit 1 or 2 with exactly one stderr line that names the file; never a signal, a hang or a file
+left behind (no partial mesh, no hidden temporary). The files: npm stl-models' broken/ folder,
+assimp-testmodels' invalid files (models/invalid/ and OFF/invalid.off) and openscad-testing-data's
+STLs whose names say they are bad, plus those of its stl/ folder. Depth 2 grids keep the sweep
+to a few seconds."""
+import glob
+import json
+import os
+import subprocess
+import unittest
+
+from harness import STL_MODELS, ScratchTestCase, run
+
+TIMEOUT = 60
+
+
+def bad_files():
+    files = glob.glob(os.path.join(STL_MODELS, "broken", "*"))
+    files += glob.glob("/usr/share/assimp/models/invalid/*") + glob.glob("/usr/share/assimp/models/*/invalid*")
+    files += glob.glob("/usr/share/openscad/testdata/stl/*")
+    for pattern in ("*invalid*", "*broken*", "*bad*"):
+        files += glob.glob(f"/usr/share/openscad/testdata/**/{pattern}.stl", recursive=True)
+    return sorted(f for f in set(files) if os.path.isfile(f) and not f.endswith("readme.txt"))
+
+
+class BadInputSweep(ScratchTestCase):
+    def test_every_bad_file_meshes_or_fails_cleanly(self):
+        files = bad_files()
+        self.assertGreater(len(files), 25, files)
+        outcomes = {}
+        for i, f in enumerate(files):
+            with self.subTest(file=f):
+                folder = os.path.join(self.dir, str(i))
+                os.mkdir(folder)
+                try:
+                    r = run("mesh", f, "--depth", 2, "-o", "inside.mesh", "--quiet", cwd=folder, timeout=TIMEOUT)
+                except subprocess.TimeoutExpired:
+                    self.fail(f"{f}: no answer in {TIMEOUT} s")
+                self.assertGreaterEqual(r.returncode, 0, f"killed by signal {-r.returncode}: {r.stderr}")
+                self.assertIn(r.returncode, (0, 1, 2), r.stderr)
+                outcomes[os.path.basename(f)] = r.returncode
+                if r.returncode != 0:
+                    lines = r.stderr.splitlines()
+                    self.assertEqual(len(lines), 1, r.stderr)
+                    self.assertIn(f, lines[0])
+                    self.assertEqual(os.listdir(folder), [])
+                    continue
+                self.assertEqual(sorted(os.listdir(folder)), ["inside.mesh", "outside.mesh"])
+                c = run("check", "inside.mesh", "--outside", "outside.mesh", "--json", cwd=folder, timeout=TIMEOUT)
+                self.assertEqual(c.returncode, 0, c.stdout[-2000:] + c.stderr)
+                report = json.loads(c.stdout)["check"]
+                self.assertTrue(report["ok"], report["errors"])
+                self.assertEqual(report["union"]["gap_faces"], 0)
+                self.assertEqual(report["union"]["overlap_faces"], 0)
+                for side in ("inside", "outside"):
+                    q = report[side]["quality"]
+                    self.assertEqual(q["certified"], q["count"], side)
+        # Some of them mesh (a missing endsolid, a wrong normal), most are refused.
+        self.assertIn(0, outcomes.values(), outcomes)
+        self.assertIn(1, outcomes.values(), outcomes)
+
+
+if __name__ == "__main__":
+    unittest.main()
+
+
+class ResourceLimits(ScratchTestCase):
+    """mesh --max-memory (core/pipeline/estimate.h): a run whose estimated peak memory is over the
+    budget exits 2 before the mesher's work, with one line that names a setting that fits, and
+    writes nothing."""
+
+    def refused(self, *args):
+        r = run("mesh", "--shape", "torus", *args, "-o", "inside.mesh", "--report", "r.json", cwd=self.dir, timeout=120)
+        self.assertEqual(r.returncode, 2, r.stdout + r.stderr)
+        lines = r.stderr.strip().splitlines()
+        self.assertEqual(os.listdir(self.dir), [])
+        return lines[-1]
+
+    def test_over_the_default_budget(self):
+        # 729^3 cells, about 600 GB for MCHex: over any machine this runs on.
+        line = self.refused("--depth", 6, "--quiet")
+        self.assertRegex(line, r"^mchex-gpu: depth 6 needs about [0-9.]+ GiB .* over 80% of the available memory")
+        self.assertRegex(line, r"; --depth [0-5] would need about [0-9.]+ [MG]iB$")
+
+    def test_a_small_budget_refuses_a_run_that_fits_by_default(self):
+        ok = run("mesh", "--shape", "torus", "--depth", 3, "-o", "fits.mesh", "--quiet", cwd=self.dir, timeout=120)
+        self.assertEqual(ok.returncode, 0, ok.stderr)
+        for f in os.listdir(self.dir):
+            os.remove(os.path.join(self.dir, f))
+        line = self.refused("--depth", 3, "--max-memory", "50M", "--quiet")
+        self.assertRegex(line, r"^mchex-gpu: depth 3 needs about [0-9]+ MiB .* over --max-memory 50 MiB; ")
+        # Adaptive: checked once the octree is refined, the suggestion a smaller --max-depth.
+        line = self.refused("--threshold", 0.05, "--max-depth", 5, "--max-memory", "120M", "--quiet")
+        self.assertRegex(line, r"^mchex-gpu: the adaptive grid of [0-9]+ cells needs about .* over --max-memory 120 MiB")
+        self.assertRegex(line, r"--max-depth [0-4] would need about")
+
+    def test_sizes(self):
+        r = run("mesh", "--shape", "torus", "--depth", 1, "--max-memory", "3X", "-o", "a.mesh", cwd=self.dir)
+        self.assertEqual(r.returncode, 1)
+        self.assertIn("expected a size such as 8G or 512M, got 3X", r.stderr)
+        for size in ("1G", "1.5GiB", "900MB", "2000000000", "1t"):
+            r = run("mesh", "--shape", "torus", "--depth", 1, "--max-memory", size, "-o", "a.mesh", "--quiet",
+                    cwd=self.dir)
+            self.assertEqual(r.returncode, 0, size + r.stderr)
+
+
+class BackendChoices(ScratchTestCase):
+    """--backend offers only the backends built into this binary (host/backends/registry.h): the
+    values its help lists are auto plus those `devices` does not call "not built"."""
+
+    def test_help_lists_the_built_backends(self):
+        devices = json.loads(run("devices", "--json").stdout)
+        built = {"auto"} | {d["backend"] for d in devices if "not built" not in d["note"]}
+        help_text = run("mesh", "--help").stdout
+        line = next(l for l in help_text.splitlines() if "--backend" in l)
+        offered = set(line[line.index("{") + 1:line.index("}")].split(","))
+        self.assertEqual(offered, built, line)
+        for name in {"cpu", "opencl", "vulkan"} - built:
+            r = run("mesh", "--backend", name, "--depth", 1, "-o", "a.mesh", cwd=self.dir)
+            self.assertEqual(r.returncode, 1)
+            self.assertIn("not in {", r.stderr)
