@@ -17,6 +17,7 @@
 #include "core/cutting/ro.h"
 #include "core/grid/hex_complex.h"
 #include "core/io/mesh_io.h"
+#include "core/sdf/winding_number.h"
 
 namespace mchex {
 namespace {
@@ -79,21 +80,31 @@ AdaptiveGrid build_adaptive_grid(const Solid& solid, MeshRun& run) {
   return grid;
 }
 
+// The backend's SDF at `points`, with the solid's sign. Device kernels sign by the pseudonormal;
+// under the winding-number rule the host re-signs their values (the distances are the same bit
+// for bit), so every backend gives the solid's own field. The cpu backend evaluates the solid's
+// SDF itself (SdfSource::reference): already signed so.
+void backend_sdf(Backend& backend, const Solid& solid, std::span<const Vec3> points, std::span<double> values) {
+  backend.signed_distance(solid.sdf_source(), points, values);
+  if (const WindingNumber* w = solid.winding(); w && backend.device().backend != "cpu")
+    apply_winding_sign(*w, points, values);
+}
+
 // The SDF at every grid point, in the mesher's order. The adaptive grid already holds the values
 // the refinement sampled (bit for bit what a new evaluation gives: same points); only the points
 // it never sampled need this batch.
-std::vector<double> grid_values(MeshRun& run, Backend& backend, const SdfSource& source) {
+std::vector<double> grid_values(MeshRun& run, Backend& backend, const Solid& solid) {
   if (run.adaptive) {
     run.unsampled_points = run.adaptive->unsampled.size();
     const std::vector<Vec3> points = unsampled_points(*run.adaptive);
     std::vector<double> v(points.size());
-    if (!points.empty()) backend.signed_distance(source, points, v);
+    if (!points.empty()) backend_sdf(backend, solid, points, v);
     set_unsampled_values(*run.adaptive, v);
     return std::move(run.adaptive->values);
   }
   const std::vector<Vec3> points = run.uniform->vertices();
   std::vector<double> v(points.size());
-  backend.signed_distance(source, points, v);
+  backend_sdf(backend, solid, points, v);
   return v;
 }
 
@@ -120,8 +131,7 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
   std::unique_ptr<Backend> opened;
   Backend& backend = request.backend ? *request.backend : *(opened = request.open_backend());
   run.device = backend.device();
-  const SdfSource source = solid.sdf_source();
-  const std::vector<double> values = run.clock.run("sdf", [&] { return grid_values(run, backend, source); });
+  const std::vector<double> values = run.clock.run("sdf", [&] { return grid_values(run, backend, solid); });
 
   // Method mchex on a device backend: MC33 classification and the hex-count prefix sum run on the
   // device too (from the values after the mesher's zero rule), and the mesher checks every cell's
@@ -138,7 +148,8 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
       ClassifyOptions co;
       co.zero_tolerance = zero_tolerance_of(cx);
       co.uniform_cells_per_axis = run.adaptive ? 0 : run.uniform->cells_per_axis();
-      co.values_from_last_sdf = true;
+      // Re-signed values differ from the device's copy.
+      co.values_from_last_sdf = solid.winding() == nullptr;
       device_subcases.resize(cx.cells.size());
       device_offsets.resize(cx.cells.size() + 1);
       backend.classify_cells(cx, values, {device_subcases, device_offsets}, co);
@@ -166,7 +177,7 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
 
 MeshRun run_pipeline(const MeshRequest& request) {
   StageClock clock(request.options.quiet);
-  const Solid solid(request.solid, clock, request.options.quiet);
+  const Solid solid(request.solid, clock, request.options.quiet, request.options.input);
   return mesh_solid(request, solid, std::move(clock));
 }
 

@@ -6,7 +6,8 @@
 // core/pipeline/report.h turns a run into the report JSON.
 //
 // Guarantees: the meshes do not depend on the backend (every backend gives the cpu reference's
-// SDF values bit for bit, tests/test_opencl.cpp), nor on how many threads run. Errors are
+// SDF values bit for bit, tests/test_opencl.cpp; under the winding-number sign the host re-signs
+// them with the solid's winding number), nor on how many threads run. Errors are
 // exceptions: InputError (bad input: exit 1 in the CLI), ResourceError (a uniform grid beyond
 // this machine's memory, refused before any work: exit 2). A mesh that fails its own check is
 // no exception here: the run says so in `check`, and the caller decides (the CLI writes the
@@ -43,6 +44,7 @@ struct MeshOptions {
   bool fidelity = false;
   std::size_t lattice = 128;  // fidelity: IoU samples per axis
   bool quiet = false;         // no progress lines, no warning about an open surface
+  SolidOptions input;         // repair and sign rule of a surface (core/pipeline/solid.h)
   bool adaptive() const { return threshold > 0; }
 };
 
