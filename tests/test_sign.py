@@ -17,7 +17,7 @@ from harness import STL_MODELS, ScratchTestCase, run
 HEX_FACES = np.array([[0, 3, 2, 1], [4, 5, 6, 7], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]])
 
 
-def surface_samples(verts, tris, per_edge=8):
+def surface_samples(verts, tris, per_edge=6):
     """Points on every triangle (a barycentric lattice with per_edge steps a side)."""
     k = [(i, j) for i in range(per_edge + 1) for j in range(per_edge + 1 - i)]
     w = np.array([(i / per_edge, j / per_edge, 1 - (i + j) / per_edge) for i, j in k])
@@ -25,7 +25,7 @@ def surface_samples(verts, tris, per_edge=8):
     return np.einsum("kc,tcd->tkd", w, p).reshape(-1, 3)
 
 
-def nearest_distance(points, samples, chunk=256):
+def nearest_distance(points, samples, chunk=32):
     out = np.empty(len(points))
     for s in range(0, len(points), chunk):
         d = np.linalg.norm(points[s:s + chunk, None, :] - samples[None, :, :], axis=-1)
