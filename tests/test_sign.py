@@ -181,6 +181,40 @@ class ModelTest(ScratchTestCase):
             self.assertGreater(rep["fidelity"]["iou"], 0.9)
 
 
+class RepairOptionsTest(ScratchTestCase):
+    def test_a_surface_repair_empties_is_one_line_and_exit_1(self):
+        path = os.path.join(self.dir, "sheet.obj")  # a face and its opposite copy: no volume
+        with open(path, "w") as f:
+            f.write("v 0 0 0\nv 1 0 0\nv 0 1 1\nf 1 2 3\nf 1 3 2\n")
+        out = os.path.join(self.dir, "x.mesh")
+        r = run("mesh", path, "--depth", 1, "-o", out)
+        self.assertEqual(r.returncode, 1)
+        self.assertEqual(len(r.stderr.strip().splitlines()), 1, r.stderr)
+        self.assertIn(path, r.stderr)
+        self.assertIn("no face is left after repair", r.stderr)
+        self.assertFalse(os.path.exists(out))
+
+    def test_no_repair_meshes_the_surface_as_given(self):
+        v, t = models.uv_sphere(24, 12)
+        path = os.path.join(self.dir, "inverted.stl")
+        models.write_binary_stl(path, v, t[:, ::-1])  # inside out
+        report = os.path.join(self.dir, "r.json")
+        for options, solid in ((("--no-repair", "--sign", "pseudonormal"), False), ((), True)):
+            r = run("mesh", path, "--depth", 3, *options, "-o", os.path.join(self.dir, "x.vtu"), "--report", report,
+                    "--quiet")
+            self.assertEqual(r.returncode, 0, r.stderr)
+            with open(report) as f:
+                rep = json.load(f)
+            self.assertEqual(rep["input"]["repair"] is not None, solid)
+            # Inside out as given: the pseudonormal's inside is the outside of the ball.
+            vol = rep["check"]["inside"]["quality"]["volume"]
+            if solid:
+                self.assertEqual(rep["input"]["repair"]["reversed_components"], 1)
+                self.assertAlmostEqual(vol, models.signed_volume(v, t), delta=0.02)
+            else:
+                self.assertGreater(vol, 2 * 4 / 3 * np.pi)  # the padded box less the ball
+
+
 class ScaleTest(ScratchTestCase):
     def test_a_sphere_meshes_alike_at_1e_minus_9_1_and_1e9(self):
         v, t = models.uv_sphere(32, 16)

@@ -1,6 +1,7 @@
 #include "core/pipeline/solid.h"
 
 #include <cstdio>
+#include <string>
 
 #include "core/base/error.h"
 #include "core/grid/grid.h"
@@ -26,7 +27,14 @@ Solid::Solid(const SolidSource& source, StageClock& clock, bool quiet, const Sol
     facts_.name = source.path;
     surface_ = &read_.emplace(clock.run("read", [&] { return read_surface(source.path, &facts_.welded); }));
   }
-  if (options.repair) facts_.repair = clock.run("repair", [&] { return repair_orientation(*read_); });
+  if (options.repair) {
+    facts_.repair = clock.run("repair", [&] { return repair_orientation(*read_); });
+    if (read_->triangles.empty())
+      throw InputError(facts_.name + ": no face is left after repair (" +
+                       std::to_string(facts_.repair->degenerate_faces_removed) + " degenerate, " +
+                       std::to_string(facts_.repair->duplicate_faces_removed) +
+                       " duplicate or cancelled by an opposite copy); --no-repair meshes it as given");
+  }
   facts_.surface = validate_surface(*surface_);
   const SurfaceReport& r = facts_.surface;
   // After repair every closed shell faces the right way; what no repair can fix is a surface
