@@ -103,6 +103,113 @@ def write_binary_stl(path, verts, tris):
         f.write(data.tobytes())
 
 
+def uv_sphere(nu, nv, radius=1.0, centre=(0.0, 0.0, 0.0)):
+    """A closed, outward sphere of nu longitudes and nv latitude bands (poles welded)."""
+    verts = [[0.0, 0.0, -radius]]
+    for j in range(1, nv):
+        th = np.pi * j / nv - np.pi / 2
+        for i in range(nu):
+            ph = 2 * np.pi * i / nu
+            verts.append([radius * np.cos(th) * np.cos(ph), radius * np.cos(th) * np.sin(ph), radius * np.sin(th)])
+    verts.append([0.0, 0.0, radius])
+    verts = np.array(verts) + np.asarray(centre, dtype=float)
+    top = len(verts) - 1
+    ring = lambda j, i: 1 + (j - 1) * nu + i % nu
+    tris = [[0, ring(1, i + 1), ring(1, i)] for i in range(nu)]
+    for j in range(1, nv - 1):
+        for i in range(nu):
+            a, b, c, d = ring(j, i), ring(j, i + 1), ring(j + 1, i + 1), ring(j + 1, i)
+            tris += [[a, b, c], [a, c, d]]
+    tris += [[ring(nv - 1, i), ring(nv - 1, i + 1), top] for i in range(nu)]
+    return verts, np.array(tris)
+
+
+def signed_volume(verts, tris):
+    p = verts[tris]
+    return np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])).sum() / 6
+
+
+def winding_numbers(verts, tris, points, chunk=2048):
+    """The generalized winding number of the triangles at each point, by brute force: the sum of
+    the signed solid angles (Van Oosterom & Strackee) over 4 pi. Independent of the code under test."""
+    out = np.empty(len(points))
+    tri = verts[tris]
+    for s in range(0, len(points), chunk):
+        q = points[s:s + chunk, None, None, :]
+        r = tri[None, :, :, :] - q                      # (P, T, 3, 3)
+        a, b, c = r[..., 0, :], r[..., 1, :], r[..., 2, :]
+        la, lb, lc = (np.linalg.norm(x, axis=-1) for x in (a, b, c))
+        num = np.einsum("ptk,ptk->pt", a, np.cross(b, c))
+        den = la * lb * lc + np.einsum("ptk,ptk->pt", a, b) * lc + np.einsum("ptk,ptk->pt", b, c) * la \
+            + np.einsum("ptk,ptk->pt", c, a) * lb
+        out[s:s + chunk] = (2 * np.arctan2(num, den)).sum(axis=1) / (4 * np.pi)
+    return out
+
+
+def revolve(profile, nu):
+    """The closed surface of revolution about the x axis of a profile polyline [(x, r), ...] whose
+    first and last points lie on the axis (r = 0, the poles): outward oriented when the profile
+    runs from -x over the top to +x (the solid lies between it and the axis)."""
+    profile = np.asarray(profile, float)
+    ph = 2 * np.pi * np.arange(nu) / nu
+    inner = profile[1:-1]
+    verts = [[profile[0, 0], 0.0, 0.0]]
+    for x, r in inner:
+        verts += [[x, r * np.cos(p), r * np.sin(p)] for p in ph]
+    verts.append([profile[-1, 0], 0.0, 0.0])
+    n, top = len(inner), len(verts) - 1
+    ring = lambda j, i: 1 + j * nu + i % nu
+    tris = [[0, ring(0, i + 1), ring(0, i)] for i in range(nu)]
+    for j in range(n - 1):
+        for i in range(nu):
+            a, b, c, d = ring(j, i), ring(j, i + 1), ring(j + 1, i + 1), ring(j + 1, i)
+            tris += [[a, b, c], [a, c, d]]
+    tris += [[ring(n - 1, i), ring(n - 1, i + 1), top] for i in range(nu)]
+    return np.array(verts), np.array(tris)
+
+
+def folded_spike(nu=32, nv=16):
+    """A unit sphere with a spike along +x whose end is folded back over itself: the profile runs
+    out along the neck to (1.5, 0.15), up to A = (2.5, 0.45), back to B = (2.0, 0.45) and down
+    across its own outgoing segment to the tip (2.6, 0). Closed, consistently oriented, one
+    self-intersection circle; the fold XAB is a ring traversed the other way, winding number -1,
+    so it is outside. The pseudonormal of its top AB points into it, and every point whose
+    nearest feature is AB, out to well beyond the sphere's y and z extent, takes the inside
+    side."""
+    th0 = np.arcsin(0.15)
+    th = np.linspace(np.pi, th0, nv + 1)
+    profile = [(np.cos(t), np.sin(t)) for t in th]
+    profile[0] = (-1.0, 0.0)
+    profile += [(1.5, 0.15), (2.5, 0.45), (2.0, 0.45), (2.5, 0.05), (2.6, 0.0)]
+    return revolve(profile, nu)
+
+
+def flip_every_third(tris):
+    """The same closed surface with a third of its faces turned around (inconsistently oriented)."""
+    out = tris.copy()
+    out[::3] = out[::3, ::-1]
+    return out
+
+
+def punch_holes(verts, tris, centres, radius):
+    """Drops every triangle whose centroid lies within `radius` of one of `centres`."""
+    c = verts[tris].mean(axis=1)
+    keep = np.ones(len(tris), bool)
+    for p in centres:
+        keep &= np.linalg.norm(c - np.asarray(p), axis=1) > radius
+    return tris[keep]
+
+
+def merge(*surfaces):
+    """Several (verts, tris) as one soup (vertex ids offset, nothing welded)."""
+    vs, ts, n = [], [], 0
+    for v, t in surfaces:
+        vs.append(v)
+        ts.append(t + n)
+        n += len(v)
+    return np.concatenate(vs), np.concatenate(ts)
+
+
 if __name__ == "__main__":
     import sys
     v, t = bumpy_torus(int(sys.argv[2]), int(sys.argv[3]))

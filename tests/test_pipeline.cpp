@@ -15,6 +15,7 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/base/error.h"
@@ -25,6 +26,7 @@
 #include "core/grid/octree.h"
 #include "core/io/mesh_io.h"
 #include "core/io/surface_io.h"
+#include "core/mesh/orientation.h"
 #include "core/pipeline/pipeline.h"
 #include "core/pipeline/report.h"
 #include "core/sdf/sdf.h"
@@ -269,6 +271,68 @@ TEST(Pipeline, OneSolidServesSeveralRunsWithTheSameMeshes) {
   // The in-memory surface through a request equals it too.
   request.solid = SolidSource::in_memory(surface, "torus-mesh");
   expect_same_pair(run_pipeline(request).meshes, a.meshes);
+}
+
+// A surface that needs repair and the winding-number sign (a third of its faces flipped, a run of
+// faces removed: open): the pipeline is repair_orientation and SurfaceSdf(kWindingNumber) called
+// directly, the caller's surface is left alone, the report says what repair did, every device
+// backend gives the cpu meshes (the host re-signs their values), and --no-repair --sign
+// pseudonormal is the plain pseudonormal SDF of the surface as given.
+TEST(Pipeline, ARepairedOpenSurfaceIsRepairAndTheWindingSignCalledDirectly) {
+  TriangleSurface broken = tessellate(ShapeKind::kTorus, 48);
+  for (std::size_t t = 0; t < broken.triangles.size(); t += 3)
+    std::swap(broken.triangles[t][1], broken.triangles[t][2]);
+  broken.triangles.erase(broken.triangles.begin() + 100, broken.triangles.begin() + 140);
+  const TriangleSurface given = broken;
+  MeshRequest request;
+  request.solid = SolidSource::in_memory(broken, "broken-torus");
+  request.options.depth = 2;
+  const Timed t = run_timed(request);
+  expect_sound(t);
+  EXPECT_TRUE(broken.triangles == given.triangles && broken.vertices == given.vertices);
+
+  TriangleSurface repaired = broken;
+  const OrientationReport repair = repair_orientation(repaired);
+  EXPECT_GT(repair.flipped_triangles, 0u);
+  EXPECT_GT(repair.boundary_loops, 0u);
+  const SurfaceSdf winding(repaired, SignRule::kWindingNumber);
+  const UniformGrid grid(padded_cube(winding.bounds(), 0.1), 2);
+  expect_same_pair(t.run.meshes, mesh_mchex(grid, values_at(winding, grid), 1e-3));
+  const nlohmann::json r = report_json(t.run);
+  EXPECT_EQ(r["input"]["sign"], "winding");
+  EXPECT_EQ(r["input"]["repair"]["flipped_triangles"], repair.flipped_triangles);
+  EXPECT_EQ(r["input"]["repair"]["boundary_loops"], repair.boundary_loops);
+  EXPECT_EQ(r["input"]["repair"]["summary"], describe(repair));
+  EXPECT_EQ(r["input"]["triangles"], repaired.triangles.size());
+  EXPECT_TRUE(r["times"].contains("repair"));
+
+  for (const char* name : {"opencl", "vulkan"}) {
+    std::unique_ptr<Backend> device;
+    try {
+      device = make_backend(name);
+    } catch (const InputError& e) {
+      std::printf("%s: not here (%s)\n", name, e.what());
+      continue;
+    }
+    for (const double threshold : {0.0, 0.05}) {
+      MeshRequest on_device = request;
+      on_device.options.threshold = threshold;
+      on_device.options.max_depth = 3;
+      const Timed cpu = run_timed(on_device);
+      on_device.backend = device.get();
+      on_device.options.quiet = true;
+      const MeshRun run = run_pipeline(on_device);
+      EXPECT_EQ(run.device.backend, name);
+      expect_same_pair(run.meshes, cpu.run.meshes);
+    }
+  }
+
+  request.options.input = {false, SignRule::kPseudonormal};
+  const Timed plain = run_timed(request);
+  const SurfaceSdf pseudonormal(broken);
+  expect_same_pair(plain.run.meshes, mesh_mchex(grid, values_at(pseudonormal, grid), 1e-3));
+  EXPECT_EQ(report_json(plain.run)["input"]["sign"], "pseudonormal");
+  EXPECT_TRUE(report_json(plain.run)["input"]["repair"].is_null());
 }
 
 TEST(Pipeline, WriteMeshesWritesWhatWasCheckedAndRefusesAFailedCheck) {

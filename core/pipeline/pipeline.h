@@ -6,11 +6,12 @@
 // core/pipeline/report.h turns a run into the report JSON.
 //
 // Guarantees: the meshes do not depend on the backend (every backend gives the cpu reference's
-// SDF values bit for bit, tests/test_opencl.cpp), nor on how many threads run. Errors are
-// exceptions: InputError (bad input: exit 1 in the CLI), ResourceError (a run whose estimated peak
-// memory is over its budget, core/pipeline/estimate.h: refused before the mesher's work, exit 2). A mesh that fails its
-// own check is no exception here: the run says so in `check`, and the caller decides (the CLI writes the report and no
-// mesh, and exits 3).
+// SDF values bit for bit, tests/test_opencl.cpp; under the winding-number sign the host re-signs
+// them with the solid's winding number), nor on how many threads run. Errors are exceptions:
+// InputError (bad input: exit 1 in the CLI), ResourceError (a run whose estimated peak memory is
+// over its budget, core/pipeline/estimate.h: refused before the mesher's work, exit 2). A mesh that
+// fails its own check is no exception here: the run says so in `check`, and the caller decides
+// (the CLI writes the report and no mesh, and exits 3).
 #pragma once
 
 #include <cstddef>
@@ -45,6 +46,7 @@ struct MeshOptions {
   bool quiet = false;         // no progress lines, no warning about an open surface
   // Peak memory allowed, bytes (core/pipeline/estimate.h); 0: 80 % of MemAvailable.
   std::size_t max_memory = 0;
+  SolidOptions input;  // repair and sign rule of a surface (core/pipeline/solid.h)
   bool adaptive() const { return threshold > 0; }
 };
 

@@ -71,12 +71,39 @@ json mchex_json(const MchexStats& s, double eps) {
       {"seconds", {{"topology", s.seconds_topology}, {"cells", s.seconds_cells}, {"assembly", s.seconds_assembly}}}};
 }
 
+// What repair_orientation found and did (core/mesh/orientation.h); "self_intersecting_pairs" is
+// null when the test was past its bounds.
+json repair_json(const OrientationReport& r) {
+  return {{"components", r.components},
+          {"closed_components", r.closed_components},
+          {"nonorientable_components", r.nonorientable_components},
+          {"cavities", r.cavities},
+          {"nesting_checked", r.nesting_checked},
+          {"flipped_triangles", r.flipped_triangles},
+          {"reversed_components", r.reversed_components},
+          {"reversed_triangles", r.reversed_triangles},
+          {"duplicate_faces_removed", r.duplicate_faces_removed},
+          {"cancelled_pairs", r.cancelled_pairs},
+          {"degenerate_faces_removed", r.degenerate_faces_removed},
+          {"zero_area_faces", r.zero_area_faces},
+          {"orphaned_vertices_removed", r.orphaned_vertices_removed},
+          {"boundary_edges", r.boundary_edges},
+          {"boundary_loops", r.boundary_loops},
+          {"nonmanifold_edges", r.nonmanifold_edges},
+          {"self_intersection_checked", r.self_intersection_checked},
+          {"self_intersecting_pairs", r.self_intersection_checked ? json(r.self_intersecting_pairs) : json(nullptr)},
+          {"changed", r.changed()},
+          {"summary", describe(r)}};
+}
+
 }  // namespace
 
 json input_json(const SolidFacts& in) {
   if (in.analytic) return {{"shape", in.name}, {"analytic", true}};
   const SurfaceReport& r = in.surface;
   return {{"file", in.name},
+          {"sign", in.sign == SignRule::kWindingNumber ? "winding" : "pseudonormal"},
+          {"repair", in.repair ? repair_json(*in.repair) : json(nullptr)},
           {"triangles", r.triangles},
           {"vertices", r.vertices},
           {"welded_vertices", in.welded},

@@ -1,6 +1,8 @@
 // The report JSON of a mesh run (`mchex-gpu mesh --report`), built here and nowhere else, and its
 // parts that `mchex-gpu check --json` shares (the input, the fidelity). Keys:
 //   input     the solid (core/pipeline/solid.h SolidFacts): a shape, or a surface's validation
+//             (after repair), its sign rule ("sign": winding | pseudonormal) and what
+//             repair_orientation found and did ("repair", null under --no-repair)
 //   method    "mchex" | "ro"
 //   backend   where the SDF ran (core/device/backend.h DeviceInfo) and the worker threads
 //   grid      uniform: levels and cells; adaptive: cells per level, type and template

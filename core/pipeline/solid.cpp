@@ -1,6 +1,7 @@
 #include "core/pipeline/solid.h"
 
 #include <cstdio>
+#include <string>
 
 #include "core/base/error.h"
 #include "core/grid/grid.h"
@@ -9,7 +10,7 @@
 
 namespace mchex {
 
-Solid::Solid(const SolidSource& source, StageClock& clock, bool quiet) {
+Solid::Solid(const SolidSource& source, StageClock& clock, bool quiet, const SolidOptions& options) {
   if (int(!source.path.empty()) + int(source.surface != nullptr) + int(!source.shape.empty()) > 1)
     throw InputError("give either a surface or a shape, not both");
   if (source.path.empty() && !source.surface) {
@@ -18,21 +19,39 @@ Solid::Solid(const SolidSource& source, StageClock& clock, bool quiet) {
     sdf_ = std::make_unique<ShapeSdf>(parse_shape(facts_.name));
     return;
   }
+  facts_.sign = options.sign;
   if (source.surface) {
     facts_.name = source.surface_name;
-    surface_ = source.surface;
+    surface_ = options.repair ? &read_.emplace(*source.surface) : source.surface;
   } else {
     facts_.name = source.path;
     surface_ = &read_.emplace(clock.run("read", [&] { return read_surface(source.path, &facts_.welded); }));
   }
+  if (options.repair) {
+    facts_.repair = clock.run("repair", [&] { return repair_orientation(*read_); });
+    if (read_->triangles.empty())
+      throw InputError(facts_.name + ": no face is left after repair (" +
+                       std::to_string(facts_.repair->degenerate_faces_removed) + " degenerate, " +
+                       std::to_string(facts_.repair->duplicate_faces_removed) +
+                       " duplicate or cancelled by an opposite copy); --no-repair meshes it as given");
+  }
   facts_.surface = validate_surface(*surface_);
   const SurfaceReport& r = facts_.surface;
+  // After repair every closed shell faces the right way; what no repair can fix is a surface
+  // that does not enclose anything by itself.
   if (!quiet && !(r.closed && r.consistently_oriented))
     std::fprintf(stderr,
-                 "mchex-gpu: warning: %s is not a closed, consistently oriented surface (%zu boundary, "
-                 "%zu non-manifold, %zu inconsistent edges); inside/outside follows the nearest triangle\n",
-                 facts_.name.c_str(), r.boundary_edges, r.nonmanifold_edges, r.inconsistent_edges);
-  sdf_ = clock.run("bvh", [&] { return std::make_unique<SurfaceSdf>(*surface_); });
+                 "mchex-gpu: warning: %s is not a closed, consistently oriented surface%s (%zu boundary, %zu "
+                 "non-manifold, %zu inconsistent edges); inside is %s\n",
+                 facts_.name.c_str(), options.repair ? " after repair" : "", r.boundary_edges, r.nonmanifold_edges,
+                 r.inconsistent_edges,
+                 options.sign == SignRule::kWindingNumber ? "where its winding number exceeds 1/2"
+                                                          : "the side of the nearest triangle");
+  sdf_ = clock.run("bvh", [&] { return std::make_unique<SurfaceSdf>(*surface_, options.sign); });
+}
+
+const WindingNumber* Solid::winding() const {
+  return surface_ ? static_cast<const SurfaceSdf&>(*sdf_).winding() : nullptr;
 }
 
 SdfSource Solid::sdf_source() const {

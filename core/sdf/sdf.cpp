@@ -328,6 +328,7 @@ SurfaceSdf::~SurfaceSdf() = default;
 
 Box SurfaceSdf::bounds() const { return impl_->box; }
 SignRule SurfaceSdf::sign_rule() const { return impl_->sign; }
+const WindingNumber* SurfaceSdf::winding() const { return impl_->winding ? &*impl_->winding : nullptr; }
 
 void SurfaceSdf::evaluate(std::span<const Vec3> points, std::span<double> values) const {
   const Impl& m = *impl_;

@@ -5,7 +5,8 @@
 // paper's brute-force loop over all triangles, with every candidate measured in double (points
 // are searched in Morton order, 32 neighbours sharing one walk of the tree);
 // the sign by one of two rules (SignRule):
-// - kPseudonormal (the default): the angle-weighted pseudonormal of the closest feature
+// - kPseudonormal (SurfaceSdf's default; the pipeline's is kWindingNumber): the angle-weighted pseudonormal of the
+// closest feature
 //   (Baerentzen & Aanaes 2005). Exact for closed, consistently oriented 2-manifold surfaces. On
 //   open surfaces, non-manifold edges, soups or folded spikes it never fails but is only locally
 //   meaningful: each point takes the side of the nearest triangle's feature, so the "inside"
@@ -28,6 +29,8 @@ namespace mchex {
 
 enum class SignRule { kPseudonormal, kWindingNumber };
 
+class WindingNumber;
+
 class SignedDistance {
  public:
   virtual ~SignedDistance() = default;
@@ -48,6 +51,9 @@ class SurfaceSdf final : public SignedDistance {
   void evaluate(std::span<const Vec3> points, std::span<double> values) const override;
   Box bounds() const override;
   SignRule sign_rule() const;
+  // The winding number that decides the sign under kWindingNumber (sharing this SDF's BVH), else
+  // null.
+  const WindingNumber* winding() const;
   // Unsigned distance to the triangles (used for Hausdorff distances and by evaluate()).
   void distance(std::span<const Vec3> points, std::span<double> values) const;
 

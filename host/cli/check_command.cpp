@@ -29,7 +29,7 @@ int run_check(const CheckCommand& o, bool quiet) {
     SolidSource source;
     source.path = o.input;
     source.shape = o.shape;
-    const Solid solid(source, clock, quiet || o.json);
+    const Solid solid(source, clock, quiet || o.json, o.solid);
     // The lattice spans both meshes and the solid.
     Box box;
     for (const Vec3& p : inside.points) box.extend(p);

@@ -22,6 +22,7 @@ struct CheckCommand {
   std::string mesh, outside, input, shape;
   bool json = false;
   std::size_t lattice = 128;
+  SolidOptions solid;  // how --input becomes a solid, as the mesh run's
 };
 int run_check(const CheckCommand& command, bool quiet);
 

@@ -10,6 +10,7 @@
 // certificate). SIGINT and SIGTERM leave no file behind (core/io/atomic_file.h): `mesh` writes
 // all of its outputs or none.
 #include <cstdio>
+#include <map>
 #include <new>
 #include <optional>
 #include <string>
@@ -92,6 +93,17 @@ int main(int argc, char** argv) {
           "refuse (exit 2) a run whose estimated peak memory is over SIZE (8G, 512M; K, M, G, T are powers of "
           "1024); default: 80% of the memory available now")
       ->type_name("SIZE");
+  const std::map<std::string, SignRule> sign_rules = {{"winding", SignRule::kWindingNumber},
+                                                      {"pseudonormal", SignRule::kPseudonormal}};
+  const char* sign_help =
+      "inside of a surface: winding (the generalized winding number exceeds 1/2; right on open, folded, "
+      "inconsistently oriented and self-intersecting input) or pseudonormal (the nearest triangle's side; "
+      "exact only for closed, consistently oriented surfaces)";
+  mesh->add_option("--sign", mo.options.input.sign, sign_help)
+      ->transform(CLI::CheckedTransformer(sign_rules, CLI::ignore_case))
+      ->default_str("winding");
+  mesh->add_flag("--no-repair{false}", mo.options.input.repair,
+                 "mesh the surface as read: no orientation repair (duplicates, flipped faces, inside-out shells)");
   mesh->add_option("--report", mo.report, "write a JSON report to this file");
   mesh->add_flag("--fidelity", mo.options.fidelity, "measure IoU and Hausdorff distance against the input");
   mesh->add_option("--lattice", mo.options.lattice, "samples per axis for the IoU")
@@ -104,6 +116,10 @@ int main(int argc, char** argv) {
   check->add_option("--outside", co.outside, "the outside mesh: check that both conform and fill their box");
   check->add_option("--input", co.input, "the input surface: measure IoU and Hausdorff distance");
   check->add_option("--shape", co.shape, "the built-in shape the mesh was made from, as --input");
+  check->add_option("--sign", co.solid.sign, "--input: the sign rule the mesh was made with, as mesh --sign")
+      ->transform(CLI::CheckedTransformer(sign_rules, CLI::ignore_case))
+      ->default_str("winding");
+  check->add_flag("--no-repair{false}", co.solid.repair, "--input: as mesh --no-repair");
   check->add_flag("--json", co.json, "print the results as JSON");
   check->add_option("--lattice", co.lattice, "samples per axis for the IoU")
       ->check(CLI::Range(8, 1024))

@@ -41,6 +41,10 @@ void print_summary(const MeshRun& run, const MeshOutputs& outputs) {
              run.meshes.inside.points.size(), outputs.inside);
   fmt::print("  outside: {:>10} hexes {:>10} vertices -> {}\n", run.meshes.outside.hexes.size(),
              run.meshes.outside.points.size(), outputs.outside);
+  if (!run.input.analytic)
+    fmt::print("  input: inside by {}; repair: {}\n",
+               run.input.sign == SignRule::kWindingNumber ? "winding number" : "pseudonormal",
+               run.input.repair ? describe(*run.input.repair) : "skipped (--no-repair)");
   fmt::print("{}", summary(run.check));
   if (run.fidelity) fmt::print("{}", fidelity_line(*run.fidelity));
   fmt::print("  time: {:.2f} s, peak memory {:.0f} MiB\n", run.clock.total(), run.peak_memory_bytes / 1048576.0);
