@@ -1,5 +1,7 @@
 // mchex-gpu mesh: checks the output names, runs the pipeline (core/pipeline/pipeline.h), writes
 // the meshes (only ones that pass their check) and the report, prints the summary.
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <stdexcept>
 
@@ -77,6 +79,15 @@ int run_mesh(const MeshCommand& o, bool quiet) {
   const MeshOutputs outputs{inside_path.string(), outside_path.string()};
   if (!o.report.empty()) write_json(o.report, report_json(run, &outputs));
   if (!quiet) print_summary(run, outputs);
+  // A valid mesh of nothing is easy to miss in a summary: the solid had no grid point inside it.
+  if (!quiet && run.meshes.inside.hexes.empty()) {
+    const double cell = run.uniform ? run.uniform->cell_size()
+                                    : (run.cube.hi.x - run.cube.lo.x) / std::pow(3.0, run.adaptive->levels - 1);
+    fmt::print(stderr,
+               "mchex-gpu: warning: the inside mesh is empty: the solid is thinner than the grid's cells (cell size "
+               "{:.3g}) everywhere; a finer --depth keeps it\n",
+               cell);
+  }
   if (!run.check.ok)
     throw std::runtime_error("the mesh fails its own check, so nothing was written: " + first_error(run.check));
   return 0;
