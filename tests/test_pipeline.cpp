@@ -224,17 +224,22 @@ TEST(Pipeline, RemoveOutsideIsTheMesherCalledDirectly) {
   EXPECT_FALSE(report_json(t.run)["times"].contains("mchex"));
 }
 
+// The named device backend, or null (with a line saying why) where this machine has none.
+std::unique_ptr<Backend> device_if_here(const char* name) {
+  try {
+    return make_backend(name);
+  } catch (const InputError& e) {
+    std::printf("%s: not here (%s)\n", name, e.what());
+    return nullptr;
+  }
+}
+
 // On a device backend the pipeline also classifies the cells there and the mesher cross-checks
 // them; the meshes stay those of the cpu backend, bit for bit.
 TEST(Pipeline, ADeviceBackendGivesTheCpuMeshes) {
   for (const char* name : {"opencl", "vulkan"}) {
-    std::unique_ptr<Backend> device;
-    try {
-      device = make_backend(name);
-    } catch (const InputError& e) {
-      std::printf("%s: not here (%s)\n", name, e.what());
-      continue;
-    }
+    const std::unique_ptr<Backend> device = device_if_here(name);
+    if (!device) continue;
     for (const double threshold : {0.0, 0.05}) {
       MeshRequest request;
       request.solid.shape = "torus";
@@ -307,13 +312,8 @@ TEST(Pipeline, ARepairedOpenSurfaceIsRepairAndTheWindingSignCalledDirectly) {
   EXPECT_TRUE(r["times"].contains("repair"));
 
   for (const char* name : {"opencl", "vulkan"}) {
-    std::unique_ptr<Backend> device;
-    try {
-      device = make_backend(name);
-    } catch (const InputError& e) {
-      std::printf("%s: not here (%s)\n", name, e.what());
-      continue;
-    }
+    const std::unique_ptr<Backend> device = device_if_here(name);
+    if (!device) continue;
     for (const double threshold : {0.0, 0.05}) {
       MeshRequest on_device = request;
       on_device.options.threshold = threshold;
