@@ -4,13 +4,20 @@ exit 1 or 2 with exactly one stderr line that names the file; never a signal, a 
 left behind (no partial mesh, no hidden temporary). The files: npm stl-models' broken/ folder,
 assimp-testmodels' invalid files (models/invalid/ and OFF/invalid.off) and openscad-testing-data's
 STLs whose names say they are bad, plus those of its stl/ folder. Depth 2 grids keep the sweep
-to a few seconds."""
+to a few seconds. A file that meshes must be of the right solid: where meshio (an independent
+reader) reads it, hex centres farther than a cell from its triangles (and, across its holes, from
+the level set w = 1/2) are inside the mesh exactly where the brute-force numpy winding number of
+those triangles exceeds 1/2."""
 import glob
 import json
 import os
 import subprocess
 import unittest
 
+import meshio
+import numpy as np
+
+import models
 from harness import STL_MODELS, ScratchTestCase, run
 
 TIMEOUT = 60
@@ -57,9 +64,55 @@ class BadInputSweep(ScratchTestCase):
                 for side in ("inside", "outside"):
                     q = report[side]["quality"]
                     self.assertEqual(q["certified"], q["count"], side)
+                verified = self.assert_right_solid(f, folder)
+                if verified:
+                    outcomes[os.path.basename(f)] = "meshed, right solid"
         # Some of them mesh (a missing endsolid, a wrong normal), most are refused.
         self.assertIn(0, outcomes.values(), outcomes)
+        # The independent reader reads most of those that mesh; each of those was checked above.
+        meshed = [k for k, v in outcomes.items() if v in (0, "meshed, right solid")]
+        checked = [k for k, v in outcomes.items() if v == "meshed, right solid"]
+        self.assertGreaterEqual(2 * len(checked), len(meshed), outcomes)
         self.assertIn(1, outcomes.values(), outcomes)
+
+    def assert_right_solid(self, path, folder):
+        """True when meshio reads the file's triangles and every hex centre farther than a cell
+        from them lies on the side their winding number says; False when meshio cannot read it."""
+        try:
+            surface = meshio.read(path)
+            tris = np.concatenate([c.data for c in surface.cells if c.type == "triangle"])
+        except Exception:  # a broken file an independent reader refuses: nothing to compare with
+            return False
+        verts = np.asarray(surface.points, dtype=float)
+        lo, hi = verts.min(axis=0), verts.max(axis=0)
+        cell = 1.2 * (hi - lo).max() / 9  # depth 2 over the padded cube (10 % each side)
+        # Points on every triangle no farther apart than a quarter cell, so a centre more than
+        # cell + spacing from all of them is more than a cell from the surface.
+        spacing = cell / 4
+        samples = [verts]
+        for tri in verts[tris]:
+            n = int(np.ceil(max(np.linalg.norm(tri[i] - tri[(i + 1) % 3]) for i in range(3)) / spacing))
+            if n > 1:
+                i, j = np.meshgrid(np.arange(n + 1), np.arange(n + 1), indexing="ij")
+                keep = i + j <= n
+                a, b = i[keep] / n, j[keep] / n
+                samples.append(np.outer(a, tri[0]) + np.outer(b, tri[1]) + np.outer(1 - a - b, tri[2]))
+        samples = np.concatenate(samples)
+        for name, want_inside in (("inside.mesh", True), ("outside.mesh", False)):
+            m = meshio.read(os.path.join(folder, name))
+            if "hexahedron" not in m.cells_dict:
+                continue  # an empty side: the surface encloses no grid point, or all of them
+            centres = m.points[m.cells_dict["hexahedron"]].mean(axis=1)
+            centres = centres[np.random.default_rng(1).permutation(len(centres))[:400]]
+            far = np.array([np.linalg.norm(samples - c, axis=1).min() > cell + spacing for c in centres], dtype=bool)
+            if not far.any():
+                continue
+            w = models.winding_numbers(verts, tris, centres[far])
+            # Across a hole the inside ends on the level set w = 1/2, which the grid resolves to a
+            # cell like any surface but far from every triangle: centres near it may go either way.
+            w = w[np.abs(w - 0.5) > 0.1]
+            self.assertTrue(((w > 0.5) == want_inside).all(), f"{path}: {name} centres with w = {w[(w > 0.5) != want_inside][:5]}")
+        return True
 
 
 if __name__ == "__main__":
