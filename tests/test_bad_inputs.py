@@ -173,4 +173,10 @@ class BackendChoices(ScratchTestCase):
         for name in {"cpu", "opencl", "vulkan"} - built:
             r = run("mesh", "--backend", name, "--depth", 1, "-o", "a.mesh", cwd=self.dir)
             self.assertEqual(r.returncode, 1)
-            self.assertIn("not in {", r.stderr)
+            self.assertEqual(len(r.stderr.strip().splitlines()), 1, r.stderr)
+            self.assertIn(f"backend '{name}' is not built into this binary", r.stderr)
+        # A name that is no backend at all is refused by the option itself, listing what is built.
+        r = run("mesh", "--backend", "metal", "--depth", 1, "-o", "a.mesh", cwd=self.dir)
+        self.assertEqual(r.returncode, 1)
+        self.assertIn("metal not in {" + ",".join(sorted(built, key=["auto", "cpu", "opencl", "vulkan"].index)) + "}",
+                      r.stderr)

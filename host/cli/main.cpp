@@ -9,6 +9,7 @@
 // or usage, 2 resource limit, 3 an internal failure (a mesh that fails its own check, a failed
 // certificate). SIGINT and SIGTERM leave no file behind (core/io/atomic_file.h): `mesh` writes
 // all of its outputs or none.
+#include <algorithm>
 #include <cstdio>
 #include <map>
 #include <new>
@@ -81,7 +82,16 @@ int main(int argc, char** argv) {
                    fmt::format("where the SDF runs: {} (auto: a GPU with fp64 if one is found, else cpu; cpu: "
                                "the reference); every backend gives the same mesh",
                                fmt::join(backends, ", ")))
-      ->check(CLI::IsMember(backends))
+      ->check(CLI::Validator(
+          [backends](std::string& name) -> std::string {
+            // A known backend configured out is left to make_backend, whose one line says it was
+            // not built and which CMake option would build it; anything else is not a backend.
+            if (std::find(backends.begin(), backends.end(), name) != backends.end() || name == "opencl" ||
+                name == "vulkan")
+              return "";
+            return name + " not in {" + fmt::format("{}", fmt::join(backends, ",")) + "}";
+          },
+          "{" + fmt::format("{}", fmt::join(backends, ",")) + "}"))
       ->capture_default_str();
   mesh->add_option_function<std::string>(
           "--max-memory",
