@@ -665,6 +665,13 @@ TEST(HexmeshVtu, MissingRegionArrayReadsAsZero) {
   EXPECT_EQ(got.region, std::vector<int32_t>(mesh.hexes.size(), 0));
 }
 
+// Found by fuzz_read_mesh (.ci/sanitize.sh): a processing instruction cut off at its start put
+// the file's own newline into the one-line message.
+TEST(HexmeshVtu, UnterminatedProcessingInstructionIsOneLine) {
+  TempDir dir;
+  expect_read_error(dir, "cut.vtu", "<?xml version=\"1.0\"?>\n<?>\n<VTKFile", "XML: unterminated '<?>?'");
+}
+
 TEST(HexmeshVtu, BadFiles) {
   TempDir dir;
   write_hex_mesh(sample_mesh(), dir / "good.vtu");

@@ -27,8 +27,7 @@ XmlDocument parse_vtk_xml(std::string_view text) {
     if (lt == std::string_view::npos) break;
     auto skip_to = [&](std::string_view end_marker) {
       const std::size_t e = text.find(end_marker, lt + 2);
-      if (e == std::string_view::npos)
-        xml_fail("unterminated '" + std::string(text.substr(lt, 4)) + "' (truncated file?)");
+      if (e == std::string_view::npos) xml_fail("unterminated '" + shown(text.substr(lt, 4)) + "' (truncated file?)");
       pos = e + end_marker.size();
     };
     if (text.compare(lt, 4, "<!--") == 0) {
