@@ -98,48 +98,84 @@ void expect_conforming(const AdaptiveGrid& g, const std::string& where) {
   EXPECT_EQ(std::count(used.begin(), used.end(), false), 0) << where;
 }
 
-TEST(octree, SingleRefinedCellGivesNodeEdgeAndFaceTemplates) {
+int template_named(std::string_view name) {
+  for (int t = 0; t < kNumTemplates; ++t)
+    if (template_name(t) == name) return t;
+  return -1;
+}
+
+TEST(octree, SingleRefinedCellGivesSingleEdgeAndFaceTemplates) {
   Octree t(kUnitCube, 2);
   t.refine(0, octree_key(0, 0, 0));
   t.refine(1, octree_key(1, 1, 1));  // the centre child: its 26 neighbours need templates
   EXPECT_EQ(balance_octree(t), 0u);  // already balanced
   EXPECT_TRUE(octree_balanced(t));
   const AdaptiveGrid g = build_adaptive_complex(t);
-  // 6 face, 12 edge and 8 node neighbours around the refined centre (a face of the centre, an
-  // edge, a corner), and 27 cubes inside it.
-  EXPECT_EQ(g.leaves_per_template[static_cast<int>(TemplateKind::kFace)], 6u);
-  EXPECT_EQ(g.leaves_per_template[static_cast<int>(TemplateKind::kEdge)], 12u);
-  EXPECT_EQ(g.leaves_per_template[static_cast<int>(TemplateKind::kNode)], 8u);
-  EXPECT_EQ(g.leaves_per_template[static_cast<int>(TemplateKind::kCube)], 27u);
-  EXPECT_EQ(g.complex.cells.size(), 6u * 22 + 12u * 11 + 8u * 4 + 27u);
+  // Around the refined centre: 6 face neighbours (4 marks, the face template), 12 edge neighbours
+  // (2 marks, the edge template), 8 corner neighbours (1 mark splits no edge: the leaf stays
+  // whole), and the centre's 27 children.
+  EXPECT_EQ(g.leaves_per_template[template_named("face")], 6u);
+  EXPECT_EQ(g.leaves_per_template[template_named("edge")], 12u);
+  EXPECT_EQ(g.leaves_per_template[template_named("single")], 8u + 27u);
+  EXPECT_EQ(g.complex.cells.size(), 6u * 13 + 12u * 5 + 8u + 27u);
   expect_conforming(g, "centre");
 }
 
-TEST(octree, OppositeRefinedNeighboursForceRefinement) {
-  // A leaf between two refined cells (marks on two opposite faces) has no template.
+TEST(octree, ALeafBetweenOppositeRefinedNeighboursIsSplitUniformlyNotRefined) {
+  // All 8 corners marked: the uniform template (its 27 children), with no refinement of the tree.
   Octree t(kUnitCube, 2);
   t.refine(0, 0);
   t.refine(1, octree_key(0, 1, 1));
   t.refine(1, octree_key(2, 1, 1));
-  EXPECT_FALSE(octree_balanced(t));
-  EXPECT_GE(balance_octree(t), 1u);
-  EXPECT_TRUE(t.is_refined(1, octree_key(1, 1, 1)));
   EXPECT_TRUE(octree_balanced(t));
-  expect_conforming(build_adaptive_complex(t), "opposite");
+  EXPECT_EQ(balance_octree(t), 0u);
+  EXPECT_FALSE(t.is_refined(1, octree_key(1, 1, 1)));
+  const AdaptiveGrid g = build_adaptive_complex(t);
+  EXPECT_EQ(g.leaves_per_template[template_named("uniform")], 1u);
+  expect_conforming(g, "opposite");
 }
 
-TEST(octree, TwoLevelJumpsAreBalancedAway) {
-  // A refined cell of level 2 in a corner: the level-1 leaves touching it must refine (rule a).
+TEST(octree, ConcaveEdgesAndCornersNeedNoRefinement) {
+  // Every level-1 cell refined but a column along the z axis: the column's leaves have a concave
+  // edge (6 marks). Every one refined but one corner cell: a concave corner (7 marks). The standard
+  // templates had neither and refined the leaf; these keep it.
+  for (bool corner : {false, true}) {
+    Octree t(kUnitCube, 2);
+    t.refine(0, 0);
+    for (std::uint32_t c = 0; c < 27; ++c) {
+      const std::uint32_t i = c % 3, j = c / 3 % 3, k = c / 9;
+      const bool keep = i == 0 && j == 0 && (!corner || k == 0);
+      if (!keep) t.refine(1, octree_key(i, j, k));
+    }
+    EXPECT_TRUE(octree_balanced(t));
+    EXPECT_EQ(balance_octree(t), 0u);
+    const AdaptiveGrid g = build_adaptive_complex(t);
+    if (corner) {
+      EXPECT_EQ(g.leaves_per_template[template_named("concave-corner")], 1u);
+    } else {
+      // The middle of the column has 6 marks; its ends, on the cube's boundary, too (the
+      // boundary corners touch no finer leaf).
+      EXPECT_EQ(g.leaves_per_template[template_named("concave-edge")], 3u);
+    }
+    expect_conforming(g, corner ? "concave corner" : "concave edge");
+  }
+}
+
+TEST(octree, TwoLevelJumpsAcrossFacesAndEdgesAreBalancedAwayNotAcrossVertices) {
+  // A refined cell of level 2 in the low corner of the centre cell: the level-1 leaves sharing a
+  // face or an edge with it must refine (moderate balance); the one touching it at a vertex need not.
   Octree t(kUnitCube, 3);
   t.refine(0, 0);
   t.refine(1, octree_key(1, 1, 1));
-  t.refine(2, octree_key(3, 3, 3));  // corner child of the centre cell, touching 7 level-1 leaves
+  t.refine(2, octree_key(3, 3, 3));
   std::string why;
   EXPECT_FALSE(octree_balanced(t, &why));
-  EXPECT_NE(why.find("holds a mark"), std::string::npos) << why;
+  EXPECT_NE(why.find("shares a face or an edge"), std::string::npos) << why;
   balance_octree(t);
   EXPECT_TRUE(octree_balanced(t, &why)) << why;
-  EXPECT_TRUE(t.is_refined(1, octree_key(0, 0, 0)));
+  EXPECT_TRUE(t.is_refined(1, octree_key(0, 1, 1)));   // face
+  EXPECT_TRUE(t.is_refined(1, octree_key(0, 0, 1)));   // edge
+  EXPECT_FALSE(t.is_refined(1, octree_key(0, 0, 0)));  // vertex only
   expect_conforming(build_adaptive_complex(t), "corner jump");
 }
 
@@ -358,15 +394,17 @@ TEST(octree, RefinementFollowsTheSurfaceNotTheMedialAxis) {
 
 TEST(octree, TinyThresholdGivesTheUniformGrid) {
   // With a tiny threshold every cell that holds the sphere's surface refines to max_depth; at
-  // depth 2 that is all of level 1 but the centre, which the balancing then refines (a leaf
-  // surrounded by refined cells has no template): the complex is the uniform grid, point for
-  // point (same integer-derived coordinates).
+  // depth 2 that is all of level 1 but the centre, whose 8 marked corners give it the uniform
+  // template (its 27 children; no refinement needed): the complex is the uniform grid, point for
+  // point (the template's inner points, computed from 1/14400 units, get the same coordinates as the
+  // integer-keyed ones).
   const ShapeSdf sphere(ShapeKind::kSphere);
   const Box cube = padded_cube(sphere.bounds(), 0.1);
   Octree t = refine_octree(sphere, cube, {1e-12, 2});
   EXPECT_EQ(t.refined_cells(1).size(), 26u);
-  EXPECT_EQ(balance_octree(t), 1u);
+  EXPECT_EQ(balance_octree(t), 0u);
   const AdaptiveGrid g = build_adaptive_complex(t);
+  EXPECT_EQ(g.leaves_per_template[kUniformTemplate], 1u);
   const UniformGrid u(cube, 2);
   ASSERT_EQ(g.complex.cells.size(), u.cell_count());
   std::vector<Vec3> a = g.complex.points, b = u.vertices();
@@ -484,7 +522,7 @@ TEST(octree, SphereAtMaxDepth5Threshold005) {
   EXPECT_EQ(g.levels, 5);
   expect_conforming(g, "sphere");
   std::printf(
-      "sphere depth 5 threshold 0.05: %zu cells (uniform depth 4: 531441), leaves cube/node/edge/face %zu/%zu/%zu/%zu, balance rounds %d\n",
+      "sphere depth 5 threshold 0.05: %zu cells (uniform depth 4: 531441), leaves single/edge/face/three-corner %zu/%zu/%zu/%zu, balance rounds %d\n",
       g.complex.cells.size(), g.leaves_per_template[0], g.leaves_per_template[1], g.leaves_per_template[2],
       g.leaves_per_template[3], stats.balance_rounds);
   const ShapeSdf sphere(ShapeKind::kSphere);

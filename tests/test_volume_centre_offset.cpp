@@ -24,6 +24,7 @@
 #include "core/cutting/volume_centre_offset.h"
 #include "core/grid/cell_types.h"
 #include "core/mesh/quality.h"
+#include "tests/standard_cells.h"
 
 namespace mchex {
 namespace {
@@ -323,12 +324,8 @@ TEST(volume_centre_offset, TransitionCellsAreRoutedToLocalRefinement) {
 // case 11's representative, crossings (s2, s3, s4, s7, s9, s12) = (0.999, 0.001, 0.999, 0.001,
 // 0.5, 0.999), region {0,1,5,6} (found by the per-crossing maximin search this test repeats).
 TEST(volume_centre_offset, NoCentreCertifies11OnTheNodeCell) {
-  const auto types = cell_types();
-  int node = -1;
-  for (std::size_t t = 0; t < types.size(); ++t)
-    if (types[t].name == "node") node = static_cast<int>(t);
-  ASSERT_GE(node, 0);
-  const Corners g = transform_hex(types[node].corners, 4);
+  // The standard templates' node cell (tests/standard_cells.h): the geometry the witness was found on.
+  const Corners g = transform_hex(standard_cells::cell("node"), 4);
   std::array<double, 12> s;
   s.fill(std::nan(""));
   const double witness[6] = {0.999, 0.001, 0.999, 0.001, 0.5, 0.999};

@@ -209,6 +209,9 @@ CertifyResult certify(const CertifyOptions& o) {
         }
       };
       for (const Sample& smp : samples(p, o, rng)) {
+        // One failure decides the entry (its cells go to the run-time remedy); the rest of its
+        // samples would only count more.
+        if (tr.failed) break;
         const CellClass c = clamped(smp.cls, o.eps);
         if (!needs_local_refinement(smp.cls, corners)) {  // as the mesher routes it
           check(corners, c, c.crossing);
@@ -247,70 +250,87 @@ CertifyResult certify(const CertifyOptions& o) {
   return r;
 }
 
+bool CertifyResult::proven(int type, int subcase) const {
+  const CertifyEntry& e = table.at(static_cast<std::size_t>(type))[subcase];
+  return e.checked && e.failed_hexes == 0;
+}
+
+bool CertifyResult::passed() const {
+  if (not_landed_subcases != 0 || table.empty()) return false;
+  for (int s = 0; s < kNumSubcases; ++s)
+    if (!proven(kProvenForEverySubcase, s)) return false;
+  return true;
+}
+
+std::size_t CertifyResult::run_time_pairs() const {
+  std::size_t n = 0;
+  for (std::size_t t = 0; t < table.size(); ++t)
+    for (int s = 0; s < kNumSubcases; ++s) n += table[t][s].checked && !proven(static_cast<int>(t), s);
+  return n;
+}
+
 std::string certify_report(const CertifyResult& r) {
   const auto types = cell_types();
   std::string out =
       fmt::format("certify: {} cell types x {} rotations x {} subcases, crossings in [{}, {}]; the 27 Bernstein "
                   "coefficients of det J of every hex must be > 0\n",
                   types.size(), kNumCubeRotations, kNumSubcases - 1, r.options.eps, 1 - r.options.eps);
-  out +=
-      fmt::format("basic cell types here: {} (the paper counts {}); the 15 + 1 local-refinement types are not in the\n"
-                  "table: LR subcases are certified through refine_locally on each basic type instead\n",
-                  types.size(), kPaperBasicCellTypes);
-  out += fmt::format("{:<8} {} {:>9} ", "subcase", "  ", "hexes");
-  for (const CellType& t : types) out += fmt::format(" {:>9}", t.name);
-  out += "\n";
-  for (int s = 0; s < kNumSubcases; ++s) {
-    const Subcase sub = static_cast<Subcase>(s);
-    out += fmt::format("{:<8} {} ", std::string(subcase_name(sub)),
-                       certify_route(sub) == CertifyRoute::kLocalRefinement ? "LR" : "  ");
-    if (!r.table[0][s].checked) {
-      out += "NOT CHECKED (no cell of this subcase found)\n";
-      continue;
-    }
-    std::size_t hexes = 0;
-    for (std::size_t t = 0; t < types.size(); ++t) hexes += r.table[t][s].hexes;
-    out += fmt::format("{:>9} ", hexes);
-    for (std::size_t t = 0; t < types.size(); ++t) {
-      const CertifyEntry& e = r.table[t][s];
-      out += !e.checked ? fmt::format(" {:>9}", "-")
-                        : fmt::format(" {:>9}", fmt::format("{}{:.1e}", e.failed_hexes ? "!" : "", e.min_coefficient));
-    }
-    out += "\n";
-  }
-  out +=
-      "(LR: through local refinement; entry: min over the hexes of min coefficient / mean edge^3; '!': some coefficient <= 0)\n";
-  // Where plain midpoint subdivision was not certified and core/cutting/repair.h moved a volume centre.
-  out += fmt::format("{:<8} {} {:>9} ", "moved", "  ", "centres");
+  out += "(local-refinement subcases through refine_locally on each type: its children are covered too)\n";
+  // Per type: how many subcases are proven, the least coefficient over them, and the subcases left
+  // to the run-time remedy.
+  out += fmt::format("{:<18} {:>10} {:>7} {:>9} {:>7}  {}\n", "type", "hexes", "proven", "min coef", "moved",
+                     "left to the run-time remedy");
   for (std::size_t t = 0; t < types.size(); ++t) {
-    std::size_t moved = 0;
-    for (int s = 0; s < kNumSubcases; ++s) moved += r.table[t][s].moved_centres;
-    out += fmt::format(" {:>9}", moved);
+    std::size_t hexes = 0, moved = 0;
+    int proven = 0;
+    double least = std::numeric_limits<double>::infinity();
+    std::string left;
+    for (int s = 0; s < kNumSubcases; ++s) {
+      const CertifyEntry& e = r.table[t][s];
+      if (!e.checked) continue;
+      hexes += e.hexes;
+      moved += e.moved_centres;
+      if (r.proven(static_cast<int>(t), s)) {
+        ++proven;
+        least = std::min(least, e.min_coefficient);
+      } else {
+        left += fmt::format(" {}", std::string(subcase_name(static_cast<Subcase>(s))));
+      }
+    }
+    out += fmt::format("{:<18} {:>10} {:>4}/{:<2} {:>9.1e} {:>7} {}\n", types[t].name, hexes, proven, kNumSubcases,
+                       least, moved, left.empty() ? " -" : left);
   }
-  out += "\n";
-  std::string where;
+  out += "(min coef: least over the proven subcases' hexes of min coefficient / mean edge^3; moved: polyhedra whose\n"
+         "volume centre the search of core/cutting/repair.h moved because plain subdivision was not certified)\n";
   for (int s = 0; s < kNumSubcases; ++s) {
-    std::size_t moved = 0;
-    for (std::size_t t = 0; t < types.size(); ++t) moved += r.table[t][s].moved_centres;
-    if (moved) where += fmt::format(" {} ({})", std::string(subcase_name(static_cast<Subcase>(s))), moved);
+    bool checked = false;
+    for (std::size_t t = 0; t < types.size(); ++t) checked = checked || r.table[t][s].checked;
+    if (!checked)
+      out += fmt::format("subcase {} NOT CHECKED (no cell of this subcase found)\n",
+                         std::string(subcase_name(static_cast<Subcase>(s))));
   }
-  out += fmt::format(
-      "(polyhedra whose plain subdivision was not certified, so the volume-centre search of core/cutting/repair.h "
-      "moved the centre; by subcase:{})\n",
-      where.empty() ? " none" : where);
   if (r.first_failure) {
     const CertifyFailure& f = *r.first_failure;
     std::string s;
     for (int e = 0; e < 12; ++e)
       if (!std::isnan(f.s[e])) s += fmt::format(" s{}={:.6g}", e + 1, f.s[e]);
-    out += fmt::format("first failure: type {} rotation {} subcase {}:{} (coefficient {:.3e})\n", types[f.type].name,
-                       f.rotation, std::string(subcase_name(f.subcase)), s, f.coefficient);
+    out += fmt::format("first unproven cell: type {} rotation {} subcase {}:{} (coefficient {:.3e})\n",
+                       types[f.type].name, f.rotation, std::string(subcase_name(f.subcase)), s, f.coefficient);
   }
-  out +=
-      fmt::format("{} hexes checked in {:.1f} s; {} subcases not checked\n", r.hexes, r.seconds, r.not_landed_subcases);
-  out += r.passed() ? "certify: PASSED\n"
-                    : fmt::format("certify: NOT PASSED ({})\n",
-                                  r.first_failure ? "a coefficient is not positive" : "a subcase was not checked");
+  const std::size_t left = r.run_time_pairs();
+  out += fmt::format("{} hexes checked in {:.1f} s; {} subcases not checked; {} of {} (type, subcase) pairs proven\n",
+                     r.hexes, r.seconds, r.not_landed_subcases, types.size() * kNumSubcases - left,
+                     types.size() * kNumSubcases);
+  if (r.passed())
+    out += left == 0 ? "certify: PASSED\n"
+                     : fmt::format("certify: PASSED: the {} type proven for every subcase; {} transition-type pairs "
+                                   "left to the run-time remedy (every hex is checked as it is made, and a cell "
+                                   "not certified has its octree leaf refined, down to {} cells)\n",
+                                   types[kProvenForEverySubcase].name, left, types[kProvenForEverySubcase].name);
+  else
+    out += fmt::format("certify: NOT PASSED ({})\n",
+                       r.not_landed_subcases ? "a subcase was not checked"
+                                             : "the cube type, which the run-time remedy ends on, is not proven");
   return out;
 }
 

@@ -19,10 +19,18 @@
 //   local refinement  the subcases core/cutting/local_refinement.h refines (paper Figure 7, the tunnels
 //           among them): refine_locally on the cell, then every leaf child classified from its
 //           (virtual) values and cut directly, as the mesher does.
-// The cell types are the basic cells; the paper's 15 + 1 further types (children of local
-// refinement) are covered by refining each basic type, not listed in the table: refine_locally
+// The cell types are those of the vertex-based templates (core/grid/cell_types.h); the children
+// of local refinement are covered by refining each type, not listed in the table: refine_locally
 // commutes with affine maps (tests/test_certify.cpp LocalRefinementCommutesWithAffineMaps), so the
 // leaves of every grid cell are affine images of the leaves certified here.
+// What is proven and what is left to run time (docs/templates.md, "Certification"): the cube type
+// (every uniform cell, every leaf at max_depth) is proven for every subcase, as in the paper. Most
+// transition types are proven for most subcases; for the rest some sampled cell (crossings at the
+// clamp ends, on the far from affine cells of the composites) is not certified even after the
+// centre search. Those pairs are reported and left to the run-time remedy: every hex is checked as
+// it is made, and the pipeline refines the octree leaf of a cell whose polyhedron is not certified
+// and meshes again (core/grid/octree.h refine_leaves_of_cells), which ends at cubes. One failure
+// decides an entry, so its remaining samples are skipped.
 // Sign patterns: for each subcase, one cell per class of patterns up to rotation and complement
 // (the complement gives the same polyhedra), found by classify() on seeded random corner values
 // (13.5.2, which random values practically never give, from a constructed cell; a class with few
@@ -74,8 +82,17 @@ struct CertifyResult {
   std::size_t hexes = 0;
   std::size_t not_landed_subcases = 0;  // subcases no sampled cell reached (not certified)
   double seconds = 0;
-  bool passed() const { return !first_failure && not_landed_subcases == 0; }
+  // Whether every sampled cell of (type, subcase) was certified.
+  bool proven(int type, int subcase) const;
+  // Every subcase reached, and the cube type proven for all of them: the run-time remedy
+  // (docs/templates.md, "Certification") refines any other cell until it is cubes, so every mesh
+  // the pipeline writes is certified. Other pairs may be left to that remedy.
+  bool passed() const;
+  std::size_t run_time_pairs() const;  // checked (type, subcase) pairs not proven
 };
+
+// The type the remedy ends on (core/grid/cell_types.h: the single hex, an affine cube).
+inline constexpr int kProvenForEverySubcase = 0;
 
 // Throws InputError for eps outside (0, 0.5).
 CertifyResult certify(const CertifyOptions& options = {});

@@ -369,7 +369,11 @@ struct Mesher {
       } else {
         mapped = subdivide_in_cell(p, xc);
         out.stats.moved_centres += mapped.centre_moved;
-        out.stats.uncertified_polyhedra += !mapped.certified;
+        if (!mapped.certified) {
+          ++out.stats.uncertified_polyhedra;
+          if (out.stats.uncertified_cells.empty() || out.stats.uncertified_cells.back() != cell)
+            out.stats.uncertified_cells.push_back(cell);
+        }
       }
       for (const SubdivisionHex& h : mapped.hexes) {
         Hex hex;
@@ -506,6 +510,8 @@ MeshPair mesh_mchex(const HexComplex& cx, std::span<const double> values, double
     stats.expected_hexes += ch.stats.expected_hexes;
     stats.moved_centres += ch.stats.moved_centres;
     stats.uncertified_polyhedra += ch.stats.uncertified_polyhedra;
+    stats.uncertified_cells.insert(stats.uncertified_cells.end(), ch.stats.uncertified_cells.begin(),
+                                   ch.stats.uncertified_cells.end());
   }
   std::vector<Hex> inside, outside;
   inside.reserve(num_in);

@@ -52,7 +52,10 @@ struct MchexStats {
   std::size_t expected_hexes = 0;         // sum over cells of local_refinement_hexes(subcase)
   std::size_t moved_centres = 0;          // polyhedra whose volume centre core/cutting/repair.h moved
   std::size_t uncertified_polyhedra = 0;  // polyhedra with a hex not certified even so
-  std::size_t points = 0;                 // distinct global points (both meshes together)
+  // The cells those polyhedra came from, ascending, each once: what the pipeline's remedy refines
+  // (core/pipeline/remedy.h). Empty in every run measured so far; the guarantee does not rest on it.
+  std::vector<std::uint32_t> uncertified_cells;
+  std::size_t points = 0;  // distinct global points (both meshes together)
   // Wall time of the stages: numbering the complex's edges and faces, cutting + subdividing the
   // cells (parallel), and assembling the two meshes from the chunks.
   double seconds_topology = 0, seconds_cells = 0, seconds_assembly = 0;

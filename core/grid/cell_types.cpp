@@ -22,7 +22,7 @@ Vec3 solve(const std::array<Vec3, 3>& m, Vec3 v, double det) {
 
 struct Table {
   std::vector<CellType> types;
-  std::array<std::vector<CellTypeMatch>, kNumTemplateKinds> matches;
+  std::array<std::vector<CellTypeMatch>, kNumTemplates> matches;
 };
 
 std::optional<CellTypeMatch> match_in(const std::vector<CellType>& types, const HexCorners& c) {
@@ -35,35 +35,31 @@ std::optional<CellTypeMatch> match_in(const std::vector<CellType>& types, const 
 const Table& table() {
   static const Table t = [] {
     Table t;
-    int per_kind = 0;
-    for (int k = 0; k < kNumTemplateKinds; ++k) {
-      const auto kind = static_cast<TemplateKind>(k);
-      const auto hexes = template_hexes(kind);
-      per_kind = 0;
+    for (int k = 0; k < kNumTemplates; ++k) {
+      const auto hexes = template_hexes(k);
+      int per_template = 0;
       for (std::size_t h = 0; h < hexes.size(); ++h) {
         const HexCorners c = template_hex_corners(hexes[h]);
         auto m = match_in(t.types, c);
         if (!m) {
           CellType type;
           type.corners = c;
-          type.source = kind;
+          type.source = k;
           type.source_hex = static_cast<int>(h);
-          ++per_kind;
-          type.name = std::string(template_name(kind));
+          ++per_template;
+          type.name = std::string(template_name(k));
           t.types.push_back(type);
           m = CellTypeMatch{static_cast<int>(t.types.size() - 1), 0};
         }
         t.matches[k].push_back(*m);
       }
       // Number the types of a template that has several ("edge-1", "edge-2", ...).
-      if (per_kind > 1) {
+      if (per_template > 1) {
         int n = 0;
         for (CellType& type : t.types)
-          if (type.source == kind && type.refinement_level == 0) type.name = fmt::format("{}-{}", type.name, ++n);
+          if (type.source == k) type.name = fmt::format("{}-{}", type.name, ++n);
       }
     }
-    // Local refinement (paper Figure 7) adds the 15 + 1 further types; certify covers them
-    // through refine_locally on these (cell_types.h), so the table holds the basic cells only.
     return t;
   }();
   return t;
@@ -102,8 +98,8 @@ bool affinely_equivalent(const HexCorners& a, const HexCorners& b, double tolera
 
 std::span<const CellType> cell_types() { return table().types; }
 
-CellTypeMatch template_hex_type(TemplateKind kind, int hex) {
-  return table().matches[static_cast<int>(kind)].at(static_cast<std::size_t>(hex));
+CellTypeMatch template_hex_type(int t, int hex) {
+  return table().matches.at(static_cast<std::size_t>(t)).at(static_cast<std::size_t>(hex));
 }
 
 std::optional<CellTypeMatch> find_cell_type(const HexCorners& c) { return match_in(table().types, c); }

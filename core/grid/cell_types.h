@@ -5,26 +5,17 @@
 // covers every cell of every grid the octree and its templates make.
 //
 // The table is derived, never typed: the hexes of the templates (core/grid/templates.h) are taken in
-// order (cube, node, edge, face; child cubes first) and each one that is not affinely equivalent,
-// under some rotation, to an earlier type becomes a new type.
+// order (template 1 to 15, each template's hexes in table order) and each one that is not affinely
+// equivalent, under some rotation, to an earlier type becomes a new type. The standard set had 8
+// such types (the MCHex paper counts 9 for it); the vertex-based set has many more, most of them
+// not parallelepipeds (its composites press smaller templates into frustums), and
+// tests/test_templates.cpp prints and pins the count.
 //
-// The paper counts 9 basic cells; this derivation finds 8, and the classification can be checked
-// by hand (tests/test_templates.cpp asserts it): cube (the child cubes and the face template's
-// centre box, an affine cube); node (its 3 hexes are one cell under the 3-fold rotation about the
-// diagonal); edge: 3 (the left and right hexes of a sheet are mirror images, and each has the
-// orientation-reversing affine symmetry (x, y, z) -> (x, z - y, z), so they are one type under
-// det > 0; the middle one, a prism; the top one); face: 3 (the 4 side hexes, the 4 corner hexes,
-// and 4 trapezoidal prisms: the hex over the middle column and the two beside it are prisms along
-// x of a trapezoid with parallel sides 1/3 and 1, the top slab the same prism along y). Where the
-// ninth of the paper comes from is not established (the paper's Figure 8 is a picture; its
-// supplementary notebooks are not public here); it is reported, not hidden.
-//
-// The paper's further 15 + 1 types come from local refinement of these cells (one and two levels,
-// Figure 7). They are not listed here: the inner points sit halfway from each corner to the
-// centroid (core/cutting/local_refinement.h), so the inner cell is an affine image of its parent (same
-// type) and only the frustums are new; certify reaches every one of them by refining each basic
-// type under each rotation, and refine_locally commutes with affine maps (tested), which covers
-// every refined cell of every grid.
+// Local refinement (paper Figure 7) makes further types: the inner points sit halfway from each
+// corner to the centroid (core/cutting/local_refinement.h), so the inner cell is an affine image of
+// its parent (same type) and only the frustums are new; certify reaches every one of them by
+// refining each type under each rotation, and refine_locally commutes with affine maps (tested),
+// which covers every refined cell of every grid.
 #pragma once
 
 #include <cstdint>
@@ -38,16 +29,14 @@
 namespace mchex {
 
 struct CellType {
-  std::string name;          // "cube", "node", "edge-1", ..., "face-4"
-  HexCorners corners{};      // representative, in the unit cube (template coordinates / 12)
-  TemplateKind source{};     // the template the representative comes from
-  int source_hex = 0;        // its index in template_hexes(source)
-  int refinement_level = 0;  // 0 for the basic cells; 1, 2 for local refinement (not landed)
+  std::string name;      // "single", "edge-1", ..., "uniform"
+  HexCorners corners{};  // representative, in the unit cube (template coordinates / kTemplateUnits)
+  int source = 0;        // the template the representative comes from
+  int source_hex = 0;    // its index in template_hexes(source)
 };
 
 // The table: basic cells first, in derivation order.
 std::span<const CellType> cell_types();
-inline constexpr int kPaperBasicCellTypes = 9;  // paper, Section 5 ("the enumerated 9 cells"); see above
 
 // How a template hex relates to the table: corners[i] = A(type.corners moved by `rotation`)[i]
 // for an affine A with det > 0.
@@ -55,7 +44,7 @@ struct CellTypeMatch {
   int type = -1;
   int rotation = 0;  // kCubeSymmetries index < 24
 };
-CellTypeMatch template_hex_type(TemplateKind kind, int hex);
+CellTypeMatch template_hex_type(int t, int hex);
 
 // The cell moved by cube symmetry g: out[g.corner[c]] = c's corner (as transform_cell in mc33.h).
 HexCorners transform_hex(const HexCorners& c, int symmetry);

@@ -125,11 +125,6 @@ bool Octree::refine(int level, std::uint64_t cell) {
   return true;
 }
 
-bool Octree::mark(int level, std::uint64_t vertex) {
-  if (level >= max_depth_) throw std::logic_error("marking a vertex at the deepest level");
-  return marks_[level].insert(vertex);
-}
-
 bool Octree::is_marked(int level, std::uint64_t vertex) const {
   return level < max_depth_ && marks_[level].contains(vertex);
 }
@@ -137,16 +132,6 @@ bool Octree::is_marked(int level, std::uint64_t vertex) const {
 std::vector<std::uint64_t> Octree::marked_vertices(int level) const {
   if (level >= max_depth_) return {};
   return marks_[level].keys();
-}
-
-std::uint8_t mark_closure(std::uint8_t marks) {
-  if (template_for_marks(marks).valid) return marks;
-  std::uint8_t best = 0xFF;
-  for (int m = 0; m < 256; ++m)
-    if ((m & marks) == marks && template_for_marks(static_cast<std::uint8_t>(m)).valid &&
-        std::popcount(static_cast<unsigned>(m)) < std::popcount(static_cast<unsigned>(best)))
-      best = static_cast<std::uint8_t>(m);
-  return best;
 }
 
 std::vector<std::uint64_t> Octree::refined_cells(int level) const {
@@ -527,21 +512,33 @@ Octree refine_octree(const SignedDistance& sdf, const Box& cube, const AdaptiveO
 
 namespace {
 
-// The cells of a level whose closed box holds vertex v of the next level (v in that level's
-// vertex units: cell q spans [3q, 3q + 3]).
+// The cells of level L that share a face or an edge, whole or in part, with cell q of level L + 1
+// (in L + 1 units q spans [q, q + 1] per axis, a cell p of level L spans [3p, 3p + 3]): per axis the
+// cell containing q's span (overlap of length 1) or, when q touches a side of it, the cell beyond
+// (overlap of length 0); the boxes share a face or an edge when at least one axis overlaps by 1,
+// a vertex only when none does.
 template <class F>
-void for_each_cell_holding(std::uint64_t v, std::uint32_t n, F&& f) {
-  const auto a = octree_unkey(v);
-  std::array<std::array<std::uint32_t, 2>, 3> q{};
+void for_each_coarser_edge_neighbour(std::uint64_t q, std::uint32_t n, F&& f) {
+  const auto a = octree_unkey(q);
+  std::array<std::array<std::uint32_t, 2>, 3> cell{};
+  std::array<std::array<bool, 2>, 3> full{};
   std::array<int, 3> count{};
   for (int d = 0; d < 3; ++d) {
-    const std::int64_t lo = std::max<std::int64_t>(0, (std::int64_t(a[d]) + 2) / 3 - 1);
-    const std::int64_t hi = std::min<std::int64_t>(std::int64_t(n) - 1, a[d] / 3);
-    for (std::int64_t x = lo; x <= hi; ++x) q[d][count[d]++] = static_cast<std::uint32_t>(x);
+    const std::uint32_t p = a[d] / 3;
+    cell[d][count[d]] = p;
+    full[d][count[d]++] = true;
+    if (a[d] % 3 == 0 && p > 0) {
+      cell[d][count[d]] = p - 1;
+      full[d][count[d]++] = false;
+    } else if (a[d] % 3 == 2 && p + 1 < n) {
+      cell[d][count[d]] = p + 1;
+      full[d][count[d]++] = false;
+    }
   }
   for (int x = 0; x < count[0]; ++x)
     for (int y = 0; y < count[1]; ++y)
-      for (int z = 0; z < count[2]; ++z) f(octree_key(q[0][x], q[1][y], q[2][z]));
+      for (int z = 0; z < count[2]; ++z)
+        if (full[0][x] || full[1][y] || full[2][z]) f(octree_key(cell[0][x], cell[1][y], cell[2][z]));
 }
 
 }  // namespace
@@ -555,45 +552,18 @@ std::size_t balance_octree(Octree& tree, OctreeStats* stats) {
   for (bool changed = true; changed;) {
     changed = false;
     ++rounds;
-    // Finest first: what is done for level L only adds marks at L and refinements whose corners
-    // are marks at L, which rule (a) carries to L - 1; new leaves at L + 1 wait for the next round.
-    for (int level = depth - 1; level >= 0; --level) {
-      std::size_t refined_here = 0, marked_here = 0;
-      // Rule (a): a leaf holding a mark of the next level refines.
-      if (level + 1 < depth) {
-        const std::uint32_t n = tree.cells_per_axis(level);
-        for (std::uint64_t v : tree.marked_vertices(level + 1))
-          for_each_cell_holding(v, n, [&](std::uint64_t q) {
-            if (tree.exists(level, q) && tree.refine(level, q)) ++refined_here;
-          });
-      }
-      // Rule (b), repeated: new marks and refinements change the neighbours' patterns.
-      for (bool again = true; again;) {
-        again = false;
-        for (std::uint64_t leaf : tree.leaves(level)) {
-          const std::uint8_t m = tree.marks(level, leaf);
-          if (template_for_marks(m).valid) continue;
-          again = true;
-          const std::uint8_t closed = mark_closure(m);
-          if (closed == 0xFF) {
-            tree.refine(level, leaf);
-            ++refined_here;
-            continue;
-          }
-          const auto [i, j, k] = octree_unkey(leaf);
-          for (int c = 0; c < 8; ++c)
-            if ((closed & ~m) >> c & 1) {
-              tree.mark(level, octree_key(i + kCubeCorners[c][0], j + kCubeCorners[c][1], k + kCubeCorners[c][2]));
-              ++marked_here;
-            }
-        }
-      }
-      if (refined_here || marked_here) changed = true;
+    // Finest first: refining at level L only adds refined cells at L, which the rule carries to
+    // L - 1 in the same sweep; their children (new leaves of L + 1) are checked the next round.
+    for (int level = depth - 2; level >= 0; --level) {
+      std::size_t refined_here = 0;
+      const std::uint32_t n = tree.cells_per_axis(level);
+      for (std::uint64_t q : tree.refined_cells(level + 1))
+        for_each_coarser_edge_neighbour(q, n, [&](std::uint64_t p) {
+          if (tree.exists(level, p) && tree.refine(level, p)) ++refined_here;
+        });
+      if (refined_here) changed = true;
       total += refined_here;
-      if (stats) {
-        stats->levels[level].refined_by_balance += refined_here;
-        stats->levels[level].marks_added += marked_here;
-      }
+      if (stats) stats->levels[level].refined_by_balance += refined_here;
     }
   }
   if (stats) {
@@ -611,26 +581,25 @@ std::size_t balance_octree(Octree& tree, OctreeStats* stats) {
 
 bool octree_balanced(const Octree& tree, std::string* why) {
   const int depth = tree.max_depth();
-  for (int level = 0; level < depth; ++level) {
-    KeySet holding;  // leaves of this level with a mark of the next level in their closed box
-    for (std::uint64_t v : tree.marked_vertices(level + 1))
-      for_each_cell_holding(v, tree.cells_per_axis(level), [&](std::uint64_t q) { holding.insert(q); });
-    for (std::uint64_t leaf : tree.leaves(level)) {
-      const auto [i, j, k] = octree_unkey(leaf);
-      if (holding.contains(leaf)) {
-        if (why)
-          *why = fmt::format("leaf ({}, {}, {}) of level {} holds a mark of level {}", i, j, k, level, level + 1);
-        return false;
-      }
-      const std::uint8_t m = tree.marks(level, leaf);
-      if (!template_for_marks(m).valid) {
-        if (why)
-          *why = fmt::format("leaf ({}, {}, {}) of level {} has marked corners {:#04x}, which no template handles", i,
-                             j, k, level, m);
+  for (int level = 0; level + 1 < depth; ++level)
+    for (std::uint64_t q : tree.refined_cells(level + 1)) {
+      bool ok = true;
+      std::uint64_t bad = 0;
+      for_each_coarser_edge_neighbour(q, tree.cells_per_axis(level), [&](std::uint64_t p) {
+        if (ok && tree.exists(level, p) && !tree.is_refined(level, p)) {
+          ok = false;
+          bad = p;
+        }
+      });
+      if (!ok) {
+        if (why) {
+          const auto [i, j, k] = octree_unkey(bad);
+          *why = fmt::format("leaf ({}, {}, {}) of level {} shares a face or an edge with leaves of level {}", i, j, k,
+                             level, level + 2);
+        }
         return false;
       }
     }
-  }
   return true;
 }
 
@@ -638,38 +607,48 @@ bool octree_balanced(const Octree& tree, std::string* why) {
 
 namespace {
 
-// Every template in every rotation with its corners already moved (transform_template_point per
-// corner was a fifth of the complex's time), as distinct points and each hex corner's index there.
+// Every template in every rotation with its corners already moved, as distinct points (boundary
+// points first, then inner ones) and each hex corner's index there.
+constexpr std::size_t kMaxTemplatePoints = 128;  // the largest template (14) has 108
+
 struct RotatedTemplate {
   std::vector<TemplatePoint> points;
+  std::size_t boundary = 0;  // points[0, boundary) lie on the leaf's boundary
   std::vector<std::array<std::uint8_t, 8>> corners;
 };
 struct RotatedTemplates {
-  std::array<std::array<RotatedTemplate, kNumCubeRotations>, kNumTemplateKinds> rotated;
-  std::array<std::vector<std::uint8_t>, kNumTemplateKinds> type;   // cell_types() index per hex
-  std::array<std::vector<std::uint8_t>, kNumTemplateKinds> child;  // 1: a child cube (next level)
+  std::array<std::array<RotatedTemplate, kNumCubeRotations>, kNumTemplates> rotated;
+  std::array<std::vector<std::uint8_t>, kNumTemplates> type;   // cell_types() index per hex
+  std::array<std::vector<std::uint8_t>, kNumTemplates> child;  // 1: a child cube (next level)
 };
 
 const RotatedTemplates& rotated_templates() {
   static const RotatedTemplates t = [] {
     RotatedTemplates t;
-    for (int k = 0; k < kNumTemplateKinds; ++k) {
-      const auto hexes = template_hexes(static_cast<TemplateKind>(k));
+    for (int k = 0; k < kNumTemplates; ++k) {
+      const auto hexes = template_hexes(k);
       for (std::size_t h = 0; h < hexes.size(); ++h) {
-        t.type[k].push_back(
-            static_cast<std::uint8_t>(template_hex_type(static_cast<TemplateKind>(k), static_cast<int>(h)).type));
+        t.type[k].push_back(static_cast<std::uint8_t>(template_hex_type(k, static_cast<int>(h)).type));
         t.child[k].push_back(hexes[h].child ? 1 : 0);
       }
       for (int r = 0; r < kNumCubeRotations; ++r) {
         RotatedTemplate& rt = t.rotated[k][r];
+        std::vector<TemplatePoint> inner;
+        for (const TemplateHex& h : hexes)
+          for (const TemplatePoint& c : h.corners) {
+            const TemplatePoint p = transform_template_point(c, r);
+            std::vector<TemplatePoint>& list = on_leaf_boundary(p) ? rt.points : inner;
+            if (std::find(list.begin(), list.end(), p) == list.end()) list.push_back(p);
+          }
+        rt.boundary = rt.points.size();
+        rt.points.insert(rt.points.end(), inner.begin(), inner.end());
+        if (rt.points.size() > kMaxTemplatePoints) throw std::logic_error("a template with too many points");
         for (const TemplateHex& h : hexes) {
           std::array<std::uint8_t, 8>& c = rt.corners.emplace_back();
           // The rotation keeps the hex right-handed; its corners move with it.
           for (int i = 0; i < 8; ++i) {
             const TemplatePoint p = transform_template_point(h.corners[i], r);
-            const auto at = std::find(rt.points.begin(), rt.points.end(), p);
-            c[i] = static_cast<std::uint8_t>(at - rt.points.begin());
-            if (at == rt.points.end()) rt.points.push_back(p);
+            c[i] = static_cast<std::uint8_t>(std::find(rt.points.begin(), rt.points.end(), p) - rt.points.begin());
           }
         }
       }
@@ -679,28 +658,31 @@ const RotatedTemplates& rotated_templates() {
   return t;
 }
 
+constexpr int kSingleTemplate = 0;  // id 1: the leaf itself
+
 }  // namespace
 
 // The leaves come in groups, the 27 children of each refined cell (or the root alone when it is
-// not refined), and each group emits its distinct corner keys: one per used point of the children's
-// 4 x 4 x 4 lattice for its cube leaves (about 2.4 per cell instead of 8), each template leaf's
-// own distinct points (about 2.5 per cell). The sort then merges what groups share.
+// not refined). Each group emits its distinct boundary keys: one per used point of the children's
+// 4 x 4 x 4 lattice for its single-hex leaves, each template leaf's own boundary points; the sort
+// merges what groups share. Inner template points need no key: they are the leaf's alone.
 AdaptiveGrid build_adaptive_complex(const Octree& tree) {
   const int depth = tree.max_depth();
   const Box& cube = tree.cube();
   const double edge = cube.hi.x - cube.lo.x;
-  const std::uint32_t units = 4 * pow3(depth);  // point units per cube edge
+  const std::uint32_t units = kTemplateBoundaryUnits * pow3(depth);  // point units per cube edge
   const PackedLattice packed(units);
   const RotatedTemplates& rt = rotated_templates();
   constexpr std::uint8_t kRefinedChild = 0xFF;
 
   struct Group {
-    std::uint64_t first_child;           // the lowest child's cell key at `level`
-    std::uint8_t level;                  // of the children
-    std::uint8_t n;                      // children per axis: 3, or 1 for the unrefined root
-    std::array<std::uint8_t, 27> child;  // kind * 24 + rotation, or kRefinedChild
-    std::uint64_t lattice = 0;           // bit a + (n + 1) (b + (n + 1) c): a corner of a cube leaf
+    std::uint64_t first_child;            // the lowest child's cell key at `level`
+    std::uint8_t level;                   // of the children
+    std::uint8_t n;                       // children per axis: 3, or 1 for the unrefined root
+    std::array<std::uint16_t, 27> child;  // template * 24 + rotation, or kRefinedChild
+    std::uint64_t lattice = 0;            // bit a + (n + 1) (b + (n + 1) c): a corner of a single-hex leaf
   };
+  constexpr std::uint16_t kRefined = kRefinedChild;
   std::vector<Group> groups;
   if (!tree.is_refined(0, 0)) groups.push_back({0, 0, 1, {}, 0});
   for (int level = 1; level <= depth; ++level)
@@ -708,67 +690,74 @@ AdaptiveGrid build_adaptive_complex(const Octree& tree) {
       const auto [i, j, k] = octree_unkey(p);
       groups.push_back({octree_key(3 * i, 3 * j, 3 * k), static_cast<std::uint8_t>(level), 3, {}, 0});
     }
-  // Pass 1: each group's templates, cells and keys.
-  std::vector<std::size_t> cell_offset(groups.size() + 1, 0), key_offset(groups.size() + 1, 0);
+  // Pass 1: each group's templates, cells, keys and inner points.
+  std::vector<std::size_t> cell_offset(groups.size() + 1, 0), key_offset(groups.size() + 1, 0),
+      inner_offset(groups.size() + 1, 0);
   std::vector<std::uint8_t> bad(groups.size(), 0);
   parallel_for(groups.size(), [&](std::size_t g) {
     Group& gr = groups[g];
     const auto [i0, j0, k0] = octree_unkey(gr.first_child);
     const int n = gr.n, w = n + 1;
-    std::size_t cells = 0, keys = 0;
+    std::size_t cells = 0, keys = 0, inner = 0;
     for (int c = 0; c < n * n * n; ++c) {
       const int x = c % n, y = c / n % n, z = c / (n * n);
       const std::uint64_t cell = octree_key(i0 + x, j0 + y, k0 + z);
       if (tree.is_refined(gr.level, cell)) {
-        gr.child[c] = kRefinedChild;
+        gr.child[c] = kRefined;
         continue;
       }
       const TemplateChoice choice = template_for_marks(tree.marks(gr.level, cell));
-      if (!choice.valid || (gr.level == depth && choice.kind != TemplateKind::kCube)) bad[g] = 1;
-      gr.child[c] = static_cast<std::uint8_t>(static_cast<int>(choice.kind) * kNumCubeRotations + choice.rotation);
-      if (choice.kind == TemplateKind::kCube) {
+      if (gr.level == depth && choice.t != kSingleTemplate) bad[g] = 1;
+      gr.child[c] = static_cast<std::uint16_t>(choice.t * kNumCubeRotations + choice.rotation);
+      if (choice.t == kSingleTemplate) {
         ++cells;
         for (int q = 0; q < 8; ++q)
           gr.lattice |= std::uint64_t{1} << ((x + kCubeCorners[q][0]) +
                                              w * ((y + kCubeCorners[q][1]) + w * (z + kCubeCorners[q][2])));
       } else {
-        const RotatedTemplate& t = rt.rotated[static_cast<int>(choice.kind)][choice.rotation];
+        const RotatedTemplate& t = rt.rotated[choice.t][choice.rotation];
         cells += t.corners.size();
-        keys += t.points.size();
+        keys += t.boundary;
+        inner += t.points.size() - t.boundary;
       }
     }
     cell_offset[g + 1] = cells;
     key_offset[g + 1] = keys + static_cast<std::size_t>(std::popcount(gr.lattice));
+    inner_offset[g + 1] = inner;
   });
   if (std::find(bad.begin(), bad.end(), 1) != bad.end())
-    throw std::logic_error("build_adaptive_complex: the octree is not balanced");
+    throw std::logic_error("build_adaptive_complex: a leaf at the deepest level has marks");
   AdaptiveGrid out;
   for (std::size_t g = 0; g < groups.size(); ++g) {
     cell_offset[g + 1] += cell_offset[g];
     key_offset[g + 1] += key_offset[g];
+    inner_offset[g + 1] += inner_offset[g];
     out.levels = std::max(out.levels, groups[g].level + 1);
     for (int c = 0; c < groups[g].n * groups[g].n * groups[g].n; ++c)
-      if (groups[g].child[c] != kRefinedChild) ++out.leaves_per_template[groups[g].child[c] / kNumCubeRotations];
+      if (groups[g].child[c] != kRefined) ++out.leaves_per_template[groups[g].child[c] / kNumCubeRotations];
   }
-  const std::size_t num_cells = cell_offset.back(), num_keys = key_offset.back();
-  if (num_keys > std::numeric_limits<std::uint32_t>::max())
+  const std::size_t num_cells = cell_offset.back(), num_keys = key_offset.back(), num_inner = inner_offset.back();
+  if (num_keys + num_inner > std::numeric_limits<std::uint32_t>::max())
     throw ResourceError(
         fmt::format("the adaptive grid would have {} cells, more than this program indexes", num_cells));
-  // Pass 2: keys, and each cell corner's key slot.
+  // Pass 2: keys, inner points, and each cell corner's slot: a key slot below num_keys, an inner
+  // point's index + num_keys above.
   std::vector<std::uint64_t> keys(num_keys);
+  std::vector<Vec3> inner_points(num_inner);
   out.complex.cells.resize(num_cells);
   out.cell_type.resize(num_cells);
   out.cell_level.resize(num_cells);
   out.complex.cell_size.resize(num_cells);
+  const double inner_units = double(units) * kTemplateUnits;
   parallel_for(groups.size(), [&](std::size_t g) {
     const Group& gr = groups[g];
     const auto [i0, j0, k0] = octree_unkey(gr.first_child);
     const int n = gr.n, w = n + 1;
     const std::uint64_t size = units / pow3(gr.level);  // child edge in point units
-    // p * size / 12 is exact: size is a multiple of 12 above max_depth, and a leaf at max_depth is
-    // a cube (p in {0, 12}).
+    // p * size / 14400 is exact on the boundary: p is a multiple of 240 there and size a multiple
+    // of 60 (a leaf at max_depth is a single hex, p in {0, 14400}).
     auto at = [size](int p) { return std::uint64_t(p) * size / kTemplateUnits; };
-    std::size_t key = key_offset[g], cell = cell_offset[g];
+    std::size_t key = key_offset[g], inner = inner_offset[g], cell = cell_offset[g];
     std::array<std::uint8_t, 64> rank;  // of each used lattice point among them
     for (int b = 0; b < w * w * w; ++b) {
       rank[b] = static_cast<std::uint8_t>(key - key_offset[g]);
@@ -777,57 +766,102 @@ AdaptiveGrid build_adaptive_complex(const Octree& tree) {
     }
     const double child_size = edge / pow3(gr.level);
     for (int c = 0; c < n * n * n; ++c) {
-      if (gr.child[c] == kRefinedChild) continue;
+      if (gr.child[c] == kRefined) continue;
       const int x = c % n, y = c / n % n, z = c / (n * n);
-      const int kind = gr.child[c] / kNumCubeRotations;
-      if (kind == static_cast<int>(TemplateKind::kCube)) {
+      const int t_id = gr.child[c] / kNumCubeRotations;
+      if (t_id == kSingleTemplate) {
         for (int q = 0; q < 8; ++q) {
           const int b = (x + kCubeCorners[q][0]) + w * ((y + kCubeCorners[q][1]) + w * (z + kCubeCorners[q][2]));
           out.complex.cells[cell][q] = static_cast<std::uint32_t>(key_offset[g] + rank[b]);
         }
-        out.cell_type[cell] = rt.type[kind][0];
+        out.cell_type[cell] = rt.type[t_id][0];
         out.cell_level[cell] = gr.level;
         out.complex.cell_size[cell] = child_size;
         ++cell;
         continue;
       }
-      const RotatedTemplate& t = rt.rotated[kind][gr.child[c] % kNumCubeRotations];
-      const std::uint64_t ox = (i0 + x) * size, oy = (j0 + y) * size, oz = (k0 + z) * size;
-      const std::size_t first = key;
-      for (const TemplatePoint& p : t.points) keys[key++] = packed.pack(ox + at(p[0]), oy + at(p[1]), oz + at(p[2]));
+      const RotatedTemplate& t = rt.rotated[t_id][gr.child[c] % kNumCubeRotations];
+      const std::uint64_t o[3] = {(i0 + x) * size, (j0 + y) * size, (k0 + z) * size};
+      std::array<std::uint32_t, kMaxTemplatePoints> slot;  // per template point
+      for (std::size_t p = 0; p < t.points.size(); ++p) {
+        const TemplatePoint& q = t.points[p];
+        if (p < t.boundary) {
+          slot[p] = static_cast<std::uint32_t>(key);
+          keys[key++] = packed.pack(o[0] + at(q[0]), o[1] + at(q[1]), o[2] + at(q[2]));
+        } else {
+          // Exact integers over units * 14400 per axis, rounded once, as `position` does.
+          Vec3& v = inner_points[inner];
+          const double lo[3] = {cube.lo.x, cube.lo.y, cube.lo.z}, hi[3] = {cube.hi.x, cube.hi.y, cube.hi.z};
+          double* out_c[3] = {&v.x, &v.y, &v.z};
+          for (int d = 0; d < 3; ++d)
+            *out_c[d] = coordinate(lo[d], hi[d], o[d] * kTemplateUnits + size * std::uint64_t(q[d]), inner_units);
+          slot[p] = static_cast<std::uint32_t>(num_keys + inner++);
+        }
+      }
       for (std::size_t h = 0; h < t.corners.size(); ++h, ++cell) {
-        for (int q = 0; q < 8; ++q) out.complex.cells[cell][q] = static_cast<std::uint32_t>(first + t.corners[h][q]);
-        out.cell_type[cell] = rt.type[kind][h];
-        const int level = gr.level + rt.child[kind][h];
+        for (int q = 0; q < 8; ++q) out.complex.cells[cell][q] = slot[t.corners[h][q]];
+        out.cell_type[cell] = rt.type[t_id][h];
+        const int level = gr.level + rt.child[t_id][h];
         out.cell_level[cell] = static_cast<std::uint8_t>(level);
         out.complex.cell_size[cell] = edge / pow3(level);
       }
     }
   });
-  // Key slots -> point ids, points in key order.
+  // Key slots -> point ids, points in key order; inner points after them.
   std::vector<std::uint32_t> point_of(num_keys);
   const std::vector<std::uint64_t> points = sorted_distinct(std::move(keys), packed.bits, point_of);
+  const std::size_t shared = points.size();
   parallel_for(num_cells, [&](std::size_t c) {
-    for (std::uint32_t& q : out.complex.cells[c]) q = point_of[q];
+    for (std::uint32_t& q : out.complex.cells[c])
+      q = q < num_keys ? point_of[q] : static_cast<std::uint32_t>(shared + (q - num_keys));
   });
   point_of = {};
   // Their SDF values where the refinement sampled them (core/grid/octree.h).
   out.complex.box = cube;
-  out.complex.points.resize(points.size());
-  out.values.resize(points.size());
-  std::vector<std::uint8_t> sampled(points.size());
-  parallel_for(points.size(), [&](std::size_t p) {
+  out.complex.points.resize(shared + num_inner);
+  out.values.assign(shared + num_inner, std::numeric_limits<double>::quiet_NaN());
+  std::vector<std::uint8_t> sampled(shared);
+  constexpr std::uint32_t kFine = kTemplateBoundaryUnits;  // point units per finest-lattice step
+  parallel_for(shared, [&](std::size_t p) {
     const std::uint64_t key = packed.to_octree_key(points[p]);
     out.complex.points[p] = position(cube, key, units);
     const auto [x, y, z] = octree_unkey(key);
     double v = std::numeric_limits<double>::quiet_NaN();
-    if (x % 4 == 0 && y % 4 == 0 && z % 4 == 0 && tree.sampled_value(octree_key(x / 4, y / 4, z / 4), &v))
+    if (x % kFine == 0 && y % kFine == 0 && z % kFine == 0 &&
+        tree.sampled_value(octree_key(x / kFine, y / kFine, z / kFine), &v))
       sampled[p] = 1;
     out.values[p] = v;
   });
-  for (std::size_t p = 0; p < points.size(); ++p)
+  std::copy(inner_points.begin(), inner_points.end(), out.complex.points.begin() + static_cast<std::ptrdiff_t>(shared));
+  for (std::size_t p = 0; p < shared; ++p)
     if (!sampled[p]) out.unsampled.push_back(static_cast<std::uint32_t>(p));
+  for (std::size_t p = shared; p < shared + num_inner; ++p) out.unsampled.push_back(static_cast<std::uint32_t>(p));
   return out;
+}
+
+std::size_t refine_leaves_of_cells(Octree& tree, const AdaptiveGrid& grid, std::span<const std::uint32_t> cells) {
+  const Box& cube = tree.cube();
+  const double edge = cube.hi.x - cube.lo.x;
+  std::size_t refined = 0;
+  for (std::uint32_t c : cells) {
+    // The cell's vertex average lies inside its leaf (the template's hexes tile the leaf); the
+    // uniform template's children sit one level below theirs.
+    Vec3 centre{0, 0, 0};
+    for (std::uint32_t p : grid.complex.cells.at(c)) centre = centre + grid.complex.points[p] / 8.0;
+    for (int level = grid.cell_level[c]; level >= std::max(0, grid.cell_level[c] - 1); --level) {
+      const double n = pow3(level);
+      auto index = [&](double x, double lo) {
+        return static_cast<std::uint64_t>(std::clamp(std::floor((x - lo) / edge * n), 0.0, n - 1));
+      };
+      const std::uint64_t key =
+          octree_key(index(centre.x, cube.lo.x), index(centre.y, cube.lo.y), index(centre.z, cube.lo.z));
+      if (!tree.exists(level, key) || tree.is_refined(level, key)) continue;
+      if (level < tree.max_depth() && tree.refine(level, key)) ++refined;
+      break;
+    }
+  }
+  if (refined) balance_octree(tree);
+  return refined;
 }
 
 std::vector<Vec3> unsampled_points(const AdaptiveGrid& grid) {

@@ -1,8 +1,8 @@
 // Adaptive 3-refinement of the padded cube (Tong & Zhang 2025, Section 3 and Algorithm 1, lines
 // 1-6): an octree whose cells split into 27 children, refined where the paper's feature-sensitive
 // error says the parent's trilinear interpolant misplaces the surface; then balanced so that the
-// standard 3-refinement templates (core/grid/templates.h) turn its leaves into a conforming hex grid
-// with no hanging node, made of the paper's 9 basic cell types (core/grid/cell_types.h).
+// vertex-based 3-refinement templates (core/grid/templates.h) turn its leaves into a conforming hex
+// grid with no hanging node, made of the cell types of core/grid/cell_types.h.
 //
 // Refinement (refine_octree). Level by level from the root: the children of the cells refined at
 // the level above are the candidates; the SDF is evaluated in ONE batch per level at the child
@@ -33,41 +33,27 @@
 // pipeline evaluates the SDF once per point; only points never sampled (template points, children
 // of cells that balancing refined) need one more batch (evaluate_unsampled).
 //
-// Balancing (balance_octree). A MARK on a vertex of level L says that the cells of level L
-// around it continue the finer level there: every corner of a refined cell is marked, and a leaf
-// whose marked corners form a pattern no template handles gets more marks, the fewest that make
-// one (Schneiders' marking closure, as in the vanilla code of
-// CMU-CBML/Element-Saving-Hexahedral-3-Refinement-Templates): three corners of a face, or two
-// opposite corners of a face, mark the whole face; a pattern in no face (two opposite corners
-// of the cell, marks on two faces, ...) refines the leaf, which marks all 8 of its corners. To a
-// fixed point, for every leaf c of level L:
-//   (a) no mark of level L + 1 lies in c's closed box (it would put a fine point on c's
-//       boundary): the leaves touching c are at most one level finer, and the fine cubes a
-//       template continues into c never meet a finer cell;
-//   (b) c's marked corners form a template's pattern: none, one corner, the two corners of an
-//       edge, the four of a face (template_for_marks).
-// Marks and refinements only ever grow, and never beyond max_depth (a rule is only broken next to
-// a mark of the leaf's own level or the next, and marks of level L exist only below max_depth),
-// so the loop ends. Each face's pattern then depends only on its 4 corners' marks, which both
-// cells sharing it see alike: the complex conforms.
-// What this costs in size (paper, Section 7: the templates "only allow convex grid depth
-// transitions"): a leaf with finer neighbours across two adjacent faces has no template and is
-// refined, so a refined region's staircase notches fill one after another until, level by level,
-// the region is close to its bounding box (a coarse region enclosed by finer cells, the inside of
-// a closed surface, fills completely). With the surface at the finest level, the adaptive grid
-// therefore has at least about (bounding box of the surface band / cube) of a uniform grid's cells:
-// perf/bench_adaptive prints that fraction ("hull") beside the ratio.
-// Templates for the concave edge and corner would remove this cost; core/grid/templates.h records what
-// they must satisfy (a 3-marked face pattern with an odd number of quads, among others) and where
-// their design stands.
+// Balancing (balance_octree): MODERATE balance (Tong & Zhang, "Element-Saving Hexahedral
+// 3-Refinement Templates"): leaves that share a face or an edge, whole or in part, differ by at
+// most one level; leaves that meet only at a vertex may differ by more. A leaf of level L that
+// shares a face or an edge with a refined cell of level L + 1 (whose children are two levels
+// finer) is refined, to a fixed point. Refinements only ever grow and never pass max_depth, so the
+// loop ends. Nothing else is needed: the marks are the corners of the refined cells (Octree::refine
+// sets them), a leaf's corner is marked exactly when a finer leaf touches it, and the complete
+// template set (core/grid/templates.h) has a template for all 256 markings, concave edges and
+// corners included, so a refined region stays within a layer of the cells its error chose instead
+// of filling its bounding box (the standard set's cost, paper Section 7). Why the grid conforms:
+// core/grid/templates.h and docs/templates.md.
 //
-// The complex (build_adaptive_complex): every leaf replaced by its template. Points are keyed by
-// exact integer coordinates at a common resolution, 4 * 3^max_depth units per cube edge (template
-// points are twelfths of a leaf, and a leaf above max_depth has 4 * 3^(max_depth - L) units, a
-// multiple of 12), and computed from those integers, so one point has one id and bit-identical
-// coordinates whichever cell produced it. Point ids follow the sorted keys (a radix sort of the
-// cells' corner keys, the dedupe) and cells follow the leaves in (level, key) order: the complex
-// is the same on any number of threads.
+// The complex (build_adaptive_complex): every leaf replaced by its template. Points on a leaf's
+// boundary are keyed by exact integer coordinates at a common resolution, 60 * 3^max_depth units
+// per cube edge (template boundary points are sixtieths of a leaf, and a leaf of level L spans
+// 60 * 3^(max_depth - L) units), and computed from those integers, so one point has one id and
+// bit-identical coordinates whichever cell produced it. A template's inner points belong to its
+// leaf alone: they get their own ids and coordinates from the leaf's integer origin and the
+// template's 1/14400 units. Point ids follow the sorted keys (a radix sort, the dedupe; inner
+// points after the shared ones in the order of their leaves) and cells follow the leaves in
+// (level, key) order: the complex is the same on any number of threads.
 #pragma once
 
 #include <array>
@@ -86,8 +72,8 @@
 
 namespace mchex {
 
-// Deepest adaptive level: 4 * 3^10 = 236,196 point units per axis fit the 21-bit key fields.
-inline constexpr int kMaxAdaptiveDepth = 10;
+// Deepest adaptive level: 60 * 3^9 = 1,180,980 point units per axis fit the 21-bit key fields.
+inline constexpr int kMaxAdaptiveDepth = 9;
 
 struct AdaptiveOptions {
   double threshold = 0.05;  // refine while error > threshold * finest cell size (see above)
@@ -148,8 +134,6 @@ class Octree {
   // Refines an existing leaf (level < max_depth) and marks its 8 corners; returns false if it
   // already was refined.
   bool refine(int level, std::uint64_t cell);
-  // Marks vertex (i, j, k) of a level (< max_depth); returns false if it already was marked.
-  bool mark(int level, std::uint64_t vertex);
   bool is_marked(int level, std::uint64_t vertex) const;
   std::vector<std::uint64_t> marked_vertices(int level) const;  // in the order they were marked
   // Refined cells of a level (level < max_depth), sorted by key.
@@ -177,17 +161,13 @@ class Octree {
   std::vector<LevelSamples> samples_;
 };
 
-// The fewest marks that contain `marks` and have a template (0xFF where only refinement does).
-std::uint8_t mark_closure(std::uint8_t marks);
-
 struct OctreeLevelStats {
   std::size_t candidates = 0;  // cells that could refine (children of refined cells)
   std::size_t sampled = 0;     // candidates whose corners did not rule the surface out
   std::size_t sdf_points = 0;  // distinct new points in this level's batch
   std::size_t refined_by_error = 0;
   std::size_t refined_by_balance = 0;
-  std::size_t marks_added = 0;  // by the closure, beyond the refined cells' corners
-  std::size_t leaves = 0;       // after balancing
+  std::size_t leaves = 0;  // after balancing
 };
 struct OctreeStats {
   std::vector<OctreeLevelStats> levels;
@@ -198,17 +178,17 @@ struct OctreeStats {
 Octree refine_octree(const SignedDistance& sdf, const Box& cube, const AdaptiveOptions& options,
                      OctreeStats* stats = nullptr);
 
-// Refines until rules (a) and (b) above hold for every leaf; returns the cells it refined.
+// Refines until the tree is moderately balanced (above); returns the cells it refined.
 std::size_t balance_octree(Octree& tree, OctreeStats* stats = nullptr);
 
-// Whether rules (a) and (b) hold; `why` names the first leaf that breaks one.
+// Whether the tree is moderately balanced; `why` names the first leaf that is not.
 bool octree_balanced(const Octree& tree, std::string* why = nullptr);
 
 struct AdaptiveGrid {
   HexComplex complex;
   std::vector<std::uint8_t> cell_type;   // index into cell_types() per cell
   std::vector<std::uint8_t> cell_level;  // octree level of the cube the cell came from
-  std::array<std::size_t, kNumTemplateKinds> leaves_per_template{};
+  std::array<std::size_t, kNumTemplates> leaves_per_template{};
   int levels = 0;  // deepest level with a leaf, + 1
   // The SDF at every point where refine_octree sampled it (bit for bit the value a new evaluation
   // at that point gives: same integer key, same coordinates); NaN at the points listed in
@@ -219,6 +199,12 @@ struct AdaptiveGrid {
 
 // The leaves replaced by their templates. Throws std::logic_error for an unbalanced tree.
 AdaptiveGrid build_adaptive_complex(const Octree& tree);
+
+// The run-time remedy for a cut cell whose polyhedron no certificate covers (docs/templates.md,
+// "Certification"): refines the octree leaves that `cells` of `grid` (built from `tree`) came from
+// and rebalances; returns the leaves refined. Leaves at max_depth are single hexes, the cube type,
+// which certify proves for every subcase, so a cell can always be refined until it certifies.
+std::size_t refine_leaves_of_cells(Octree& tree, const AdaptiveGrid& grid, std::span<const std::uint32_t> cells);
 
 // The dedupe behind the SDF batches and the complex's points: the distinct values of `keys`
 // (each below 2^key_bits), ascending, and index_of[i] = the index of keys[i] among them. A stable

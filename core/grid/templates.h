@@ -1,63 +1,41 @@
-// The standard 3-refinement transition templates (Schneiders 1996/2000, the "vanilla" templates
-// whose cells the MCHex paper proves positive: Tong & Zhang 2025, Section 5, Figure 8).
+// The vertex-based 3-refinement transition templates (Tong & Zhang, "Element-Saving Hexahedral
+// 3-Refinement Templates", arXiv 2512.14862: the complete set for all 256 corner markings, whose
+// coordinates core/grid/template_table.cpp holds). They replace the standard (Schneiders) set, which
+// has no template for a concave edge or corner, so each refined region used to fill its bounding
+// box level after level (MCHex paper, Section 7); with these, a level's refinement stays within a
+// layer of the cells its error marked.
 //
-// A leaf of the balanced octree (core/grid/octree.h) is replaced by one template chosen by its
-// *marked* corners: a corner is marked when it is a corner of a refined cell of the leaf's own
-// level, i.e. when finer cells touch the leaf there. The fine cells are continued one layer into
-// the leaf (child cubes of a third of its size along the marked corner, edge or face) and the rest
-// of the leaf is filled with transition hexes:
+// Marks. A corner of a leaf of level L is MARKED when a finer leaf touches it, which in a balanced
+// octree is exactly when it is a corner of a refined cell of level L (core/grid/octree.h). A leaf
+// EDGE is SPLIT at 1/3 and 2/3 when both of its ends are marked; a mark alone splits nothing. The
+// template a leaf gets depends only on its split edges (12 bits), and every one of the 4096 edge
+// sets that 256 markings produce is one of the 15 canonical templates below under one of the 24
+// rotations (tests/test_templates.cpp checks all 256; ids 7 and 8 are mirror images, so a table of
+// rotations needs both).
 //
-//   kind   marked corners          made of                      coordinates used (twelfths)
-//   cube   none                    the leaf itself              0, 12
-//   node   1 corner                1 child cube + 3 hexes       0, 4, 12
-//   edge   2 corners of an edge    3 child cubes + 8 hexes      0, 4, 8, 9, 12
-//   face   4 corners of a face     9 child cubes + 13 hexes     0, 4, 6, 8, 9, 12
-//   any other pattern (2 opposite corners, 3 corners, 6, all 8, ...) has no template: the
-//   balancing refines such a leaf into its 27 children instead.
+// Conformity comes from each face's pattern depending only on the split edges of that face
+// (tests/test_templates.cpp checks every face of every marking against every other):
+//   no split edge      one quad;
+//   one split edge     4 quads, two inner points 8/15 across at 1/3 and 2/3 along the edge;
+//   two split edges    11 quads (an inner square at 1/4, 3/4 and points at 2/15 .. 13/15);
+//   four split edges   the 3 x 3 squares at thirds.
+// (Two opposite split edges on one face cannot occur: their 4 ends would mark every corner.) With
+// the octree's moderate balance (leaves sharing a face or an edge differ by at most one level,
+// core/grid/octree.h) a face shared with a finer leaf always has all 4 corners marked (3 x 3), and
+// the finer leaf's face on it has at most one mark (one quad), so the grid has no hanging node.
 //
-// Conformity comes from each cell face's own pattern depending only on which of its 4 corners
-// are marked, so the two cells on either side of a face always agree:
-//   0 marked      one quad;
-//   1 marked      the corner's child square (1/3 x 1/3) and two quads meeting at the far corner
-//                 (the "2D node" pattern);
-//   2 (an edge)   three child squares along the edge, two points 3/4 of the way across at 1/3
-//                 and 2/3 along it, and four quads (the "2D edge" pattern);
-//   4             the 3 x 3 child squares.
-// The interior levels (1/2 and 3/4 across) are the classic ones (docs/templates.md;
-// the vanilla templates of CMU-CBML/Element-Saving-Hexahedral-3-Refinement-Templates use the
-// same points). All coordinates are exact multiples of 1/12 of the leaf's edge, so the octree
-// keys every point by integers and neighbours compute bit-identical coordinates.
-//
-// Concave transitions (paper, Sections 2 and 7: these templates "only allow convex grid depth
-// transitions") have no template here: a leaf with finer neighbours across two adjacent faces (the
-// concave edge, 6 marks) or three faces around a corner (7 marks) is refined (core/grid/octree.h says
-// what that costs). Two facts constrain any template added for them, and
-// tests/test_templates.cpp FacePatternDependsOnlyOnItsFourCornerMarks checks them on every face:
-// a face pattern must be invariant under the square's symmetries that fix its marks (else the two
-// cells on a face could pick mirror images), and, since a hex mesh of a cell has an even number
-// of boundary quads while every pattern above has an odd count (1, 3, 7, 9), a concave-corner
-// template (3 full faces + 3 three-marked faces) needs a three-marked face pattern with an odd
-// count: the 5 child squares plus a 3-quad corner fill (8) cannot be it.
-// Both are needed at once: the coarse cells enclosed by finer ones always include a corner cell
-// (7 marks), refining it gives its neighbour along the enclosed region's edge 7 marks, and so on.
-// Where the design stands (checked numerically outside the code base, not built): a concave
-// corner exists with these patterns. Three frustums, each the face template's 13 hexes above its child
-// cubes pressed into the frustum between a refined face and a face of the cube [4, 12]^3 at the
-// unmarked corner (4 thick, slanted sides on the planes x = y, y = z, x = z), and that cube: 40
-// hexes, every Bernstein coefficient positive, min corner scaled Jacobian 0.30 with the layer's inner
-// points at height 2 over 5 and 9 and its side points at height 3 over 6 and 9. Its
-// three-marked face has 9 quads: along each refined edge the layer's side pattern (3 quads to
-// the inner points, 1 to the cube's edge), and the cube's face. What blocks is the concave edge:
-// its two other faces carry the 2D edge pattern, which puts two coplanar quads (left and top) at
-// the cell's unmarked corner; with one quad of the three-marked face there, no hex can take both
-// faces on either side (a flat corner), and the arrangements tried there (a fan of three hexes
-// around that corner, the cube's face split on its diagonal) each left a degenerate hex. The
-// element-saving templates of the paper's authors (CMU-CBML/Element-Saving-Hexahedral-3-
-// Refinement-Templates, methods 3 and 4) change the 1- and 2-marked patterns too: the way left.
-//
-// Each template is stored once, in a canonical orientation (node at corner 0, edge on corners
-// 0-1, face on corners 0-3 = z = 0); a leaf's marked pattern selects the kind and the rotation
-// (one of core/cutting/mc33.h's 24 cube rotations) that carries the canonical marks onto it.
+//   id  canonical marks  hexes  made of (the source's composition)
+//    1  none (and any marking that splits no edge)   1   the leaf
+//    2  one edge                                     5   box on the edge + 4 frustums
+//    3  one face                                    13   3 x 3 on the face + transition
+//    4  3 corners of a face                         14   box + 2 edge + 3 single
+//    5  concave edge (6 corners)                    37   column + 2 face + 2 edge
+//    6..13  composites (box or column + frustums, each frustum a smaller template)
+//   14  concave corner (7 corners)                  68   box + 3 face + 2 composite
+//   15  all 8 corners                               27   the leaf's 27 children
+// Every template point is an integer number of 1/14400 of the leaf edge, and every point on the
+// leaf's boundary a multiple of 240 (1/60 of the edge), so the octree keys boundary points by
+// integers and both cells of a face compute them bit for bit; inner points belong to one leaf.
 #pragma once
 
 #include <array>
@@ -67,31 +45,37 @@
 
 namespace mchex {
 
-enum class TemplateKind : std::uint8_t { kCube, kNode, kEdge, kFace };
-inline constexpr int kNumTemplateKinds = 4;
-std::string_view template_name(TemplateKind k);
-
-// Template coordinates are integers in [0, kTemplateUnits]: twelfths of the leaf's edge.
-inline constexpr int kTemplateUnits = 12;
-using TemplatePoint = std::array<std::int8_t, 3>;
+inline constexpr int kNumTemplates = 15;
+// Template coordinates are integers in [0, kTemplateUnits]; on the leaf boundary they are
+// multiples of kTemplateUnits / kTemplateBoundaryUnits.
+inline constexpr int kTemplateUnits = 14400;
+inline constexpr int kTemplateBoundaryUnits = 60;
+inline constexpr int kUniformTemplate = kNumTemplates - 1;  // id 15: the 27 children
+using TemplatePoint = std::array<std::int16_t, 3>;
 
 struct TemplateHex {
   std::array<TemplatePoint, 8> corners;  // VTK order, right-handed (det J > 0)
-  bool child = false;                    // a child cube (edge 1/3 of the leaf): a cell of the next level
+  bool child = false;                    // one of the uniform template's child cubes: a cell of the next level
 };
 
-// The hexes of a template in its canonical orientation: child cubes first.
-std::span<const TemplateHex> template_hexes(TemplateKind k);
+// Short names for reports ("single", "edge", "face", ..., "uniform"); t = id - 1.
+std::string_view template_name(int t);
+// The source's number of the template (1 .. 15), as cited above.
+int template_source_id(int t);
+
+// The hexes of a template in its canonical orientation.
+std::span<const TemplateHex> template_hexes(int t);
 
 // Canonical marked corners (bit c <=> corner c, VTK order).
-std::uint8_t template_canonical_marks(TemplateKind k);
+std::uint8_t template_canonical_marks(int t);
 
-// The template for a leaf with these marked corners: `valid` is false where no template exists
-// (the leaf must be refined); otherwise kCube for no marks, and the rotation (an index into
-// kCubeSymmetries, < 24) carrying the canonical marks onto `marks`.
+// Edges with both ends marked (bit e <=> kCubeEdges[e]).
+std::uint16_t split_edges(std::uint8_t marks);
+
+// The template for a leaf with these marked corners and the rotation (an index into
+// kCubeSymmetries, < 24) carrying its canonical split edges onto the leaf's. Every marking has one.
 struct TemplateChoice {
-  bool valid = false;
-  TemplateKind kind = TemplateKind::kCube;
+  std::uint8_t t = 0;
   std::uint8_t rotation = 0;
 };
 TemplateChoice template_for_marks(std::uint8_t marks);
@@ -99,5 +83,12 @@ TemplateChoice template_for_marks(std::uint8_t marks);
 // A canonical template point moved by cube symmetry `symmetry` (kCubeSymmetries index), in the
 // same convention as the symmetry's corner map: corner c's point goes to corner g.corner[c]'s.
 TemplatePoint transform_template_point(TemplatePoint p, int symmetry);
+
+// Whether a template point lies on the boundary of its leaf.
+constexpr bool on_leaf_boundary(const TemplatePoint& p) {
+  for (int v : p)
+    if (v == 0 || v == kTemplateUnits) return true;
+  return false;
+}
 
 }  // namespace mchex

@@ -73,12 +73,13 @@ void check_memory_budget(const MeshRun& run) {
                         estimate_cells(cells, n, o.method), budget, budget_name, fits);
 }
 
-// The adaptive 3-refinement grid (core/grid/octree.h) as a HexComplex, each part timed.
-AdaptiveGrid build_adaptive_grid(const Solid& solid, MeshRun& run) {
+// The adaptive 3-refinement grid (core/grid/octree.h) as a HexComplex, each part timed; the
+// octree is kept for the remedy (mesh_solid).
+AdaptiveGrid build_adaptive_grid(const Solid& solid, MeshRun& run, std::optional<Octree>& kept) {
   const MeshOptions& o = run.options;
   TimedSdf sdf(solid.sdf());
   const double w0 = wall_seconds(), c0 = cpu_seconds();
-  Octree tree = refine_octree(sdf, run.cube, {o.threshold, o.max_depth}, &run.octree);
+  Octree& tree = kept.emplace(refine_octree(sdf, run.cube, {o.threshold, o.max_depth}, &run.octree));
   const double w1 = wall_seconds();
   balance_octree(tree, &run.octree);
   const double w2 = wall_seconds();
@@ -145,8 +146,9 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
   run.input = solid.facts();
   run.threads = hardware_threads();
   run.cube = padded_cube(solid.sdf().bounds(), o.pad);
+  std::optional<Octree> tree;
   if (o.adaptive()) {
-    run.adaptive = run.clock.run("octree", [&] { return build_adaptive_grid(solid, run); });
+    run.adaptive = run.clock.run("octree", [&] { return build_adaptive_grid(solid, run, tree); });
   } else {
     run.uniform.emplace(run.cube, o.depth);
   }
@@ -157,42 +159,62 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
   std::unique_ptr<Backend> opened;
   Backend& backend = request.backend ? *request.backend : *(opened = request.open_backend());
   run.device = backend.device();
-  bool device_values = true;  // values as the backend wrote them: no sign changed on the host
-  const std::vector<double> values =
-      run.clock.run("sdf", [&] { return grid_values(run, backend, solid, device_values); });
+  auto mesh_grid = [&] {
+    bool device_values = true;  // values as the backend wrote them: no sign changed on the host
+    const std::vector<double> values =
+        run.clock.run("sdf", [&] { return grid_values(run, backend, solid, device_values); });
 
-  // Method mchex on a device backend: MC33 classification and the hex-count prefix sum run on the
-  // device too (from the values after the mesher's zero rule), and the mesher checks every cell's
-  // subcase and every chunk's hex count against it (core/cutting/mchex_mesher.h
-  // DeviceClassification). The cpu backend's classification would be core's own: not repeated.
-  std::optional<HexComplex> uniform_cx;
-  std::vector<std::uint8_t> device_subcases;
-  std::vector<std::uint64_t> device_offsets;
-  if (o.method == "mchex" && run.device.backend != "cpu") {
-    const HexComplex& cx = run.adaptive ? run.adaptive->complex : uniform_cx.emplace(uniform_complex(*run.uniform));
-    run.clock.run("classify", [&] {
-      // The device applies the zero rule itself, reads the values the SDF left on it, and computes
-      // a uniform grid's corner ids (core/device/backend.h ClassifyOptions).
-      ClassifyOptions co;
-      co.zero_tolerance = zero_tolerance_of(cx);
-      co.uniform_cells_per_axis = run.adaptive ? 0 : run.uniform->cells_per_axis();
-      co.values_from_last_sdf = device_values;
-      device_subcases.resize(cx.cells.size());
-      device_offsets.resize(cx.cells.size() + 1);
-      backend.classify_cells(cx, values, {device_subcases, device_offsets}, co);
-    });
-  }
-  auto run_method = [&](const auto& where) {
-    if (o.method != "mchex") return run.clock.run("ro", [&] { return mesh_remove_outside(where, values); });
-    return run.clock.run("mchex", [&] {
-      if constexpr (std::is_same_v<std::decay_t<decltype(where)>, HexComplex>)
-        return mesh_mchex(where, values, o.eps, &run.mchex, {device_subcases, device_offsets});
-      else return mesh_mchex(where, values, o.eps, &run.mchex);
-    });
+    // Method mchex on a device backend: MC33 classification and the hex-count prefix sum run on
+    // the device too (from the values after the mesher's zero rule), and the mesher checks every
+    // cell's subcase and every chunk's hex count against it (core/cutting/mchex_mesher.h
+    // DeviceClassification). The cpu backend's classification would be core's own: not repeated.
+    std::optional<HexComplex> uniform_cx;
+    std::vector<std::uint8_t> device_subcases;
+    std::vector<std::uint64_t> device_offsets;
+    if (o.method == "mchex" && run.device.backend != "cpu") {
+      const HexComplex& cx = run.adaptive ? run.adaptive->complex : uniform_cx.emplace(uniform_complex(*run.uniform));
+      run.clock.run("classify", [&] {
+        // The device applies the zero rule itself, reads the values the SDF left on it, and
+        // computes a uniform grid's corner ids (core/device/backend.h ClassifyOptions).
+        ClassifyOptions co;
+        co.zero_tolerance = zero_tolerance_of(cx);
+        co.uniform_cells_per_axis = run.adaptive ? 0 : run.uniform->cells_per_axis();
+        co.values_from_last_sdf = device_values;
+        device_subcases.resize(cx.cells.size());
+        device_offsets.resize(cx.cells.size() + 1);
+        backend.classify_cells(cx, values, {device_subcases, device_offsets}, co);
+      });
+    }
+    auto run_method = [&](const auto& where) {
+      if (o.method != "mchex") return run.clock.run("ro", [&] { return mesh_remove_outside(where, values); });
+      return run.clock.run("mchex", [&] {
+        run.mchex = {};
+        if constexpr (std::is_same_v<std::decay_t<decltype(where)>, HexComplex>)
+          return mesh_mchex(where, values, o.eps, &run.mchex, {device_subcases, device_offsets});
+        else return mesh_mchex(where, values, o.eps, &run.mchex);
+      });
+    };
+    run.meshes = run.adaptive ? run_method(run.adaptive->complex)
+                 : uniform_cx ? run_method(*uniform_cx)
+                              : run_method(*run.uniform);
   };
-  run.meshes = run.adaptive ? run_method(run.adaptive->complex)
-               : uniform_cx ? run_method(*uniform_cx)
-                            : run_method(*run.uniform);
+  mesh_grid();
+  // The remedy for a cut cell that no certificate covers (docs/templates.md, "Certification"):
+  // its leaf is refined and the grid meshed again. Leaves at max_depth are cubes, proven for every
+  // subcase, so the loop ends; max_depth rounds reach them from any level.
+  for (int round = 0; tree && !run.mchex.uncertified_cells.empty() && round < o.max_depth; ++round) {
+    const std::size_t refined = run.clock.run("remedy", [&] {
+      const std::size_t n = refine_leaves_of_cells(*tree, *run.adaptive, run.mchex.uncertified_cells);
+      run.adaptive = build_adaptive_complex(*tree);
+      return n;
+    });
+    run.remedy.rounds += 1;
+    run.remedy.cells += run.mchex.uncertified_cells.size();
+    run.remedy.refined_leaves += refined;
+    if (refined == 0) break;
+    check_memory_budget(run);
+    mesh_grid();
+  }
   run.check = run.clock.run("check", [&] { return check_mesh(run.meshes.inside, &run.meshes.outside, &run.cube); });
   if (o.fidelity)
     run.fidelity = run.clock.run("fidelity", [&] { return solid.fidelity(run.meshes.inside, run.cube, o.lattice); });

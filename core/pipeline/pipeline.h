@@ -70,6 +70,13 @@ struct OctreeTimes {
   double cpu = 0;  // refine + balance + complex, CPU seconds, SDF batches taken out
 };
 
+// The certification remedy's work (mesh_solid; docs/templates.md, "Certification").
+struct RemedyStats {
+  int rounds = 0;                  // times the grid was refined and meshed again
+  std::size_t cells = 0;           // cut cells with an uncertified polyhedron, over the rounds
+  std::size_t refined_leaves = 0;  // octree leaves refined for them
+};
+
 struct MeshRun {
   MeshOptions options;
   SolidFacts input;
@@ -84,7 +91,8 @@ struct MeshRun {
   int threads = 0;    // worker threads the machine offers
   MeshPair meshes;
   MeshCheck check;
-  MchexStats mchex;                   // method mchex
+  MchexStats mchex;                   // method mchex (of the last meshing)
+  RemedyStats remedy;                 // adaptive grid, method mchex
   std::optional<Fidelity> fidelity;   // when asked for
   StageClock clock{true};             // read, bvh, octree, sdf, classify, mchex | ro, check, fidelity, write
   std::size_t peak_memory_bytes = 0;  // of the process, after the last stage

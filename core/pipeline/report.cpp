@@ -31,15 +31,13 @@ json adaptive_grid_json(const AdaptiveGrid& g, std::size_t unsampled, const Octr
   std::vector<std::size_t> count(types.size());
   for (std::uint8_t t : g.cell_type) ++count[t];
   for (std::size_t t = 0; t < types.size(); ++t) per_type[types[t].name] = count[t];
-  for (int k = 0; k < kNumTemplateKinds; ++k)
-    per_template[std::string(template_name(static_cast<TemplateKind>(k)))] = g.leaves_per_template[k];
+  for (int k = 0; k < kNumTemplates; ++k) per_template[std::string(template_name(k))] = g.leaves_per_template[k];
   for (const OctreeLevelStats& l : stats.levels)
     per_level.push_back({{"candidates", l.candidates},
                          {"sampled", l.sampled},
                          {"sdf_points", l.sdf_points},
                          {"refined_by_error", l.refined_by_error},
                          {"refined_by_balance", l.refined_by_balance},
-                         {"marks_added", l.marks_added},
                          {"leaves", l.leaves}});
   const Box& cube = g.complex.box;
   return {{"kind", "adaptive"},
@@ -158,6 +156,11 @@ json report_json(const MeshRun& run, const MeshOutputs* outputs) {
     for (int i = 0; i < kMchexCaseSlots; ++i) cases[std::string(mchex_case_name(i))] = run.mchex.cases[i];
     report["cases"] = cases;
     report["mchex"] = mchex_json(run.mchex, run.options.eps);
+    // The certification remedy (docs/templates.md): cut cells whose polyhedron no certificate
+    // covered, and the leaves refined for them before the grid was meshed again.
+    if (run.adaptive)
+      report["remedy"] = {
+          {"rounds", run.remedy.rounds}, {"cells", run.remedy.cells}, {"refined_leaves", run.remedy.refined_leaves}};
   }
   if (run.fidelity) report["fidelity"] = fidelity_json(*run.fidelity);
   report["times"] = run.clock.to_json();
