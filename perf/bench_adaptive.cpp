@@ -8,10 +8,10 @@
 //     grid (target: equal or better), measured as `mchex-gpu mesh --fidelity` does. Uniform grids
 //     deeper than --iou-depth (default 4: 531,441 cells, about 4 M MCHex hexes) are not meshed;
 //     such a row compares against uniform depth --iou-depth instead and says so ("uniform depth").
-//   - the size bound that the templates set: the standard 3-refinement templates handle only
-//     convex transitions, so balancing refines every leaf with finer neighbours across two faces;
-//     each level's refined region grows to (about) its bounding box. "hull" is the fraction of the
-//     cube that the bounding box of the finest level's cells fills: the ratio cannot be far below it.
+//   - "hull": the fraction of the cube that the bounding box of the finest level's cells fills. With
+//     the standard templates (convex transitions only) each level's refined region grew to about
+//     its bounding box, so the ratio could not fall far below it; the vertex-based templates
+//     handle concave transitions too, and the ratio now falls below the hull.
 // Every figure comes from core/pipeline/pipeline.h run_pipeline, the stages `mchex-gpu mesh` runs
 // (its OctreeTimes take the refinement's SDF batches out of the refinement time).
 // Prints a table and one JSON line; never pass/fail.
