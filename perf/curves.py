@@ -10,11 +10,14 @@ the project's test models, next to the MCHex prototype's points. Writes a CSV, t
                                        [--hausdorff H1,H2] [--no-uniform] [--no-adaptive]
                                        [--compare OTHER.csv ...] [--plots perf/curves]
   /usr/bin/python3 perf/curves.py plot CSV [CSV ...] [--plots perf/curves]
+  /usr/bin/python3 perf/curves.py table CSV [CSV ...]      (a Markdown table, as in perf/CURVES.md)
 
 How each figure is measured. Every point of ours comes from one `mchex-gpu mesh MODEL SETTING
 --backend cpu --fidelity --report R.json` run and is read from its report: elements.inside_hexes
 and outside_hexes, fidelity.iou (on the report's lattice^3 lattice over the box) and
-fidelity.hausdorff_ratio, times.total less times.fidelity (the meshing run as a user sees it:
+fidelity.hausdorff_ratio, iou_bound (min over max of the inside mesh's exact volume,
+check.inside.quality.volume, and the input's, input.volume: no IoU can exceed it, whatever the
+lattice), times.total less times.fidelity (the meshing run as a user sees it:
 read, SDF, grid, cutting, check and write, without the fidelity measure itself), and
 peak_memory_bytes (taken while the fidelity measure also ran). The process's own wall time and
 maximum RSS are recorded beside them. So all of our points, uniform and adaptive, old grid and
@@ -57,7 +60,7 @@ NPM = os.path.join(ROOT, "tests", "data", "npm", "node_modules")
 STL_MODELS = os.path.join(NPM, "stl-models")
 
 COLUMNS = ["model", "triangles", "label", "grid", "setting", "depth", "max_depth", "threshold", "hausdorff",
-           "status", "inside_hexes", "outside_hexes", "iou", "hr", "min_sj", "certified", "hausdorff_distance", "seconds",
+           "status", "inside_hexes", "outside_hexes", "iou", "iou_bound", "hr", "min_sj", "certified", "hausdorff_distance", "seconds",
            "seconds_fidelity", "seconds_total", "peak_mb", "wall_s", "max_rss_mb", "lattice", "backend",
            "threads"]
 
@@ -180,6 +183,11 @@ def row_from(model, tris, label, grid, setting, params, status, rep, wall, rss):
                    seconds_total=f"{t['total']:.2f}", peak_mb=f"{rep['peak_memory_bytes'] / 1e6:.0f}",
                    lattice=fid.get("lattice", ""), backend=rep["backend"]["name"], threads=rep["backend"]["threads"])
         q = rep["check"].get("inside", {}).get("quality", {})
+        solid_volume = rep["input"].get("volume")
+        if q.get("volume") is not None and solid_volume:
+            # |M n S| <= min(|M|, |S|) and |M u S| >= max(|M|, |S|): exact volumes bound the IoU.
+            lo_v, hi_v = sorted((abs(q["volume"]), abs(solid_volume)))
+            row["iou_bound"] = f"{lo_v / hi_v:.6f}" if hi_v else ""
         if q.get("count"):
             row["min_sj"] = number(q.get("min_scaled_jacobian"), ".3g")
             row["certified"] = f"{q['certified']}/{q['count']}"
@@ -272,6 +280,98 @@ def run(o):
     plot([o.csv, *o.compare], o.plots, o.reference)
 
 
+IOU_FLOOR = 1e-4  # 1 - IoU is drawn on a log axis: an IoU of 1 on the lattice sits at this floor
+
+
+def series_name(key):
+    label, grid, d = key
+    return f"uniform {label}" if grid == "uniform" else f"adaptive D={d} {label}"
+
+
+def fidelity_of(r, metric):
+    return max(1 - float(r["iou"]), IOU_FLOOR) if metric == "iou" else float(r["hr"])
+
+
+def hexes_of(r, axis):
+    return int(r["inside_hexes"]) + (int(r["outside_hexes"]) if axis == "all" else 0)
+
+
+def fidelity_figure(plt, names, curves, styles, proto, metric, axis, path):
+    """One panel per model: hexes (inside, or inside + outside) against 1 - IoU or HR, a curve per
+    series, the prototype's point as a black star."""
+    cols = 4
+    nrows = (len(names) + cols - 1) // cols
+    fig, axes = plt.subplots(nrows, cols, figsize=(4.2 * cols, 3.6 * nrows), squeeze=False)
+    # Uniform first and wide, so the adaptive points (often the same mesh) stay visible on top.
+    order = sorted(curves, key=lambda k: (k[1] != "uniform", k))
+    for ax, name in zip(axes.flat, names):
+        for key in order:
+            pts = [r for r in curves[key] if r["model"] == name and int(r["inside_hexes"]) > 0
+                   and r[metric] not in ("", "inf")]
+            pts.sort(key=lambda r: hexes_of(r, axis))
+            if not pts:
+                continue
+            x = [hexes_of(r, axis) for r in pts]
+            y = [fidelity_of(r, metric) for r in pts]
+            color, marker = styles[key]
+            uniform = key[1] == "uniform"
+            ax.plot(x, y, marker=marker, color=color, label=series_name(key), linestyle="-" if uniform else "--",
+                    linewidth=3 if uniform else 1.2, markersize=8 if uniform else 5, alpha=0.6 if uniform else 1)
+            # One label per distinct point: settings that give the same mesh share it.
+            tags = {}
+            for r, xi, yi in zip(pts, x, y):
+                tag = r["depth"] if uniform else r["threshold"] + (f"/H{r['hausdorff']}" if r["hausdorff"] else "")
+                tags.setdefault((xi, yi), []).append(tag)
+            for (xi, yi), t in tags.items():
+                ax.annotate(",".join(t), (xi, yi), fontsize=6, color=color, textcoords="offset points",
+                            xytext=(3, -9 if uniform else 3))
+        if name in proto:
+            p = proto[name]
+            ax.plot([hexes_of(p, axis)], [fidelity_of(p, metric)], marker="*", markersize=13, color="k",
+                    linestyle="none", label="MCHex prototype (0b7016b, other checker)")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_title(name, fontsize=10)
+        ax.set_xlabel("inside hexes" if axis == "inside" else "all output hexes (inside + outside)", fontsize=8)
+        ax.set_ylabel("1 - IoU (lower is better)" if metric == "iou" else "HR (lower is better)", fontsize=8)
+        ax.grid(True, which="both", alpha=0.3)
+    for ax in list(axes.flat)[len(names):]:
+        ax.axis("off")
+    handles = {}
+    for ax in axes.flat:
+        for h, lab in zip(*ax.get_legend_handles_labels()):
+            handles.setdefault(lab, h)
+    fig.legend(handles.values(), handles.keys(), loc="lower right", fontsize=8)
+    what = "1 - IoU" if metric == "iou" else "HR (Hausdorff / input bounding-box diagonal)"
+    note = f"; 1 - IoU under {IOU_FLOOR:g} drawn at {IOU_FLOOR:g}" if metric == "iou" else ""
+    fig.suptitle(f"{'inside' if axis == 'inside' else 'all output'} hexes against {what} "
+                 f"(point labels: depth, or threshold{note})", fontsize=11)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def cost_figure(plt, curves, styles, path):
+    """Seconds and peak memory against all output hexes, every model in one panel each."""
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    for key in sorted(curves):
+        color, marker = styles[key]
+        x = [hexes_of(r, "all") for r in curves[key]]
+        for ax, col in zip(axes, ("seconds", "peak_mb")):
+            ax.plot(x, [float(r[col]) for r in curves[key]], marker=marker, color=color, linestyle="none",
+                    label=series_name(key))
+    for ax, yl in zip(axes, ("seconds (without the fidelity measure)", "peak memory MB (with it)")):
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("all output hexes (inside + outside)")
+        ax.set_ylabel(yl)
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
 def plot(csvs, out_dir, reference):
     try:
         import matplotlib
@@ -285,82 +385,36 @@ def plot(csvs, out_dir, reference):
     if not names:
         sys.exit("curves.py: no measured rows to plot")
     os.makedirs(out_dir, exist_ok=True)
-    # One curve per (label, grid, max depth): its points sorted by inside hexes.
+    # One curve per (label, grid, max depth), its points in hex order; one colour and marker each.
     curves = {}
     for r in rows:
-        key = (r["label"], r["grid"], r["max_depth"])
-        curves.setdefault(key, []).append(r)
-    styles = {}
+        curves.setdefault((r["label"], r["grid"], r["max_depth"]), []).append(r)
     markers = "osD^v<>ph"
-    for i, key in enumerate(sorted(curves)):
-        styles[key] = (f"C{i % 10}", markers[i % len(markers)])
-    cols = 4
-    nrows = (len(names) + cols - 1) // cols
+    styles = {key: (f"C{i % 10}", markers[i % len(markers)]) for i, key in enumerate(sorted(curves))}
     written = []
-    for metric, ylabel, fname in (("iou", "1 - IoU (lower is better)", "iou.png"),
-                                  ("hr", "HR = Hausdorff / bbox diagonal (lower is better)", "hr.png")):
-        fig, axes = plt.subplots(nrows, cols, figsize=(4.2 * cols, 3.6 * nrows), squeeze=False)
-        for ax, name in zip(axes.flat, names):
-            for key in sorted(curves):
-                pts = sorted((r for r in curves[key] if r["model"] == name), key=lambda r: int(r["inside_hexes"]))
-                pts = [r for r in pts if int(r["inside_hexes"]) > 0]
-                if not pts:
-                    continue
-                x = [int(r["inside_hexes"]) for r in pts]
-                y = [1 - float(r["iou"]) if metric == "iou" else float(r["hr"]) for r in pts]
-                label, grid, d = key
-                name_ = f"{grid} {label}" if grid == "uniform" else f"adaptive D={d} {label}"
-                color, marker = styles[key]
-                ax.plot(x, y, marker=marker, color=color, label=name_, linestyle="-" if grid == "uniform" else "--")
-                for r, xi, yi in zip(pts, x, y):
-                    tag = r["depth"] if grid == "uniform" else r["threshold"] + (f"/H{r['hausdorff']}" if r["hausdorff"] else "")
-                    ax.annotate(tag, (xi, yi), fontsize=6, xytext=(2, 2), textcoords="offset points", color=color)
-            if name in proto:
-                p = proto[name]
-                ax.plot([int(p["inside_hexes"])], [1 - float(p["iou"]) if metric == "iou" else float(p["hr"])],
-                        marker="*", markersize=13, color="k", linestyle="none", label="MCHex prototype (0b7016b)")
-            ax.set_xscale("log")
-            ax.set_yscale("log")
-            ax.set_title(name, fontsize=10)
-            ax.set_xlabel("inside hexes")
-            ax.set_ylabel(ylabel, fontsize=7)
-            ax.grid(True, which="both", alpha=0.3)
-        for ax in list(axes.flat)[len(names):]:
-            ax.axis("off")
-        handles = {}
-        for ax in axes.flat:
-            for h, lab in zip(*ax.get_legend_handles_labels()):
-                handles.setdefault(lab, h)
-        fig.legend(handles.values(), handles.keys(), loc="lower right", fontsize=8)
-        fig.suptitle(f"inside hexes against {'IoU' if metric == 'iou' else 'HR'} (labels: depth, or threshold)")
-        fig.tight_layout()
-        path = os.path.join(out_dir, fname)
-        fig.savefig(path, dpi=90)
-        plt.close(fig)
-        written.append(path)
-    # Cost: seconds and peak memory against all output hexes, every model in one panel each.
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
-    for key in sorted(curves):
-        color, marker = styles[key]
-        pts = [r for r in curves[key]]
-        x = [int(r["inside_hexes"]) + int(r["outside_hexes"]) for r in pts]
-        label, grid, d = key
-        name_ = f"{grid} {label}" if grid == "uniform" else f"adaptive D={d} {label}"
-        axes[0].plot(x, [float(r["seconds"]) for r in pts], marker=marker, color=color, linestyle="none", label=name_)
-        axes[1].plot(x, [float(r["peak_mb"]) for r in pts], marker=marker, color=color, linestyle="none", label=name_)
-    for ax, yl in zip(axes, ("seconds (without the fidelity measure)", "peak memory MB")):
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_xlabel("output hexes (inside + outside)")
-        ax.set_ylabel(yl)
-        ax.grid(True, which="both", alpha=0.3)
-    axes[0].legend(fontsize=7)
-    fig.tight_layout()
+    for metric in ("iou", "hr"):
+        for axis, suffix in (("inside", ""), ("all", "_all")):
+            path = os.path.join(out_dir, f"{metric}{suffix}.png")
+            fidelity_figure(plt, names, curves, styles, proto, metric, axis, path)
+            written.append(path)
     path = os.path.join(out_dir, "cost.png")
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    cost_figure(plt, curves, styles, path)
     written.append(path)
     print("curves.py: plots " + ", ".join(written))
+
+
+def table(csvs):
+    """The CSVs' rows as one Markdown table (perf/CURVES.md's baseline table)."""
+    print("| model | setting | inside hexes | outside hexes | IoU | IoU bound | HR | min SJ | s | MB | status |")
+    print("|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|")
+    for path in csvs:
+        for r in read_csv(path):
+            ok = r["status"].startswith("ok")
+            count = lambda k: f"{int(r[k]):,}" if r[k] else ""
+            four = lambda v: v if v in ("", "inf") else f"{float(v):.4f}"
+            print(f"| {r['model']} | `{r['setting']}` | {count('inside_hexes')} | {count('outside_hexes')} | "
+                  f"{four(r['iou']) if ok else ''} | {four(r['iou_bound']) if ok else ''} | {four(r['hr']) if ok else ''} | {r['min_sj']} | {r['seconds']} | "
+                  f"{r['peak_mb']} | {'' if r['status'] == 'ok' else r['status']} |")
 
 
 def main():
@@ -385,17 +439,21 @@ def main():
     r.add_argument("--max-memory", default="4G", help="the CLI's --max-memory")
     r.add_argument("--timeout", type=float, default=600, help="seconds per run")
     r.add_argument("--compare", nargs="*", default=[], help="more CSVs drawn on the same plots")
-    r.add_argument("--plots", default=os.path.join(HERE, "curves"), help="folder for iou.png, hr.png, cost.png")
+    r.add_argument("--plots", default=os.path.join(HERE, "curves"), help="folder for iou.png, hr.png (inside hexes), iou_all.png, hr_all.png, cost.png")
     r.add_argument("--reference", default=default_ref, help="the prototype's points")
     p = sub.add_parser("plot", help="plot CSVs written by `run`")
     p.add_argument("csvs", nargs="+")
     p.add_argument("--plots", default=os.path.join(HERE, "curves"))
     p.add_argument("--reference", default=default_ref)
+    t = sub.add_parser("table", help="print CSVs written by `run` as a Markdown table")
+    t.add_argument("csvs", nargs="+")
     o = ap.parse_args()
     if o.command == "run":
         run(o)
-    else:
+    elif o.command == "plot":
         plot(o.csvs, o.plots, o.reference)
+    else:
+        table(o.csvs)
 
 
 if __name__ == "__main__":
