@@ -61,7 +61,7 @@ STL_MODELS = os.path.join(NPM, "stl-models")
 
 COLUMNS = ["model", "triangles", "label", "grid", "setting", "depth", "max_depth", "threshold", "hausdorff",
            "status", "inside_hexes", "outside_hexes", "iou", "iou_bound", "hr", "min_sj", "certified", "hausdorff_distance", "seconds",
-           "seconds_fidelity", "seconds_total", "peak_mb", "wall_s", "max_rss_mb", "lattice", "backend",
+           "seconds_fidelity", "seconds_total", "peak_mb", "wall_s", "max_rss_mb", "load", "lattice", "backend",
            "threads"]
 
 
@@ -134,6 +134,7 @@ def mesh_once(exe, model_file, setting_args, o, tmp):
     if o.threads:
         cmd += ["--threads", str(o.threads)]
     err_path = os.path.join(tmp, "stderr.txt")
+    o.load = os.getloadavg()[0]  # the machine's 1-minute load as the run starts: timings read against it
     start = time.monotonic()
     with open(err_path, "w") as err_file:
         proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=err_file)
@@ -167,11 +168,12 @@ def number(value, spec):
     return "inf" if value is None else format(value, spec)
 
 
-def row_from(model, tris, label, grid, setting, params, status, rep, wall, rss):
+def row_from(model, tris, label, grid, setting, params, status, rep, wall, rss, load):
     row = {c: "" for c in COLUMNS}
     row.update(model=model, triangles=tris, label=label, grid=grid, setting=setting, status=status, **params)
     if wall is not None:
         row["wall_s"] = f"{wall:.2f}"
+        row["load"] = f"{load:.1f}"
     if rss is not None:
         row["max_rss_mb"] = f"{rss:.0f}"
     if rep:
@@ -250,7 +252,8 @@ def run(o):
               f"{datetime.datetime.utcnow():%Y-%m-%d %H:%M} UTC, {platform.node() or 'host'} "
               f"({os.cpu_count()} cores)",
               "seconds = report times.total - times.fidelity; peak_mb = report peak_memory_bytes / 1e6 "
-              "(with the fidelity measure); max_rss_mb = the process's maximum RSS in MiB (os.wait4)"]
+              "(with the fidelity measure); max_rss_mb = the process's maximum RSS in MiB (os.wait4); "
+              "load = the 1-minute load average as the run started (the machine is shared: read seconds against it)"]
     rows = []
     os.makedirs(os.path.dirname(os.path.abspath(o.csv)), exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="curves_") as tmp:
@@ -269,7 +272,7 @@ def run(o):
                     status, rep, wall, rss = mesh_once(exe, model_file, args, o, tmp)
                     if rep and rep["elements"]["inside_hexes"] + rep["elements"]["outside_hexes"] > o.max_hexes:
                         stopped.add(family)
-                row = row_from(name, tris, label, grid, text, params, status, rep, wall, rss)
+                row = row_from(name, tris, label, grid, text, params, status, rep, wall, rss, getattr(o, "load", 0.0))
                 tris = row["triangles"]
                 rows.append(row)
                 print(f"{name:13} {text:44} {status[:40]:40} in {row['inside_hexes']:>9} out "
