@@ -19,8 +19,9 @@ pkgs=(
   ocl-icd-opencl-dev opencl-headers opencl-clhpp-headers pocl-opencl-icd clinfo
   # Vulkan: loader, headers, Mesa lavapipe, glslang (GLSL -> SPIR-V), vulkaninfo
   libvulkan-dev mesa-vulkan-drivers glslang-tools spirv-tools vulkan-tools
-  # independent readers for the tests (meshio), numpy for perf scripts
-  python3 python3-meshio python3-numpy
+  # independent readers for the tests (meshio), numpy for perf scripts, matplotlib for the plots
+  # of perf/curves.py
+  python3 python3-meshio python3-numpy python3-matplotlib
   # formatting check (tests/test_format.py), clang + libFuzzer runtime for CI's fuzz pass
   clang clang-format libclang-rt-14-dev
   # test models: Assimp's sample files (valid and invalid) and OpenSCAD's bad STLs
