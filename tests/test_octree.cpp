@@ -161,6 +161,28 @@ TEST(octree, ConcaveEdgesAndCornersNeedNoRefinement) {
   }
 }
 
+TEST(octree, EveryMarkingOfALeafBuildsAConformingComplex) {
+  // The centre leaf (1, 1, 1) of level 1 gets any of the 256 markings: refining the level-1 cell
+  // diagonally across its corner c (touching it at that vertex only, which moderate balance allows)
+  // marks exactly corner c. Every template in the rotation the marking selects, in the real
+  // complex builder, next to its neighbours' templates: conforming, certified, and as many cells
+  // as the leaves' templates have hexes.
+  for (int m = 0; m < 256; ++m) {
+    Octree t(kUnitCube, 2);
+    t.refine(0, 0);
+    for (int c = 0; c < 8; ++c)
+      if (m >> c & 1) t.refine(1, octree_key(2 * kCubeCorners[c][0], 2 * kCubeCorners[c][1], 2 * kCubeCorners[c][2]));
+    ASSERT_TRUE(octree_balanced(t));
+    ASSERT_EQ(t.marks(1, octree_key(1, 1, 1)), m);
+    const AdaptiveGrid g = build_adaptive_complex(t);
+    std::size_t hexes = 0;
+    for (int k = 0; k < kNumTemplates; ++k) hexes += g.leaves_per_template[k] * template_hexes(k).size();
+    EXPECT_EQ(g.complex.cells.size(), hexes) << "marking " << m;
+    expect_conforming(g, "marking " + std::to_string(m));
+    if (HasFailure()) return;
+  }
+}
+
 TEST(octree, TwoLevelJumpsAcrossFacesAndEdgesAreBalancedAwayNotAcrossVertices) {
   // A refined cell of level 2 in the low corner of the centre cell: the level-1 leaves sharing a
   // face or an edge with it must refine (moderate balance); the one touching it at a vertex need not.

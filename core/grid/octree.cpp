@@ -673,16 +673,17 @@ AdaptiveGrid build_adaptive_complex(const Octree& tree) {
   const std::uint32_t units = kTemplateBoundaryUnits * pow3(depth);  // point units per cube edge
   const PackedLattice packed(units);
   const RotatedTemplates& rt = rotated_templates();
-  constexpr std::uint8_t kRefinedChild = 0xFF;
 
   struct Group {
     std::uint64_t first_child;            // the lowest child's cell key at `level`
     std::uint8_t level;                   // of the children
     std::uint8_t n;                       // children per axis: 3, or 1 for the unrefined root
-    std::array<std::uint16_t, 27> child;  // template * 24 + rotation, or kRefinedChild
+    std::array<std::uint16_t, 27> child;  // template * 24 + rotation, or kRefined
     std::uint64_t lattice = 0;            // bit a + (n + 1) (b + (n + 1) c): a corner of a single-hex leaf
   };
-  constexpr std::uint16_t kRefined = kRefinedChild;
+  // Beyond every template * 24 + rotation (the largest is 359).
+  constexpr std::uint16_t kRefined = 0xFFFF;
+  static_assert(kNumTemplates * kNumCubeRotations < kRefined);
   std::vector<Group> groups;
   if (!tree.is_refined(0, 0)) groups.push_back({0, 0, 1, {}, 0});
   for (int level = 1; level <= depth; ++level)
