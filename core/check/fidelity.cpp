@@ -94,7 +94,8 @@ std::vector<Vec3> sample_surface(const SignedDistance& solid, const Box& box, do
 }
 
 Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, std::span<const Vec3> surface_samples,
-                          const Box& lattice_box, std::size_t lattice, double spacing) {
+                          const Box& lattice_box, std::size_t lattice, double spacing,
+                          const SurfaceDistance& distance) {
   Fidelity fid;
   fid.lattice = lattice;
   const Vec3 lo = lattice_box.lo, size = lattice_box.size();
@@ -156,17 +157,23 @@ Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, st
   fid.solid_volume = solid_n * cell_volume;
   fid.unresolved = unresolved.load();
 
-  // Hausdorff, mesh side: bilinear samples on every boundary quad, measured by |f|.
+  // Hausdorff, mesh side: bilinear samples on every boundary quad, measured by the distance to
+  // the surface. A quad's corners are boundary vertices that several quads share: each is
+  // measured once, the quads add only their edge and interior samples (none on a quad shorter
+  // than the spacing, the common case on a fine grid), so the maximum is over the same points.
   const auto quads = boundary_quads(inside);
   std::vector<Vec3> mesh_samples;
   TriangleSurface boundary;
   boundary.vertices = inside.points;
+  std::vector<bool> on_boundary(inside.points.size(), false);
   for (const auto& q : quads) {
     const Vec3 c[4] = {inside.points[q[0]], inside.points[q[1]], inside.points[q[2]], inside.points[q[3]]};
+    for (int e = 0; e < 4; ++e) on_boundary[q[e]] = true;
     const double longest = std::max({norm(c[1] - c[0]), norm(c[2] - c[1]), norm(c[3] - c[2]), norm(c[0] - c[3])});
     const int k = std::max(1, int(std::ceil(longest / spacing)));
     for (int a = 0; a <= k; ++a)
       for (int b = 0; b <= k; ++b) {
+        if ((a == 0 || a == k) && (b == 0 || b == k)) continue;  // a corner
         const double u = double(a) / k, v = double(b) / k;
         mesh_samples.push_back((1 - u) * (1 - v) * c[0] + u * (1 - v) * c[1] + u * v * c[2] + (1 - u) * v * c[3]);
       }
@@ -175,8 +182,14 @@ Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, st
     boundary.vertices.push_back(0.25 * (c[0] + c[1] + c[2] + c[3]));
     for (int e = 0; e < 4; ++e) boundary.triangles.push_back({q[e], q[(e + 1) % 4], centre});
   }
+  for (std::size_t p = 0; p < on_boundary.size(); ++p)
+    if (on_boundary[p]) mesh_samples.push_back(inside.points[p]);
   std::vector<double> d(mesh_samples.size());
-  solid.evaluate(mesh_samples, d);
+  if (distance) {
+    distance(mesh_samples, d);
+  } else {
+    solid.evaluate(mesh_samples, d);
+  }
   for (double v : d) fid.mesh_to_surface = std::max(fid.mesh_to_surface, std::abs(v));
 
   if (boundary.triangles.empty()) {
