@@ -5,12 +5,15 @@
 // one it built does not) and the pipeline's output; the errors as their exception types.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "core/base/error.h"
+#include "core/check/fidelity.h"
 #include "core/cutting/mchex_mesher.h"
 #include "core/cutting/ro.h"
 #include "core/grid/grid.h"
@@ -165,6 +168,44 @@ TEST(Fit, AHausdorffTargetChoosesTheGridAndTheReportSaysSo) {
   // The sphere at its fitted depth is within the target.
   EXPECT_LE(run.fidelity->hausdorff_ratio, 0.05);
   EXPECT_GT(run.fidelity->iou, 0.97);
+}
+
+// What makes fidelity cheap enough to be on by default changes none of its results: the IoU
+// lattice decided block by block where |f| bounds the distance to a sign change gives the signs
+// of evaluating every sample; the surface samples cover a sliver triangle at the spacing with
+// about area / spacing^2 points.
+TEST(Fit, CheapFidelityIsTheFullMeasure) {
+  for (const ShapeKind kind : {ShapeKind::kSphere, ShapeKind::kTwoHoled}) {
+    const ShapeSdf sdf(kind);
+    const Box cube = padded_cube(sdf.bounds(), 0.1);
+    const UniformGrid grid(cube, 2);
+    const std::vector<Vec3> points = grid.vertices();
+    std::vector<double> v(points.size());
+    sdf.evaluate(points, v);
+    const MeshPair m = mesh_mchex(grid, v, 1e-3);
+    const double spacing = cube.diagonal() / 100;
+    const std::vector<Vec3> samples = sample_surface(sdf, cube, spacing);
+    for (const std::size_t lattice : {std::size_t{37}, std::size_t{64}}) {
+      const Fidelity full = measure_fidelity(m.inside, sdf, samples, cube, lattice, spacing);
+      const Fidelity fast = measure_fidelity(m.inside, sdf, samples, cube, lattice, spacing, {}, true);
+      EXPECT_EQ(full.iou, fast.iou) << lattice;
+      EXPECT_EQ(full.solid_volume, fast.solid_volume) << lattice;
+      EXPECT_EQ(full.hausdorff, fast.hausdorff) << lattice;
+    }
+  }
+  TriangleSurface sliver;
+  sliver.vertices = {{0, 0, 0}, {10, 0, 0}, {10, 0.05, 0}};
+  sliver.triangles = {{0, 1, 2}};
+  const double spacing = 0.1;
+  const std::vector<Vec3> s = sample_surface(sliver, spacing);
+  EXPECT_LE(s.size(), 2 * (10 / spacing + 2));  // a grid over two edges gave about 5,000
+  for (int i = 0; i <= 1000; ++i) {
+    const double u = i / 1000.0, w = 0.5 * u;  // points across the whole triangle
+    const Vec3 p{10 * u, 0.05 * w, 0};
+    double nearest = 1e9;
+    for (const Vec3& q : s) nearest = std::min(nearest, norm(q - p));
+    EXPECT_LE(nearest, spacing) << i;
+  }
 }
 
 }  // namespace

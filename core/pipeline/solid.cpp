@@ -71,7 +71,8 @@ Fidelity Solid::fidelity(const HexMesh& inside, const Box& box, std::size_t latt
     distance = [&sdf = static_cast<const SurfaceSdf&>(*sdf_)](std::span<const Vec3> p, std::span<double> d) {
       sdf.distance(p, d);
     };
-  return measure_fidelity(inside, *sdf_, samples, box, lattice, spacing, distance);
+  const bool bounds_sign = !surface_ || (facts_.surface.closed && facts_.surface.consistently_oriented);
+  return measure_fidelity(inside, *sdf_, samples, box, lattice, spacing, distance, bounds_sign);
 }
 
 }  // namespace mchex
