@@ -39,6 +39,13 @@ void print_summary(const MeshRun& run, const MeshOutputs& outputs) {
   else
     fmt::print("mchex-gpu: {} -> {} grid of {}^3 cells (depth {}), method {}\n", run.input.name, "uniform",
                run.uniform->cells_per_axis(), run.uniform->depth(), o.method);
+  if (o.hausdorff > 0 || run.fit)
+    fmt::print("  fitted: {}{}{}\n",
+               o.hausdorff > 0 ? fmt::format("target Hausdorff ratio {} (--hausdorff)", o.hausdorff) : "",
+               o.hausdorff > 0 && run.fit ? ", " : "",
+               run.fit ? fmt::format("at most {} hexes (--max-hexes; predicted {}, {} settings tried)", o.max_hexes,
+                                     run.fit->predicted_hexes, run.fit->trials.size())
+                       : "");
   fmt::print("  inside : {:>10} hexes {:>10} vertices -> {}\n", run.meshes.inside.hexes.size(),
              run.meshes.inside.points.size(), outputs.inside);
   fmt::print("  outside: {:>10} hexes {:>10} vertices -> {}\n", run.meshes.outside.hexes.size(),
