@@ -101,6 +101,10 @@ FitResult fit_max_hexes(const SignedDistance& sdf, const Box& cube, const Adapti
     const FitTrial& t = trial({threshold, over});
     if (t.predicted_hexes <= max_hexes) {
       if (t.predicted_hexes > fits->predicted_hexes) fits = t;
+      // One bisection step between the last threshold over the cap and this one: a step of 2 in
+      // the threshold can change the output several times over.
+      const FitTrial& mid = trial({threshold / std::sqrt(kThresholdStep), over});
+      if (mid.predicted_hexes <= max_hexes && mid.predicted_hexes > fits->predicted_hexes) fits = mid;
       break;
     }
   }

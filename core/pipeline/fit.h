@@ -23,9 +23,10 @@
 // prediction is exact except for the MC33 11 and 14 cells of affine shape, which are cut into
 // fewer hexes: it is an upper bound, so a setting predicted to fit does fit. The search keeps the
 // cells of largest error refined: from the coarsest grid up, the max depth grows at the starting
-// threshold until a depth D is over the cap; then at D the threshold is raised (the cells whose
-// error exceeds it stay refined, the rest coarsen) until one fits, and the fitting setting with
-// the most hexes, that or depth D - 1, wins. No setting fits when even the unrefined cube (one
+// threshold until a depth D is over the cap; then at D the threshold is doubled (the cells whose
+// error exceeds it stay refined, the rest coarsen) until one fits (at most 64 times the start),
+// one bisection step (a factor sqrt 2) between that and the last over the cap, and the fitting
+// setting with the most hexes, one of those or depth D - 1, wins. No setting fits when even the unrefined cube (one
 // cell) is over the cap: ResourceError naming the smallest cap that would fit.
 #pragma once
 
