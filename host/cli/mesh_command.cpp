@@ -92,8 +92,11 @@ int run_mesh(const MeshCommand& o, bool quiet) {
                                     : (run.cube.hi.x - run.cube.lo.x) / std::pow(3.0, run.adaptive->levels - 1);
     fmt::print(stderr,
                "mchex-gpu: warning: the inside mesh is empty: the solid is thinner than the grid's cells (cell size "
-               "{:.3g}) everywhere; a finer --depth keeps it\n",
-               cell);
+               "{:.3g}) everywhere; a finer {} keeps it\n",
+               cell,
+               run.uniform                 ? "--depth"
+               : run.options.hausdorff > 0 ? "grid (a smaller --hausdorff)"
+                                           : "--max-depth");
   }
   if (!run.check.ok)
     throw std::runtime_error("the mesh fails its own check, so nothing was written: " + first_error(run.check));
