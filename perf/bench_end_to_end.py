@@ -30,7 +30,9 @@ def run_mesh(exe, args, backend, out_dir, tag):
     inside = os.path.join(out_dir, f"{tag}.{backend}.in.mesh")
     outside = os.path.join(out_dir, f"{tag}.{backend}.out.mesh")
     report = os.path.join(out_dir, f"{tag}.{backend}.json")
-    cmd = [exe, "mesh", *args, "--backend", backend, "-o", inside, "--outside", outside, "--report", report, "--quiet"]
+    # --no-fidelity: the figures are the meshing's, as before fidelity was on by default.
+    cmd = [exe, "mesh", *args, "--backend", backend, "-o", inside, "--outside", outside, "--report", report, "--quiet",
+           "--no-fidelity"]
     r = subprocess.run(cmd, capture_output=True, text=True)
     if r.returncode != 0:
         return None, r.stderr.strip().splitlines()[-1:] or ["exit %d" % r.returncode]

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <utility>
+#include <vector>
 
 #include "core/base/parallel.h"
 #include "core/check/mesh_check.h"
@@ -39,16 +41,72 @@ bool invert_trilinear(const std::array<Vec3, 8>& x, Vec3 p, bool* inside) {
   return false;
 }
 
+// The solid's SDF on the lattice, or at least its sign where |f| bounds the distance to any sign
+// change: a block of kBlock^3 samples is decided by one of its 8 corner samples when |f| there
+// exceeds the block's diagonal (the ball of radius |f| around the corner holds the whole block and
+// no sign change), and only the undecided blocks, those near the surface, are evaluated whole.
+// The signs (all the IoU reads) are those of evaluating every sample.
+void solid_on_lattice(const SignedDistance& solid, std::span<const Vec3> points, std::size_t lattice, Vec3 step,
+                      std::span<double> f) {
+  constexpr std::size_t kBlock = 4;
+  const std::size_t blocks = (lattice + kBlock - 1) / kBlock, corners = blocks + 1;
+  auto corner_index = [&](std::size_t c) { return std::min(c * kBlock, lattice - 1); };
+  auto at = [&](std::size_t i, std::size_t j, std::size_t k) { return i + lattice * (j + lattice * k); };
+  std::vector<Vec3> cp(corners * corners * corners);
+  parallel_for(cp.size(), [&](std::size_t c) {
+    cp[c] = points[at(corner_index(c % corners), corner_index((c / corners) % corners),
+                      corner_index(c / (corners * corners)))];
+  });
+  std::vector<double> cf(cp.size());
+  solid.evaluate(cp, cf);
+  const double diagonal = norm(double(kBlock) * step);
+  // Per block: the deciding corner value, or NaN where the block needs every sample.
+  std::vector<double> decided(blocks * blocks * blocks, std::numeric_limits<double>::quiet_NaN());
+  parallel_for(decided.size(), [&](std::size_t b) {
+    const std::size_t bi = b % blocks, bj = (b / blocks) % blocks, bk = b / (blocks * blocks);
+    for (int c = 0; c < 8; ++c) {
+      const double v = cf[(bi + (c & 1)) + corners * ((bj + ((c >> 1) & 1)) + corners * (bk + (c >> 2)))];
+      if (std::abs(v) > diagonal) {
+        decided[b] = v;
+        return;
+      }
+    }
+  });
+  std::vector<std::size_t> todo;
+  for (std::size_t s = 0; s < f.size(); ++s) {
+    const std::size_t i = s % lattice, j = (s / lattice) % lattice, k = s / (lattice * lattice);
+    const double v = decided[i / kBlock + blocks * (j / kBlock + blocks * (k / kBlock))];
+    if (std::isnan(v)) todo.push_back(s);
+    else f[s] = v;
+  }
+  std::vector<Vec3> tp(todo.size());
+  parallel_for(todo.size(), [&](std::size_t t) { tp[t] = points[todo[t]]; });
+  std::vector<double> tf(todo.size());
+  solid.evaluate(tp, tf);
+  for (std::size_t t = 0; t < todo.size(); ++t) f[todo[t]] = tf[t];
+}
+
 }  // namespace
 
 std::vector<Vec3> sample_surface(const TriangleSurface& surface, double spacing) {
+  // Rows parallel to the longest edge, a spacing apart across the triangle, each sampled at the
+  // spacing: about area / spacing^2 points however thin the triangle (a grid over two edges
+  // would give (longest edge / spacing)^2 on a sliver).
   std::vector<Vec3> out;
   for (const auto& t : surface.triangles) {
-    const Vec3 a = surface.vertices[t[0]], b = surface.vertices[t[1]], c = surface.vertices[t[2]];
-    const double longest = std::max({norm(b - a), norm(c - b), norm(a - c)});
-    const int k = std::max(1, int(std::ceil(longest / spacing)));
-    for (int i = 0; i <= k; ++i)
-      for (int j = 0; i + j <= k; ++j) out.push_back(a + (double(i) / k) * (b - a) + (double(j) / k) * (c - a));
+    Vec3 a = surface.vertices[t[0]], b = surface.vertices[t[1]], c = surface.vertices[t[2]];
+    if (norm(c - b) > norm(b - a) && norm(c - b) >= norm(a - c)) std::swap(a, c);
+    else if (norm(a - c) > norm(b - a)) std::swap(b, c);  // now a-b is a longest edge
+    const Vec3 ab = b - a;
+    const double len = norm(ab);
+    const double height = len > 0 ? norm(cross(ab, c - a)) / len : norm(c - a);
+    const int rows = std::max(1, int(std::ceil(height / spacing)));
+    for (int r = 0; r <= rows; ++r) {
+      const double v = double(r) / rows;
+      const Vec3 p = a + v * (c - a), q = b + v * (c - b);
+      const int k = std::max(r == rows ? 0 : 1, int(std::ceil(norm(q - p) / spacing)));
+      for (int i = 0; i <= k; ++i) out.push_back(k ? p + (double(i) / k) * (q - p) : p);
+    }
   }
   return out;
 }
@@ -94,7 +152,8 @@ std::vector<Vec3> sample_surface(const SignedDistance& solid, const Box& box, do
 }
 
 Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, std::span<const Vec3> surface_samples,
-                          const Box& lattice_box, std::size_t lattice, double spacing) {
+                          const Box& lattice_box, std::size_t lattice, double spacing, const SurfaceDistance& distance,
+                          bool distance_bounds_sign) {
   Fidelity fid;
   fid.lattice = lattice;
   const Vec3 lo = lattice_box.lo, size = lattice_box.size();
@@ -109,7 +168,8 @@ Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, st
   parallel_for(
       count, [&](std::size_t s) { points[s] = sample(s % lattice, (s / lattice) % lattice, s / (lattice * lattice)); });
   std::vector<double> f(count);
-  solid.evaluate(points, f);
+  if (distance_bounds_sign) solid_on_lattice(solid, points, lattice, step, f);
+  else solid.evaluate(points, f);
   points = {};
 
   // The mesh on the lattice: each hex marks the samples it contains.
@@ -156,17 +216,23 @@ Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, st
   fid.solid_volume = solid_n * cell_volume;
   fid.unresolved = unresolved.load();
 
-  // Hausdorff, mesh side: bilinear samples on every boundary quad, measured by |f|.
+  // Hausdorff, mesh side: bilinear samples on every boundary quad, measured by the distance to
+  // the surface. A quad's corners are boundary vertices that several quads share: each is
+  // measured once, the quads add only their edge and interior samples (none on a quad shorter
+  // than the spacing, the common case on a fine grid), so the maximum is over the same points.
   const auto quads = boundary_quads(inside);
   std::vector<Vec3> mesh_samples;
   TriangleSurface boundary;
   boundary.vertices = inside.points;
+  std::vector<bool> on_boundary(inside.points.size(), false);
   for (const auto& q : quads) {
     const Vec3 c[4] = {inside.points[q[0]], inside.points[q[1]], inside.points[q[2]], inside.points[q[3]]};
+    for (int e = 0; e < 4; ++e) on_boundary[q[e]] = true;
     const double longest = std::max({norm(c[1] - c[0]), norm(c[2] - c[1]), norm(c[3] - c[2]), norm(c[0] - c[3])});
     const int k = std::max(1, int(std::ceil(longest / spacing)));
     for (int a = 0; a <= k; ++a)
       for (int b = 0; b <= k; ++b) {
+        if ((a == 0 || a == k) && (b == 0 || b == k)) continue;  // a corner
         const double u = double(a) / k, v = double(b) / k;
         mesh_samples.push_back((1 - u) * (1 - v) * c[0] + u * (1 - v) * c[1] + u * v * c[2] + (1 - u) * v * c[3]);
       }
@@ -175,8 +241,14 @@ Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, st
     boundary.vertices.push_back(0.25 * (c[0] + c[1] + c[2] + c[3]));
     for (int e = 0; e < 4; ++e) boundary.triangles.push_back({q[e], q[(e + 1) % 4], centre});
   }
+  for (std::size_t p = 0; p < on_boundary.size(); ++p)
+    if (on_boundary[p]) mesh_samples.push_back(inside.points[p]);
   std::vector<double> d(mesh_samples.size());
-  solid.evaluate(mesh_samples, d);
+  if (distance) {
+    distance(mesh_samples, d);
+  } else {
+    solid.evaluate(mesh_samples, d);
+  }
   for (double v : d) fid.mesh_to_surface = std::max(fid.mesh_to_surface, std::abs(v));
 
   if (boundary.triangles.empty()) {

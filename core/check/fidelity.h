@@ -10,6 +10,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <vector>
 
@@ -33,7 +34,17 @@ struct Fidelity {
 std::vector<Vec3> sample_surface(const TriangleSurface& surface, double spacing);
 std::vector<Vec3> sample_surface(const SignedDistance& solid, const Box& box, double spacing);
 
+// The unsigned distance to the input surface at each point (what |f| of the solid's SDF gives,
+// without its sign: under the winding-number rule the sign is most of an evaluation's cost).
+using SurfaceDistance = std::function<void(std::span<const Vec3> points, std::span<double> distances)>;
+
+// `distance` (optional) measures the mesh side of the Hausdorff distance; |solid| when empty.
+// distance_bounds_sign: |f| is at most the distance to any point where f changes sign (a closed,
+// consistently oriented surface, whose winding number changes only across it; an analytic
+// shape), so the IoU lattice evaluates the SDF only in blocks near the surface; the result is
+// the same (an open surface's winding-number sign can change away from it: leave it false).
 Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, std::span<const Vec3> surface_samples,
-                          const Box& lattice_box, std::size_t lattice, double spacing);
+                          const Box& lattice_box, std::size_t lattice, double spacing,
+                          const SurfaceDistance& distance = {}, bool distance_bounds_sign = false);
 
 }  // namespace mchex

@@ -146,6 +146,20 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
   run.input = solid.facts();
   run.threads = hardware_threads();
   run.cube = padded_cube(solid.sdf().bounds(), o.pad);
+  if (o.max_hexes > 0 && !o.adaptive())
+    throw InputError("a hex cap (max_hexes) needs the adaptive grid: a uniform grid's size is set by its depth");
+  if (o.hausdorff > 0) {
+    const AdaptiveOptions a = adaptive_for_hausdorff(o.hausdorff, solid.sdf().bounds(), run.cube);
+    run.options.threshold = a.threshold;
+    run.options.max_depth = a.max_depth;
+  }
+  if (o.max_hexes > 0) {
+    run.fit = run.clock.run("fit", [&] {
+      return fit_max_hexes(solid.sdf(), run.cube, {o.threshold, o.max_depth}, o.max_hexes, o.method);
+    });
+    run.options.threshold = run.fit->options.threshold;
+    run.options.max_depth = run.fit->options.max_depth;
+  }
   std::optional<Octree> tree;
   if (o.adaptive()) {
     run.adaptive = run.clock.run("octree", [&] { return build_adaptive_grid(solid, run, tree); });

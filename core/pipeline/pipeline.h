@@ -28,6 +28,7 @@
 #include "core/device/backend.h"
 #include "core/grid/grid.h"
 #include "core/grid/octree.h"
+#include "core/pipeline/fit.h"
 #include "core/pipeline/solid.h"
 
 namespace mchex {
@@ -39,6 +40,12 @@ struct MeshOptions {
   // threshold x the finest cell size (core/grid/octree.h AdaptiveOptions), to max_depth.
   double threshold = 0;
   int max_depth = 5;
+  // > 0: the adaptive grid with threshold and max_depth chosen for this target Hausdorff ratio
+  // (core/pipeline/fit.h adaptive_for_hausdorff); threshold and max_depth are then ignored.
+  double hausdorff = 0;
+  // > 0 (adaptive grid only): at most this many output hexes, both meshes together; the setting
+  // is lowered until its predicted output fits (core/pipeline/fit.h fit_max_hexes).
+  std::size_t max_hexes = 0;
   double pad = 0.1;   // padding around the solid, as a fraction of its largest extent
   double eps = 1e-3;  // method mchex: crossings clamped to [eps, 1 - eps]
   bool fidelity = false;
@@ -47,7 +54,7 @@ struct MeshOptions {
   // Peak memory allowed, bytes (core/pipeline/estimate.h); 0: 80 % of MemAvailable.
   std::size_t max_memory = 0;
   SolidOptions input;  // repair and sign rule of a surface (core/pipeline/solid.h)
-  bool adaptive() const { return threshold > 0; }
+  bool adaptive() const { return threshold > 0 || hausdorff > 0; }
 };
 
 struct MeshRequest {
@@ -78,7 +85,8 @@ struct RemedyStats {
 };
 
 struct MeshRun {
-  MeshOptions options;
+  MeshOptions options;           // as asked, with threshold and max_depth as fitted (hausdorff, max_hexes)
+  std::optional<FitResult> fit;  // max_hexes: the settings the search built
   SolidFacts input;
   Box cube;                              // the padded cube the grid fills
   std::optional<UniformGrid> uniform;    // the grid: uniform ...

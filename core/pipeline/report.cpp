@@ -127,6 +127,25 @@ json fidelity_json(const Fidelity& f) {
           {"unresolved_samples", f.unresolved}};
 }
 
+// How the grid's settings were chosen: a target Hausdorff ratio, a hex cap and the settings the
+// cap's search built (core/pipeline/fit.h).
+json fit_json(const MeshRun& run) {
+  const MeshOptions& o = run.options;
+  json j = {{"hausdorff_target", o.hausdorff > 0 ? json(o.hausdorff) : json(nullptr)},
+            {"max_hexes", o.max_hexes > 0 ? json(o.max_hexes) : json(nullptr)}};
+  if (run.fit) {
+    json trials = json::array();
+    for (const FitTrial& t : run.fit->trials)
+      trials.push_back({{"threshold", t.options.threshold},
+                        {"max_depth", t.options.max_depth},
+                        {"cells", t.cells},
+                        {"predicted_hexes", t.predicted_hexes}});
+    j["predicted_hexes"] = run.fit->predicted_hexes;
+    j["trials"] = trials;
+  }
+  return j;
+}
+
 json report_json(const MeshRun& run, const MeshOutputs* outputs) {
   const DeviceInfo& d = run.device;
   json report = {
@@ -148,6 +167,7 @@ json report_json(const MeshRun& run, const MeshOutputs* outputs) {
         {"outside_vertices", run.meshes.outside.points.size()}}},
       {"check", to_json(run.check)},
   };
+  if (run.options.hausdorff > 0 || run.fit) report["fit"] = fit_json(run);
   if (outputs) report["outputs"] = {{"inside", outputs->inside}, {"outside", outputs->outside}};
   if (run.options.method == "mchex") {
     // Cells per MC33 subcase (paper Section 5: 31 subcases), and the tunnel cells meshed with

@@ -6,6 +6,8 @@
 //   method    "mchex" | "ro"
 //   backend   where the SDF ran (core/device/backend.h DeviceInfo) and the worker threads
 //   grid      uniform: levels and cells; adaptive: cells per level, type and template
+//   fit       when the grid was fitted (core/pipeline/fit.h): the target Hausdorff ratio, the hex
+//             cap, and the cap's search (every setting built, its cells and predicted hexes)
 //   elements  hexes and vertices of both meshes
 //   check     core/check/mesh_check.h to_json
 //   outputs   the mesh files (when the caller names them)

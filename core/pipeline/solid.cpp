@@ -66,7 +66,13 @@ Fidelity Solid::fidelity(const HexMesh& inside, const Box& box, std::size_t latt
   const double spacing = box.diagonal() / 400;
   const std::vector<Vec3> samples =
       surface_ ? sample_surface(*surface_, spacing) : sample_surface(*sdf_, padded_cube(sdf_->bounds(), 0.05), spacing);
-  return measure_fidelity(inside, *sdf_, samples, box, lattice, spacing);
+  SurfaceDistance distance;
+  if (surface_)
+    distance = [&sdf = static_cast<const SurfaceSdf&>(*sdf_)](std::span<const Vec3> p, std::span<double> d) {
+      sdf.distance(p, d);
+    };
+  const bool bounds_sign = !surface_ || (facts_.surface.closed && facts_.surface.consistently_oriented);
+  return measure_fidelity(inside, *sdf_, samples, box, lattice, spacing, distance, bounds_sign);
 }
 
 }  // namespace mchex

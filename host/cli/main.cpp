@@ -29,6 +29,7 @@
 #include "core/io/atomic_file.h"
 #include "core/io/mesh_io.h"
 #include "core/pipeline/estimate.h"
+#include "core/pipeline/fit.h"
 #include "host/backends/registry.h"
 #include "host/cli/commands.h"
 
@@ -60,20 +61,38 @@ int main(int argc, char** argv) {
   mesh->add_option("--eps", mo.options.eps, "--method mchex: clamp edge crossings to [eps, 1 - eps], eps in (0, 0.5)")
       ->check(CLI::Range(0.0, 0.5))
       ->capture_default_str();
-  mesh->add_option("--depth", mo.options.depth, "uniform 3-refinement depth: 3^depth cells per axis")
-      ->check(CLI::Range(0, kMaxUniformDepth))
-      ->capture_default_str();
-  mesh->add_option(
-          "--threshold", mo.options.threshold,
-          "adaptive 3-refinement instead of --depth: a cell the surface may pass through is refined while the "
-          "paper's refinement error (how far its trilinear isosurface lies from its 27 children's) exceeds "
-          "THRESHOLD times the finest cell size (box edge / 3^max-depth); cells the surface misses are never "
-          "refined. --max-depth sets the resolution, THRESHOLD the accuracy asked of coarser cells in units of "
-          "it; dimensionless, so it suits a model of any size (the paper's batch run: 0.05)")
-      ->check(CLI::PositiveNumber);
-  mesh->add_option("--max-depth", mo.options.max_depth, "--threshold: deepest refinement level")
-      ->check(CLI::Range(0, kMaxAdaptiveDepth))
-      ->capture_default_str();
+  auto* depth = mesh->add_option("--depth", mo.options.depth,
+                                 "uniform 3-refinement depth: 3^depth cells per axis (instead of the fitted adaptive "
+                                 "grid of --hausdorff)")
+                    ->check(CLI::Range(0, kMaxUniformDepth));
+  auto* threshold =
+      mesh->add_option(
+              "--threshold", mo.options.threshold,
+              "adaptive 3-refinement instead of --depth: a cell the surface may pass through is refined while the "
+              "paper's refinement error (how far its trilinear isosurface lies from its 27 children's) exceeds "
+              "THRESHOLD times the finest cell size (box edge / 3^max-depth); cells the surface misses are never "
+              "refined. --max-depth sets the resolution, THRESHOLD the accuracy asked of coarser cells in units of "
+              "it; dimensionless, so it suits a model of any size (the paper's batch run: 0.05)")
+          ->check(CLI::PositiveNumber);
+  auto* max_depth = mesh->add_option("--max-depth", mo.options.max_depth, "--threshold: deepest refinement level")
+                        ->check(CLI::Range(0, kMaxAdaptiveDepth))
+                        ->capture_default_str();
+  auto* hausdorff =
+      mesh->add_option("--hausdorff", mo.options.hausdorff,
+                       fmt::format("the default grid: the adaptive grid fitted to this target Hausdorff ratio (the "
+                                   "two-sided Hausdorff distance between mesh boundary and input over the input's "
+                                   "bounding-box diagonal): finest cell about H x diagonal (default {})",
+                                   kDefaultHausdorffRatio))
+          ->check(CLI::PositiveNumber);
+  auto* max_hexes = mesh->add_option("--max-hexes", mo.options.max_hexes,
+                                     "at most N output hexes (both meshes): the adaptive grid is coarsened where its "
+                                     "error is smallest until its predicted output fits (exit 2 when nothing does)")
+                        ->check(CLI::Range(std::size_t{1}, std::size_t{1} << 40))
+                        ->type_name("N");
+  // One grid setting: a uniform depth, an explicit adaptive one, or the fitted default.
+  depth->excludes(threshold)->excludes(max_depth)->excludes(hausdorff)->excludes(max_hexes);
+  hausdorff->excludes(threshold)->excludes(max_depth);
+  max_depth->needs(threshold);
   mesh->add_option("--pad", mo.options.pad, "padding around the input, as a fraction of its largest extent")
       ->check(CLI::Range(0.0, 10.0))
       ->capture_default_str();
@@ -115,7 +134,13 @@ int main(int argc, char** argv) {
   mesh->add_flag("--no-repair{false}", mo.options.input.repair,
                  "mesh the surface as read: no orientation repair (duplicates, flipped faces, inside-out shells)");
   mesh->add_option("--report", mo.report, "write a JSON report to this file");
-  mesh->add_flag("--fidelity", mo.options.fidelity, "measure IoU and Hausdorff distance against the input");
+  bool no_fidelity = false;
+  auto* fidelity = mesh->add_flag("--fidelity", mo.options.fidelity,
+                                  "measure IoU and Hausdorff ratio against the input (the default)");
+  mesh->add_flag("--no-fidelity", no_fidelity, "skip the IoU and Hausdorff measures")->excludes(fidelity);
+  // The summary measures fidelity by default: a lattice of 64 keeps it a fraction of the run
+  // (README, "Fidelity by default"), the Hausdorff ratio does not depend on it.
+  mo.options.lattice = 64;
   mesh->add_option("--lattice", mo.options.lattice, "samples per axis for the IoU")
       ->check(CLI::Range(8, 1024))
       ->capture_default_str();
@@ -167,6 +192,9 @@ int main(int argc, char** argv) {
     if (threads > 0) limit.emplace(threads);
     if (mesh->parsed()) {
       const OutputGroup outputs;
+      if (depth->count() == 0 && threshold->count() == 0 && hausdorff->count() == 0)
+        mo.options.hausdorff = kDefaultHausdorffRatio;
+      mo.options.fidelity = !no_fidelity;
       return run_mesh(mo, quiet);
     }
     if (devices->parsed()) return run_devices(devices_json);

@@ -39,6 +39,13 @@ void print_summary(const MeshRun& run, const MeshOutputs& outputs) {
   else
     fmt::print("mchex-gpu: {} -> {} grid of {}^3 cells (depth {}), method {}\n", run.input.name, "uniform",
                run.uniform->cells_per_axis(), run.uniform->depth(), o.method);
+  if (o.hausdorff > 0 || run.fit)
+    fmt::print("  fitted: {}{}{}\n",
+               o.hausdorff > 0 ? fmt::format("target Hausdorff ratio {} (--hausdorff)", o.hausdorff) : "",
+               o.hausdorff > 0 && run.fit ? ", " : "",
+               run.fit ? fmt::format("at most {} hexes (--max-hexes; predicted {}, {} settings tried)", o.max_hexes,
+                                     run.fit->predicted_hexes, run.fit->trials.size())
+                       : "");
   fmt::print("  inside : {:>10} hexes {:>10} vertices -> {}\n", run.meshes.inside.hexes.size(),
              run.meshes.inside.points.size(), outputs.inside);
   fmt::print("  outside: {:>10} hexes {:>10} vertices -> {}\n", run.meshes.outside.hexes.size(),
@@ -85,8 +92,11 @@ int run_mesh(const MeshCommand& o, bool quiet) {
                                     : (run.cube.hi.x - run.cube.lo.x) / std::pow(3.0, run.adaptive->levels - 1);
     fmt::print(stderr,
                "mchex-gpu: warning: the inside mesh is empty: the solid is thinner than the grid's cells (cell size "
-               "{:.3g}) everywhere; a finer --depth keeps it\n",
-               cell);
+               "{:.3g}) everywhere; a finer {} keeps it\n",
+               cell,
+               run.uniform                 ? "--depth"
+               : run.options.hausdorff > 0 ? "grid (a smaller --hausdorff)"
+                                           : "--max-depth");
   }
   if (!run.check.ok)
     throw std::runtime_error("the mesh fails its own check, so nothing was written: " + first_error(run.check));

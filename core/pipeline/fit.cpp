@@ -1,0 +1,116 @@
+#include "core/pipeline/fit.h"
+
+#include <cmath>
+#include <optional>
+
+#include <fmt/format.h>
+
+#include "core/base/error.h"
+#include "core/base/parallel.h"
+#include "core/cutting/local_refinement.h"
+#include "core/cutting/mc33.h"
+#include "core/cutting/mchex_mesher.h"
+
+namespace mchex {
+namespace {
+
+// The threshold grows by this factor per step at the depth over the cap; after kThresholdSteps
+// steps (x 64) the grid at that depth is close to the one a level coarser, which is already known.
+constexpr double kThresholdStep = 2;
+constexpr int kThresholdSteps = 6;
+
+FitTrial build_and_predict(const SignedDistance& sdf, const Box& cube, const AdaptiveOptions& options,
+                           const std::string& method) {
+  Octree tree = refine_octree(sdf, cube, options);
+  balance_octree(tree);
+  AdaptiveGrid grid = build_adaptive_complex(tree);
+  FitTrial t;
+  t.options = options;
+  t.cells = grid.complex.cells.size();
+  if (method == "ro") {
+    t.predicted_hexes = t.cells;  // RO: every cell is one hex of one of the two meshes
+    return t;
+  }
+  evaluate_unsampled(grid, sdf);
+  t.predicted_hexes = predict_hexes(grid, grid.values, method);
+  return t;
+}
+
+}  // namespace
+
+AdaptiveOptions adaptive_for_hausdorff(double hausdorff_ratio, const Box& bounds, const Box& cube) {
+  if (!(hausdorff_ratio > 0) || !std::isfinite(hausdorff_ratio))
+    throw InputError(fmt::format("the Hausdorff ratio must be positive, got {}", hausdorff_ratio));
+  const double finest = kFinestCellPerHausdorff * hausdorff_ratio * bounds.diagonal();
+  const double edge = cube.hi.x - cube.lo.x;
+  AdaptiveOptions o;
+  o.threshold = kFitThreshold;
+  o.max_depth = 0;
+  while (o.max_depth < kMaxAdaptiveDepth && edge / std::pow(3.0, o.max_depth) > finest) ++o.max_depth;
+  return o;
+}
+
+std::size_t predict_hexes(const AdaptiveGrid& grid, std::span<const double> values, const std::string& method) {
+  const HexComplex& cx = grid.complex;
+  if (method == "ro") return cx.cells.size();
+  // The values every cell is classified from, as the mesher sees them (its zero rule).
+  const std::vector<double> f = apply_zero_rule(cx, values);
+  return parallel_reduce(
+      cx.cells.size(), 4096, std::size_t{0},
+      [&](std::size_t begin, std::size_t end, std::size_t sum) {
+        for (std::size_t c = begin; c < end; ++c) {
+          std::array<double, 8> fc;
+          for (int k = 0; k < 8; ++k) fc[k] = f[cx.cells[c][k]];
+          sum += static_cast<std::size_t>(local_refinement_hexes(classify(fc).subcase));
+        }
+        return sum;
+      },
+      [](std::size_t a, std::size_t b) { return a + b; });
+}
+
+FitResult fit_max_hexes(const SignedDistance& sdf, const Box& cube, const AdaptiveOptions& start, std::size_t max_hexes,
+                        const std::string& method) {
+  FitResult r;
+  auto trial = [&](const AdaptiveOptions& o) -> const FitTrial& {
+    r.trials.push_back(build_and_predict(sdf, cube, o, method));
+    return r.trials.back();
+  };
+  // From the coarsest grid up, at the starting threshold: the deepest level that fits.
+  std::optional<FitTrial> fits;
+  int over = -1;  // the first depth over the cap
+  for (int d = 0; d <= start.max_depth; ++d) {
+    const FitTrial& t = trial({start.threshold, d});
+    if (t.predicted_hexes > max_hexes) {
+      over = d;
+      break;
+    }
+    fits = t;
+  }
+  if (over < 0) {
+    r.options = fits->options;
+    r.predicted_hexes = fits->predicted_hexes;
+    return r;
+  }
+  if (over == 0)
+    throw ResourceError(fmt::format("--max-hexes {}: even the unrefined cube makes {} hexes; --max-hexes {} would fit",
+                                    max_hexes, r.trials.back().predicted_hexes, r.trials.back().predicted_hexes));
+  // At the depth over the cap, a higher threshold keeps only the cells of largest error refined.
+  double threshold = start.threshold;
+  for (int s = 0; s < kThresholdSteps; ++s) {
+    threshold *= kThresholdStep;
+    const FitTrial& t = trial({threshold, over});
+    if (t.predicted_hexes <= max_hexes) {
+      if (t.predicted_hexes > fits->predicted_hexes) fits = t;
+      // One bisection step between the last threshold over the cap and this one: a step of 2 in
+      // the threshold can change the output several times over.
+      const FitTrial& mid = trial({threshold / std::sqrt(kThresholdStep), over});
+      if (mid.predicted_hexes <= max_hexes && mid.predicted_hexes > fits->predicted_hexes) fits = mid;
+      break;
+    }
+  }
+  r.options = fits->options;
+  r.predicted_hexes = fits->predicted_hexes;
+  return r;
+}
+
+}  // namespace mchex

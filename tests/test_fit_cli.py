@@ -1,0 +1,119 @@
+"""mesh's default grid, fitted to the model (core/pipeline/fit.h), as a user runs it: no size
+option meshes the adaptive grid chosen from the default --hausdorff target and prints IoU and
+Hausdorff ratio; the size options exclude each other with a one-line error; --max-hexes caps the
+output of a real model (counted here from the files, read by meshio), and a cap nothing fits is
+exit 2 naming one that would; the report carries the fit and the fidelity."""
+import json
+import os
+import unittest
+
+import meshio
+
+from harness import STL_MODELS, ScratchTestCase, run
+
+GEARWHEEL = os.path.join(STL_MODELS, "objects", "gearwheel.bin.stl")
+
+
+def report(folder):
+    with open(os.path.join(folder, "r.json")) as f:
+        return json.load(f)
+
+
+def hexes_in(path):
+    return len(meshio.read(path).cells_dict["hexahedron"])
+
+
+class SizeOptions(ScratchTestCase):
+
+    def test_conflicting_size_options_are_one_line_errors(self):
+        for args, names in [
+            (("--depth", 2, "--threshold", 0.1), ("--depth", "--threshold")),
+            (("--depth", 2, "--max-depth", 3), ("--depth", "--max-depth")),
+            (("--depth", 2, "--hausdorff", 0.01), ("--depth", "--hausdorff")),
+            (("--depth", 2, "--max-hexes", 1000), ("--depth", "--max-hexes")),
+            (("--hausdorff", 0.01, "--threshold", 0.1), ("--hausdorff", "--threshold")),
+            (("--hausdorff", 0.01, "--max-depth", 3), ("--max-depth",)),
+            (("--max-depth", 3,), ("--max-depth", "--threshold")),
+            (("--fidelity", "--no-fidelity"), ("--fidelity", "--no-fidelity")),
+        ]:
+            r = run("mesh", "--shape", "sphere", *args, "-o", "in.mesh", cwd=self.dir)
+            self.assertEqual(r.returncode, 1, args)
+            self.assertEqual(len(r.stderr.strip().splitlines()), 1, r.stderr)
+            for name in names:
+                self.assertIn(name, r.stderr)
+            self.assertFalse(os.path.exists(os.path.join(self.dir, "in.mesh")))
+        for bad in ("0", "-0.1", "x"):
+            r = run("mesh", "--shape", "sphere", "--hausdorff", bad, "-o", "in.mesh", cwd=self.dir)
+            self.assertEqual(r.returncode, 1, bad)
+
+    def test_no_size_option_is_the_fitted_adaptive_grid_with_its_fidelity(self):
+        r = run("mesh", "--shape", "sphere", "-o", "in.vtu", "--report", "r.json", cwd=self.dir)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertIn("adaptive grid", r.stdout)
+        self.assertIn("max depth 4", r.stdout)
+        self.assertIn("fitted: target Hausdorff ratio 0.015", r.stdout)
+        self.assertRegex(r.stdout, r"fidelity: IoU 0\.99\d\d, Hausdorff")
+        rep = report(self.dir)
+        self.assertEqual(rep["grid"]["kind"], "adaptive")
+        self.assertEqual(rep["grid"]["max_depth"], 4)
+        self.assertEqual(rep["fit"]["hausdorff_target"], 0.015)
+        self.assertIsNone(rep["fit"]["max_hexes"])
+        self.assertGreaterEqual(rep["fidelity"]["iou"], 0.99)
+        self.assertLessEqual(rep["fidelity"]["hausdorff_ratio"], 0.015)
+        self.assertEqual(rep["fidelity"]["lattice"], 64)
+        self.assertIn("fidelity", rep["times"])
+
+    def test_no_fidelity_skips_it_and_depth_is_the_uniform_grid_as_before(self):
+        r = run("mesh", "--shape", "sphere", "--depth", 2, "--no-fidelity", "-o", "in.mesh", "--report", "r.json",
+                cwd=self.dir)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertNotIn("fidelity", r.stdout)
+        self.assertNotIn("fitted", r.stdout)
+        rep = report(self.dir)
+        self.assertEqual(rep["grid"]["kind"], "uniform")
+        self.assertEqual(rep["grid"]["cells"], 9 ** 3)
+        for key in ("fidelity", "fit"):
+            self.assertNotIn(key, rep)
+        self.assertNotIn("fidelity", rep["times"])
+
+    def test_a_smaller_target_gives_a_finer_grid(self):
+        depths = []
+        for h in (0.1, 0.03, 0.015):
+            r = run("mesh", "--shape", "torus", "--hausdorff", h, "--no-fidelity", "-o", "in.mesh", "--report",
+                    "r.json", cwd=self.dir)
+            self.assertEqual(r.returncode, 0, r.stderr)
+            depths.append(report(self.dir)["grid"]["max_depth"])
+        self.assertEqual(depths, sorted(depths))
+        self.assertLess(depths[0], depths[-1])
+
+
+class MaxHexes(ScratchTestCase):
+
+    def test_the_cap_holds_on_a_real_model_and_the_report_says_how(self):
+        cap = 150_000
+        inside, outside = (os.path.join(self.dir, n) for n in ("in.vtu", "out.vtu"))
+        r = run("mesh", GEARWHEEL, "--max-hexes", cap, "-o", inside, "--outside", outside, "--report", "r.json",
+                cwd=self.dir)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        made = hexes_in(inside) + hexes_in(outside)
+        self.assertLessEqual(made, cap)
+        rep = report(self.dir)
+        self.assertEqual(rep["fit"]["max_hexes"], cap)
+        self.assertEqual(rep["fit"]["hausdorff_target"], 0.015)
+        self.assertGreaterEqual(rep["fit"]["predicted_hexes"], made)
+        self.assertLessEqual(rep["fit"]["predicted_hexes"], cap)
+        self.assertGreater(len(rep["fit"]["trials"]), 1)
+        self.assertLessEqual(rep["grid"]["max_depth"], 4)
+        self.assertIn("fidelity", rep)
+        self.assertIn("at most 150000 hexes", r.stdout)
+
+    def test_a_cap_nothing_fits_is_exit_2_naming_one_that_would(self):
+        r = run("mesh", GEARWHEEL, "--max-hexes", 5, "-o", "in.mesh", cwd=self.dir)
+        self.assertEqual(r.returncode, 2, r.stderr)
+        self.assertEqual(len(r.stderr.strip().splitlines()), 1, r.stderr)
+        self.assertRegex(r.stderr, r"--max-hexes \d+ would fit")
+        self.assertEqual(os.listdir(self.dir), [])
+
+
+if __name__ == "__main__":
+    unittest.main()
