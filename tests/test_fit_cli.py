@@ -108,7 +108,9 @@ class MaxHexes(ScratchTestCase):
         self.assertIn("at most 150000 hexes", r.stdout)
 
     def test_a_cap_nothing_fits_is_exit_2_naming_one_that_would(self):
-        r = run("mesh", GEARWHEEL, "--max-hexes", 5, "-o", "in.mesh", cwd=self.dir)
+        # --quiet: a stage slower than its progress threshold (the BVH under the sanitizers) prints
+        # progress lines, as in test_bad_inputs' --max-memory refusals.
+        r = run("mesh", GEARWHEEL, "--max-hexes", 5, "-o", "in.mesh", "--quiet", cwd=self.dir)
         self.assertEqual(r.returncode, 2, r.stderr)
         self.assertEqual(len(r.stderr.strip().splitlines()), 1, r.stderr)
         self.assertRegex(r.stderr, r"--max-hexes \d+ would fit")
