@@ -125,15 +125,6 @@ bool Octree::refine(int level, std::uint64_t cell) {
   return true;
 }
 
-bool Octree::is_marked(int level, std::uint64_t vertex) const {
-  return level < max_depth_ && marks_[level].contains(vertex);
-}
-
-std::vector<std::uint64_t> Octree::marked_vertices(int level) const {
-  if (level >= max_depth_) return {};
-  return marks_[level].keys();
-}
-
 std::vector<std::uint64_t> Octree::refined_cells(int level) const {
   if (level >= max_depth_) return {};
   return sorted(refined_[level].keys());
@@ -791,11 +782,10 @@ AdaptiveGrid build_adaptive_complex(const Octree& tree) {
           keys[key++] = packed.pack(o[0] + at(q[0]), o[1] + at(q[1]), o[2] + at(q[2]));
         } else {
           // Exact integers over units * 14400 per axis, rounded once, as `position` does.
-          Vec3& v = inner_points[inner];
-          const double lo[3] = {cube.lo.x, cube.lo.y, cube.lo.z}, hi[3] = {cube.hi.x, cube.hi.y, cube.hi.z};
-          double* out_c[3] = {&v.x, &v.y, &v.z};
-          for (int d = 0; d < 3; ++d)
-            *out_c[d] = coordinate(lo[d], hi[d], o[d] * kTemplateUnits + size * std::uint64_t(q[d]), inner_units);
+          auto t = [&](int d) { return o[d] * kTemplateUnits + size * std::uint64_t(q[d]); };
+          inner_points[inner] = {coordinate(cube.lo.x, cube.hi.x, t(0), inner_units),
+                                 coordinate(cube.lo.y, cube.hi.y, t(1), inner_units),
+                                 coordinate(cube.lo.z, cube.hi.z, t(2), inner_units)};
           slot[p] = static_cast<std::uint32_t>(num_keys + inner++);
         }
       }

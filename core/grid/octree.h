@@ -134,8 +134,6 @@ class Octree {
   // Refines an existing leaf (level < max_depth) and marks its 8 corners; returns false if it
   // already was refined.
   bool refine(int level, std::uint64_t cell);
-  bool is_marked(int level, std::uint64_t vertex) const;
-  std::vector<std::uint64_t> marked_vertices(int level) const;  // in the order they were marked
   // Refined cells of a level (level < max_depth), sorted by key.
   std::vector<std::uint64_t> refined_cells(int level) const;
   // Leaves of a level, by their parents in the order those were refined (deterministic, unsorted).
