@@ -42,22 +42,28 @@ TEST(Fit, DepthIsTheShallowestWhoseFinestCellIsAtMostHTimesTheDiagonal) {
     int previous = 0;
     for (const double h : {0.2, 0.05, 0.015, 0.01, 0.004, 0.001}) {
       const AdaptiveOptions o = adaptive_for_hausdorff(h, bounds, cube);
-      EXPECT_LE(edge / std::pow(3.0, o.max_depth), kFinestCellPerHausdorff * h * diag) << h;
-      if (o.max_depth > 0) {
-        EXPECT_GT(edge / std::pow(3.0, o.max_depth - 1), kFinestCellPerHausdorff * h * diag) << h;
+      // The error test's depth is the base grid; the measured rounds may go kFitExtraLevels below.
+      EXPECT_LE(edge / std::pow(3.0, o.error_depth), kFinestCellPerHausdorff * h * diag) << h;
+      if (o.error_depth > 0) {
+        EXPECT_GT(edge / std::pow(3.0, o.error_depth - 1), kFinestCellPerHausdorff * h * diag) << h;
       }
+      EXPECT_EQ(o.max_depth, std::min(kMaxAdaptiveDepth, o.error_depth + kFitExtraLevels)) << h;
       EXPECT_EQ(o.threshold, kFitThreshold);
-      EXPECT_GE(o.max_depth, previous) << "a smaller target never gives a coarser grid";
-      previous = o.max_depth;
+      EXPECT_GE(o.error_depth, previous) << "a smaller target never gives a coarser grid";
+      previous = o.error_depth;
     }
   }
-  // The default target on a sphere: finest cell 2.4 / 81 = 0.030 <= 0.015 x 2 sqrt(3) = 0.052 < 2.4 / 27.
+  // The default target on a sphere: base finest cell 2.4 / 81 = 0.030 <= 3 x 0.005 x 2 sqrt(3) = 0.052
+  // < 2.4 / 27.
   const ShapeSdf sphere(ShapeKind::kSphere);
-  EXPECT_EQ(
-      adaptive_for_hausdorff(kDefaultHausdorffRatio, sphere.bounds(), padded_cube(sphere.bounds(), 0.1)).max_depth, 4);
+  const AdaptiveOptions d =
+      adaptive_for_hausdorff(kDefaultHausdorffRatio, sphere.bounds(), padded_cube(sphere.bounds(), 0.1));
+  EXPECT_EQ(d.error_depth, 4);
+  EXPECT_EQ(d.max_depth, 6);
   // A target too small for the key fields stops at the deepest level.
-  EXPECT_EQ(adaptive_for_hausdorff(1e-12, sphere.bounds(), padded_cube(sphere.bounds(), 0.1)).max_depth,
-            kMaxAdaptiveDepth);
+  const AdaptiveOptions tiny = adaptive_for_hausdorff(1e-12, sphere.bounds(), padded_cube(sphere.bounds(), 0.1));
+  EXPECT_EQ(tiny.error_depth, kMaxAdaptiveDepth);
+  EXPECT_EQ(tiny.max_depth, kMaxAdaptiveDepth);
   for (const double bad : {0.0, -0.1, std::nan(""), double(INFINITY)})
     EXPECT_THROW(adaptive_for_hausdorff(bad, sphere.bounds(), sphere.bounds()), InputError) << bad;
 }

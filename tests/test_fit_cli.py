@@ -12,6 +12,7 @@ import meshio
 from harness import STL_MODELS, ScratchTestCase, run
 
 GEARWHEEL = os.path.join(STL_MODELS, "objects", "gearwheel.bin.stl")
+TETRAHEDRON = os.path.join(STL_MODELS, "polytopes", "tetrahedronIrregular.bin.stl")
 
 
 def report(folder):
@@ -50,16 +51,18 @@ class SizeOptions(ScratchTestCase):
         r = run("mesh", "--shape", "sphere", "-o", "in.vtu", "--report", "r.json", cwd=self.dir)
         self.assertEqual(r.returncode, 0, r.stderr)
         self.assertIn("adaptive grid", r.stdout)
-        self.assertIn("max depth 4", r.stdout)
-        self.assertIn("fitted: target Hausdorff ratio 0.015", r.stdout)
+        self.assertIn("threshold 0.05 to depth 4, max depth 6", r.stdout)
+        self.assertIn("fitted: target Hausdorff ratio 0.005", r.stdout)
         self.assertRegex(r.stdout, r"fidelity: IoU 0\.99\d\d, Hausdorff")
         rep = report(self.dir)
         self.assertEqual(rep["grid"]["kind"], "adaptive")
-        self.assertEqual(rep["grid"]["max_depth"], 4)
-        self.assertEqual(rep["fit"]["hausdorff_target"], 0.015)
+        self.assertEqual(rep["grid"]["error_depth"], 4)
+        self.assertEqual(rep["grid"]["max_depth"], 6)
+        self.assertEqual(rep["fit"]["hausdorff_target"], 0.005)
         self.assertIsNone(rep["fit"]["max_hexes"])
         self.assertGreaterEqual(rep["fidelity"]["iou"], 0.99)
-        self.assertLessEqual(rep["fidelity"]["hausdorff_ratio"], 0.015)
+        # The sphere meets the target at the base grid: no round refines it.
+        self.assertLessEqual(rep["fidelity"]["hausdorff_ratio"], 0.005)
         self.assertEqual(rep["fidelity"]["lattice"], 64)
         self.assertIn("fidelity", rep["times"])
 
@@ -75,6 +78,23 @@ class SizeOptions(ScratchTestCase):
         for key in ("fidelity", "fit"):
             self.assertNotIn(key, rep)
         self.assertNotIn("fidelity", rep["times"])
+
+    def test_the_measured_rounds_refine_where_the_mesh_is_far_from_a_sharp_input(self):
+        # The irregular tetrahedron's tips are cut back by about 4 finest cells of the base grid
+        # (HR 0.047 at depth 4): the rounds refine the leaves at the far samples.
+        r = run("mesh", TETRAHEDRON, "-o", "in.mesh", "--report", "r.json", "--quiet", cwd=self.dir)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        rep = report(self.dir)
+        rounds = rep["fit"]["rounds"]
+        self.assertGreaterEqual(len(rounds), 1)
+        self.assertGreater(rounds[0]["far_points"], 0)
+        self.assertGreater(rounds[0]["refined_leaves"], 0)
+        self.assertGreater(rounds[0]["hausdorff_ratio"], 0.02)
+        # Each round measures the mesh the previous one made; the last measure is the report's.
+        hrs = [x["hausdorff_ratio"] for x in rounds] + [rep["fidelity"]["hausdorff_ratio"]]
+        self.assertEqual(hrs, sorted(hrs, reverse=True))
+        self.assertLess(rep["fidelity"]["hausdorff_ratio"], 0.25 * rounds[0]["hausdorff_ratio"])
+        self.assertEqual(rep["check"]["inside"]["inverted_hexes"], 0)
 
     def test_a_smaller_target_gives_a_finer_grid(self):
         depths = []
@@ -99,7 +119,8 @@ class MaxHexes(ScratchTestCase):
         self.assertLessEqual(made, cap)
         rep = report(self.dir)
         self.assertEqual(rep["fit"]["max_hexes"], cap)
-        self.assertEqual(rep["fit"]["hausdorff_target"], 0.015)
+        self.assertEqual(rep["fit"]["hausdorff_target"], 0.005)
+        self.assertEqual(rep["fit"]["rounds"], [], "a cap has no measured rounds")
         self.assertGreaterEqual(rep["fit"]["predicted_hexes"], made)
         self.assertLessEqual(rep["fit"]["predicted_hexes"], cap)
         self.assertGreater(len(rep["fit"]["trials"]), 1)

@@ -121,6 +121,74 @@ TEST(octree, SingleRefinedCellGivesSingleEdgeAndFaceTemplates) {
   expect_conforming(g, "centre");
 }
 
+// The fitted grid's measured rounds refine the leaves that hold far samples (core/pipeline/fit.h).
+TEST(octree, RefineLeavesAtPointsRefinesTheLeafThatHoldsEachPointOnce) {
+  Octree t(kUnitCube, 3);
+  t.refine(0, octree_key(0, 0, 0));
+  // A point in level-1 leaf (2, 0, 0), twice and in two orders; one on the face x = 1/3 between
+  // leaves (0,1,1) and (1,1,1) (floor: the one above it); one outside the cube.
+  const std::vector<Vec3> points = {{0.9, 0.1, 0.1}, {1.0 / 3, 0.5, 0.5}, {0.9, 0.1, 0.1}, {2, 0.5, 0.5}};
+  Octree u = t;
+  EXPECT_EQ(refine_leaves_at_points(t, points), 2u);  // balanced already: no more
+  EXPECT_TRUE(t.is_refined(1, octree_key(2, 0, 0)));
+  EXPECT_TRUE(t.is_refined(1, octree_key(1, 1, 1)));
+  EXPECT_FALSE(t.is_refined(1, octree_key(0, 1, 1)));
+  EXPECT_EQ(t.leaf_count(), 1u + 26u + 2u * 26u);
+  const std::vector<Vec3> reversed(points.rbegin(), points.rend());
+  EXPECT_EQ(refine_leaves_at_points(u, reversed), 2u);
+  EXPECT_EQ(u.refined_cells(1), t.refined_cells(1));
+  // min_points: only a leaf with two of the points.
+  Octree v(kUnitCube, 3);
+  v.refine(0, octree_key(0, 0, 0));
+  EXPECT_EQ(refine_leaves_at_points(v, points, 2), 1u);
+  EXPECT_TRUE(v.is_refined(1, octree_key(2, 0, 0)));
+  // Leaves at max_depth stay; the leaf of a point deeper in refines in turn and balancing follows.
+  Octree w(kUnitCube, 1);
+  w.refine(0, octree_key(0, 0, 0));
+  EXPECT_EQ(refine_leaves_at_points(w, points), 0u);
+  EXPECT_EQ(refine_leaves_at_points(t, std::vector<Vec3>{{0.9, 0.1, 0.1}}), 1u);
+  EXPECT_TRUE(t.is_refined(2, octree_key(8, 0, 0)));
+  EXPECT_TRUE(octree_balanced(t));
+  expect_conforming(build_adaptive_complex(t), "points");
+}
+
+// The error tests stop above error_depth: the levels below it are left to the other tests.
+TEST(octree, ErrorDepthStopsTheErrorTestAboveIt) {
+  const ShapeSdf sphere(ShapeKind::kSphere);
+  const Box cube = padded_cube(sphere.bounds(), 0.1);
+  const Octree deep = refine_octree(sphere, cube, {0.05, 4});
+  AdaptiveOptions o{0.05, 6};
+  o.error_depth = 4;
+  const Octree capped = refine_octree(sphere, cube, o);
+  EXPECT_EQ(capped.max_depth(), 6);
+  EXPECT_TRUE(capped.refined_cells(4).empty());
+  EXPECT_TRUE(capped.refined_cells(5).empty());
+  // Same tolerance in finest-of-error-depth units: the same refined cells above it.
+  for (int level = 0; level < 4; ++level) EXPECT_EQ(capped.refined_cells(level), deep.refined_cells(level)) << level;
+}
+
+// The surface-sample test refines a cell whose interpolant misses an input point: a sharp tip.
+TEST(octree, SurfaceSamplesRefineWhereTheInterpolantMissesTheSurface) {
+  const ShapeSdf sphere(ShapeKind::kSphere);
+  const Box cube = padded_cube(sphere.bounds(), 0.1);
+  AdaptiveOptions base{1e9, 3};  // the distance test off: nothing refines but the root's need
+  const Octree none = refine_octree(sphere, cube, base);
+  AdaptiveOptions o = base;
+  o.surface_tolerance = 1e-6;  // any interpolant misses a sphere point by more than this
+  const std::vector<Vec3> samples = {{1, 0, 0}};
+  o.surface_samples = samples;
+  const Octree some = refine_octree(sphere, cube, o);
+  EXPECT_GT(some.leaf_count(), none.leaf_count());
+  // The sample's leaf reaches max depth: every level's cell that holds it was refined.
+  for (int level = 0; level < 3; ++level) {
+    const double n = std::pow(3.0, level), e = cube.hi.x - cube.lo.x;
+    auto idx = [&](double x, double lo) { return std::uint64_t(std::floor((x - lo) / e * n)); };
+    EXPECT_TRUE(some.is_refined(level, octree_key(idx(1, cube.lo.x), idx(0, cube.lo.y), idx(0, cube.lo.z)))) << level;
+  }
+  o.surface_tolerance = 1e9;  // nothing is that far
+  EXPECT_EQ(refine_octree(sphere, cube, o).leaf_count(), none.leaf_count());
+}
+
 TEST(octree, ALeafBetweenOppositeRefinedNeighboursIsSplitUniformlyNotRefined) {
   // All 8 corners marked: the uniform template (its 27 children), with no refinement of the tree.
   Octree t(kUnitCube, 2);

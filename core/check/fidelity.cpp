@@ -153,7 +153,7 @@ std::vector<Vec3> sample_surface(const SignedDistance& solid, const Box& box, do
 
 Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, std::span<const Vec3> surface_samples,
                           const Box& lattice_box, std::size_t lattice, double spacing, const SurfaceDistance& distance,
-                          bool distance_bounds_sign) {
+                          bool distance_bounds_sign, double far_tolerance) {
   Fidelity fid;
   fid.lattice = lattice;
   const Vec3 lo = lattice_box.lo, size = lattice_box.size();
@@ -210,6 +210,10 @@ Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, st
     mesh_n += m;
     solid_n += v;
   }
+  if (far_tolerance > 0)
+    for (std::size_t s = 0; s < count; ++s)
+      if ((covered[s].load(std::memory_order_relaxed) != 0) != (f[s] > 0))
+        fid.misclassified_points.push_back(sample(s % lattice, (s / lattice) % lattice, s / (lattice * lattice)));
   const double cell_volume = step.x * step.y * step.z;
   fid.iou = either ? double(both) / double(either) : 1.0;
   fid.mesh_volume = mesh_n * cell_volume;
@@ -250,6 +254,9 @@ Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, st
     solid.evaluate(mesh_samples, d);
   }
   for (double v : d) fid.mesh_to_surface = std::max(fid.mesh_to_surface, std::abs(v));
+  if (far_tolerance > 0)
+    for (std::size_t i = 0; i < d.size(); ++i)
+      if (!(std::abs(d[i]) <= far_tolerance)) fid.far_points.push_back(mesh_samples[i]);
 
   if (boundary.triangles.empty()) {
     // No mesh surface at all: nothing of the input is matched.
@@ -259,6 +266,9 @@ Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, st
     d.assign(surface_samples.size(), 0);
     mesh_surface.distance(surface_samples, d);
     for (double v : d) fid.surface_to_mesh = std::max(fid.surface_to_mesh, v);
+    if (far_tolerance > 0)
+      for (std::size_t i = 0; i < d.size(); ++i)
+        if (!(d[i] <= far_tolerance)) fid.far_points.push_back(surface_samples[i]);
   }
   fid.hausdorff = std::max(fid.mesh_to_surface, fid.surface_to_mesh);
   const double diag = solid.bounds().diagonal();

@@ -28,6 +28,11 @@ struct Fidelity {
   double hausdorff_ratio = 0;  // hausdorff / input bounding-box diagonal
   std::size_t lattice = 0;     // samples per axis
   std::size_t unresolved = 0;  // samples where the inverse map did not converge
+  // With far_tolerance > 0: the samples of either side farther than it from the other side
+  // (mesh-boundary samples first, then input-surface samples), where a finer grid is wanted.
+  std::vector<Vec3> far_points;
+  // With far_tolerance > 0: the IoU lattice samples where mesh and solid disagree.
+  std::vector<Vec3> misclassified_points;
 };
 
 // Points on the reference surface at about the given spacing.
@@ -45,6 +50,7 @@ using SurfaceDistance = std::function<void(std::span<const Vec3> points, std::sp
 // the same (an open surface's winding-number sign can change away from it: leave it false).
 Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, std::span<const Vec3> surface_samples,
                           const Box& lattice_box, std::size_t lattice, double spacing,
-                          const SurfaceDistance& distance = {}, bool distance_bounds_sign = false);
+                          const SurfaceDistance& distance = {}, bool distance_bounds_sign = false,
+                          double far_tolerance = 0);
 
 }  // namespace mchex

@@ -1,10 +1,12 @@
 #include "core/grid/octree.h"
 
 #include <algorithm>
+#include <atomic>
 #include <bit>
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <numeric>
 #include <stdexcept>
 #include <string>
 
@@ -147,8 +149,9 @@ std::vector<std::uint64_t> Octree::leaves(int level) const {
 }
 
 std::size_t Octree::leaf_count() const {
-  std::size_t n = is_refined(0, 0) ? 0 : 1;
-  for (int l = 0; l < max_depth_; ++l) n += 26 * refined_[l].size();  // 27 children replace 1
+  // Each refinement replaces one leaf by 27, from the root alone: 1 + 26 per refined cell.
+  std::size_t n = 1;
+  for (int l = 0; l < max_depth_; ++l) n += 26 * refined_[l].size();
   return n;
 }
 
@@ -317,8 +320,12 @@ bool cell_may_hold_surface(const std::array<double, kChildLatticePoints>& f, dou
   return false;
 }
 
+int error_depth(const AdaptiveOptions& options) {
+  return options.error_depth >= 0 ? std::min(options.error_depth, options.max_depth) : options.max_depth;
+}
+
 double adaptive_tolerance(const Box& cube, const AdaptiveOptions& options) {
-  return options.threshold * (cube.hi.x - cube.lo.x) / pow3(options.max_depth);
+  return options.threshold * (cube.hi.x - cube.lo.x) / pow3(error_depth(options));
 }
 
 void Octree::record_samples(int level, std::vector<std::uint64_t> keys, std::vector<double> values) {
@@ -350,9 +357,82 @@ bool Octree::sampled_value(std::uint64_t finest_key, double* value) const {
 
 // ---- Refinement ----------------------------------------------------------------------------------
 
+namespace {
+
+// The trilinear interpolant of a cell's 8 corner values at t in [0,1]^3 and its gradient (per unit
+// of the cell).
+void trilinear(const std::array<double, 8>& f, Vec3 t, double* phi, Vec3* grad) {
+  *phi = 0;
+  *grad = {};
+  for (int c = 0; c < 8; ++c) {
+    const double wx = (c & 1) ? t.x : 1 - t.x, wy = (c >> 1 & 1) ? t.y : 1 - t.y, wz = (c >> 2) ? t.z : 1 - t.z;
+    const double sx = (c & 1) ? 1 : -1, sy = (c >> 1 & 1) ? 1 : -1, sz = (c >> 2) ? 1 : -1;
+    *phi += f[c] * wx * wy * wz;
+    grad->x += f[c] * sx * wy * wz;
+    grad->y += f[c] * wx * sy * wz;
+    grad->z += f[c] * wx * wy * sz;
+  }
+}
+
+// The surface-sample test of AdaptiveOptions::surface_tolerance at one level: each live sample
+// finds its candidate (the child of a refined parent that holds it; a point on a cell boundary
+// goes to the cell above it, by floor) and flags it when the candidate's trilinear isosurface
+// lies farther than the tolerance from the sample, by |phi| / |grad phi|. `live` keeps the
+// samples whose candidate is refined after this level's decisions, in their order.
+void refine_at_surface_samples(const Box& cube, int level, double h, const std::vector<std::uint64_t>& parents,
+                               const std::vector<std::uint32_t>& active_mask,
+                               const std::vector<std::array<double, 8>>& cell_corners, const AdaptiveOptions& options,
+                               std::vector<std::uint32_t>& live, std::vector<std::uint8_t>& refine) {
+  const bool root = level == 0;
+  const std::uint32_t cells = pow3(level);
+  // Parent key -> group, by a sorted copy of the keys.
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> group_of(parents.size());
+  for (std::size_t g = 0; g < parents.size(); ++g) group_of[g] = {parents[g], static_cast<std::uint32_t>(g)};
+  std::sort(group_of.begin(), group_of.end());
+  constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+  std::vector<std::uint32_t> cand_of(live.size(), kNone);
+  std::vector<std::uint8_t> flagged(refine.size(), 0);
+  const double tolerance = options.surface_tolerance / h;  // in units of the cell
+  parallel_for(live.size(), [&](std::size_t s) {
+    const Vec3 p = options.surface_samples[live[s]];
+    std::array<std::uint32_t, 3> cell;
+    Vec3 t;
+    for (int a = 0; a < 3; ++a) {
+      const double u = (p[a] - cube.lo[a]) / h;
+      cell[a] = static_cast<std::uint32_t>(std::clamp(std::floor(u), 0.0, double(cells - 1)));
+      t[a] = std::clamp(u - double(cell[a]), 0.0, 1.0);
+    }
+    std::size_t cand = 0;
+    if (!root) {
+      const std::uint64_t parent = octree_key(cell[0] / 3, cell[1] / 3, cell[2] / 3);
+      const auto it = std::lower_bound(group_of.begin(), group_of.end(), std::make_pair(parent, std::uint32_t{0}));
+      if (it == group_of.end() || it->first != parent) return;
+      const int c = int(cell[0] % 3 + 3 * (cell[1] % 3) + 9 * (cell[2] % 3));
+      if (!(active_mask[it->second] >> c & 1)) return;  // surface-free by its corners: not sampled
+      cand = std::size_t{it->second} * 27 + c;
+    }
+    cand_of[s] = static_cast<std::uint32_t>(cand);
+    double phi;
+    Vec3 grad;
+    trilinear(cell_corners[cand], t, &phi, &grad);
+    const double g = norm(grad);
+    const double distance = g > 0 ? std::abs(phi) / g : (phi != 0 ? std::numeric_limits<double>::infinity() : 0.0);
+    if (distance > tolerance) std::atomic_ref<std::uint8_t>(flagged[cand]).store(1, std::memory_order_relaxed);
+  });
+  for (std::size_t c = 0; c < refine.size(); ++c) refine[c] |= flagged[c];
+  std::size_t kept = 0;
+  for (std::size_t s = 0; s < live.size(); ++s)
+    if (cand_of[s] != kNone && refine[cand_of[s]]) live[kept++] = live[s];
+  live.resize(kept);
+}
+
+}  // namespace
+
 Octree refine_octree(const SignedDistance& sdf, const Box& cube, const AdaptiveOptions& options, OctreeStats* stats) {
   if (!(options.threshold > 0) || !std::isfinite(options.threshold))
     throw InputError(fmt::format("--threshold must be a positive number, got {}", options.threshold));
+  if (!(options.volume_threshold >= 0) || !std::isfinite(options.volume_threshold))
+    throw InputError(fmt::format("--volume-threshold must be a non-negative number, got {}", options.volume_threshold));
   Octree tree(cube, options.max_depth);
   const int depth = options.max_depth;
   if (stats) stats->levels.assign(static_cast<std::size_t>(depth) + 1, {});
@@ -362,6 +442,8 @@ Octree refine_octree(const SignedDistance& sdf, const Box& cube, const AdaptiveO
   const PackedLattice packed(finest);
   const double edge = cube.hi.x - cube.lo.x;
   const double tolerance = adaptive_tolerance(cube, options);
+  const double volume_tolerance = options.volume_threshold * edge * edge * edge;
+  const int error_levels = error_depth(options);
 
   // Candidates come as groups of 27 siblings, the children of a cell refined at the level above
   // (child c at x = c % 3, y = c / 3 % 3, z = c / 9), or the root alone; each with its 8 corner
@@ -370,6 +452,14 @@ Octree refine_octree(const SignedDistance& sdf, const Box& cube, const AdaptiveO
   // (the sort then merges what neighbouring groups share), which saves the sort most of the 56
   // keys per cell that sharing faces and edges repeats.
   std::vector<std::uint64_t> parents = {};  // the refined cells whose children are the candidates
+  // The surface samples still inside a refined cell (the others' leaves are final).
+  std::vector<std::uint32_t> live;
+  if (options.surface_tolerance > 0) {
+    if (options.surface_samples.size() > std::numeric_limits<std::uint32_t>::max())
+      throw ResourceError("too many surface samples for the adaptive refinement");
+    live.resize(options.surface_samples.size());
+    std::iota(live.begin(), live.end(), 0u);
+  }
   std::vector<std::array<double, 8>> corners(1);
   for (int level = 0; level < depth; ++level) {
     const bool root = level == 0;
@@ -464,11 +554,24 @@ Octree refine_octree(const SignedDistance& sdf, const Box& cube, const AdaptiveO
             }
             v[p] = f[id[key_offset[g] + rank[(x + a) + w * ((y + b) + w * (z + d))]]];
           }
-          refine[cand] = cell_may_hold_surface(v, h) && refinement_error(v, h) > tolerance;
+          if (!cell_may_hold_surface(v, h)) continue;
+          const double e = refinement_error(v, h);
+          refine[cand] =
+              level < error_levels && (e > tolerance || (volume_tolerance > 0 && e * h * h > volume_tolerance));
         }
       }
     });
     id = {};
+    if (!live.empty()) {
+      // AdaptiveOptions::surface_tolerance, at the samples still in refined cells.
+      std::vector<std::array<double, 8>> cell_corners(num_candidates);
+      parallel_for(num_candidates, [&](std::size_t cand) {
+        if (!(active_mask[cand / (n * n * n)] >> (cand % (n * n * n)) & 1)) return;
+        for (int c = 0; c < 8; ++c)
+          cell_corners[cand][c] = lattice[cand][child_lattice_index(3 * (c & 1), 3 * (c >> 1 & 1), 3 * (c >> 2))];
+      });
+      refine_at_surface_samples(cube, level, h, parents, active_mask, cell_corners, options, live, refine);
+    }
     std::vector<std::uint64_t> next;
     std::vector<std::array<double, 8>> next_corners;
     std::size_t sampled = 0;
@@ -852,6 +955,40 @@ std::size_t refine_leaves_of_cells(Octree& tree, const AdaptiveGrid& grid, std::
     }
   }
   if (refined) balance_octree(tree);
+  return refined;
+}
+
+std::size_t refine_leaves_at_points(Octree& tree, std::span<const Vec3> points, std::size_t min_points) {
+  const Box& cube = tree.cube();
+  const double edge = cube.hi.x - cube.lo.x;
+  // The leaves first (level, key), then refined in sorted order: the same tree however the points
+  // are ordered or repeated.
+  std::vector<std::uint64_t> leaves(points.size(), ~std::uint64_t{0});
+  parallel_for(points.size(), [&](std::size_t i) {
+    const Vec3 p = points[i];
+    for (int a = 0; a < 3; ++a)
+      if (!(p[a] >= cube.lo[a] && p[a] <= cube.hi[a])) return;
+    for (int level = 0; level <= tree.max_depth(); ++level) {
+      const double n = pow3(level);
+      auto index = [&](double x, double lo) {
+        return static_cast<std::uint64_t>(std::clamp(std::floor((x - lo) / edge * n), 0.0, n - 1));
+      };
+      const std::uint64_t key = octree_key(index(p.x, cube.lo.x), index(p.y, cube.lo.y), index(p.z, cube.lo.z));
+      if (tree.is_refined(level, key)) continue;
+      // Cell indices are below 3^9 < 2^15, so a key is below 2^57 and the level fits above it.
+      if (level < tree.max_depth()) leaves[i] = (std::uint64_t(level) << 60) | key;
+      return;
+    }
+  });
+  std::sort(leaves.begin(), leaves.end());
+  std::size_t refined = 0;
+  for (std::size_t i = 0, j = 0; i < leaves.size(); i = j) {
+    while (j < leaves.size() && leaves[j] == leaves[i]) ++j;
+    const std::uint64_t l = leaves[i];
+    if (l == ~std::uint64_t{0} || j - i < min_points) continue;
+    if (tree.refine(int(l >> 60), l & ((std::uint64_t{1} << 60) - 1))) ++refined;
+  }
+  if (refined) refined += balance_octree(tree);
   return refined;
 }
 

@@ -78,6 +78,22 @@ inline constexpr int kMaxAdaptiveDepth = 9;
 struct AdaptiveOptions {
   double threshold = 0.05;  // refine while error > threshold * finest cell size (see above)
   int max_depth = 5;        // 0 .. kMaxAdaptiveDepth
+  // >= 0: the error tests (threshold, volume_threshold) refine only cells above this level, and
+  // the threshold is in units of ITS cell size; the levels below it, to max_depth, are left to
+  // the surface test and to refine_leaves_at_points (the fitted grid's measured rounds). -1: max_depth.
+  int error_depth = -1;
+  // > 0: a cell is also refined when its error times its area, error x h^2, exceeds
+  // volume_threshold x the cube's volume (the volume the parent's isosurface misplaces, held to a
+  // fraction of the box; see refine_octree). 0: the distance test alone.
+  double volume_threshold = 0;
+  // > 0 with surface_samples (points on the input surface): a cell holding a sample p is also
+  // refined when the distance from p to the cell's own trilinear isosurface, estimated as
+  // |phi(p)| / |grad phi(p)| with phi the trilinear interpolant of its 8 corner values, exceeds
+  // surface_tolerance (a length): the input-to-mesh side of the Hausdorff distance, which the
+  // refinement error, measured at lattice points, misses at sharp tips and edges and on parts
+  // thinner than the lattice. The span must outlive refine_octree.
+  double surface_tolerance = 0;
+  std::span<const Vec3> surface_samples = {};
 };
 
 // The error a cell may have: options.threshold * (cube edge / 3^max_depth).
@@ -203,6 +219,13 @@ AdaptiveGrid build_adaptive_complex(const Octree& tree);
 // and rebalances; returns the leaves refined. Leaves at max_depth are single hexes, the cube type,
 // which certify proves for every subcase, so a cell can always be refined until it certifies.
 std::size_t refine_leaves_of_cells(Octree& tree, const AdaptiveGrid& grid, std::span<const std::uint32_t> cells);
+
+// Refines the leaf that holds each point (a point on a face between leaves goes to the leaf above
+// it, by floor; points outside the cube are ignored; leaves at max_depth stay) and rebalances;
+// returns the leaves refined, balancing included. The fitted grid's measured rounds
+// (core/pipeline/pipeline.cpp) refine so where the mesh lies farther from the input than the target.
+// min_points: a leaf is refined only when at least this many of the points fall in it.
+std::size_t refine_leaves_at_points(Octree& tree, std::span<const Vec3> points, std::size_t min_points = 1);
 
 // The dedupe behind the SDF batches and the complex's points: the distinct values of `keys`
 // (each below 2^key_bits), ascending, and index_of[i] = the index of keys[i] among them. A stable

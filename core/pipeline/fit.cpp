@@ -47,6 +47,8 @@ AdaptiveOptions adaptive_for_hausdorff(double hausdorff_ratio, const Box& bounds
   o.threshold = kFitThreshold;
   o.max_depth = 0;
   while (o.max_depth < kMaxAdaptiveDepth && edge / std::pow(3.0, o.max_depth) > finest) ++o.max_depth;
+  o.error_depth = o.max_depth;
+  o.max_depth = std::min(kMaxAdaptiveDepth, o.max_depth + kFitExtraLevels);
   return o;
 }
 

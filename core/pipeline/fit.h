@@ -43,12 +43,21 @@ namespace mchex {
 // The default target Hausdorff ratio: max depth 4 on any model (the finest cell is 1.2 x the largest
 // extent / 81, at most 0.0148 x its diagonal): IoU 0.989 to 1 (median 0.996) on the models
 // above and the analytic shapes; the sharp ones (gearwheel, tetrahedron) need depth 5 for 0.994.
-inline constexpr double kDefaultHausdorffRatio = 0.015;
+inline constexpr double kDefaultHausdorffRatio = 0.005;
 // Finest cell size per unit of H x input diagonal (measured HR <= 0.87 finest cells / diagonal
 // on smooth models).
-inline constexpr double kFinestCellPerHausdorff = 1.0;
+inline constexpr double kFinestCellPerHausdorff = 3.0;
 // The refinement threshold the rule uses, in finest cells (core/grid/octree.h AdaptiveOptions).
 inline constexpr double kFitThreshold = 0.05;
+// The measured rounds of the fitted grid (core/pipeline/pipeline.cpp) may refine this many levels
+// below the error test's deepest level, in at most kFitRounds rounds.
+inline constexpr int kFitExtraLevels = 2;
+inline constexpr int kFitRounds = 3;
+// A leaf is refined for the IoU when this many lattice samples in it disagree with the solid.
+inline constexpr std::size_t kFitMisclassifiedPerLeaf = 2;
+// ... while the measured IoU is below this (the MCHex prototype's defaults reach 0.996 to 0.9997 on
+// the models of perf/CURVES.md).
+inline constexpr double kFitIou = 0.998;
 
 // The adaptive settings for target Hausdorff ratio `hausdorff_ratio` (> 0) of a solid with these
 // bounds meshed over `cube`: max depth the smallest D (at most kMaxAdaptiveDepth) with

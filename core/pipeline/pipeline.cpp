@@ -1,5 +1,7 @@
 #include "core/pipeline/pipeline.h"
 
+#include "core/check/fidelity.h"
+
 #include <unistd.h>
 
 #include <algorithm>
@@ -79,7 +81,14 @@ AdaptiveGrid build_adaptive_grid(const Solid& solid, MeshRun& run, std::optional
   const MeshOptions& o = run.options;
   TimedSdf sdf(solid.sdf());
   const double w0 = wall_seconds(), c0 = cpu_seconds();
-  Octree& tree = kept.emplace(refine_octree(sdf, run.cube, {o.threshold, o.max_depth}, &run.octree));
+  AdaptiveOptions a{o.threshold, o.max_depth, o.error_depth, o.volume_threshold};
+  std::vector<Vec3> samples;
+  if (o.surface_tolerance > 0 && solid.surface() != nullptr) {
+    samples = sample_surface(*solid.surface(), (run.cube.hi.x - run.cube.lo.x) / std::pow(3.0, o.max_depth));
+    a.surface_tolerance = o.surface_tolerance * solid.sdf().bounds().diagonal();
+    a.surface_samples = samples;
+  }
+  Octree& tree = kept.emplace(refine_octree(sdf, run.cube, a, &run.octree));
   const double w1 = wall_seconds();
   balance_octree(tree, &run.octree);
   const double w2 = wall_seconds();
@@ -152,11 +161,15 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
     const AdaptiveOptions a = adaptive_for_hausdorff(o.hausdorff, solid.sdf().bounds(), run.cube);
     run.options.threshold = a.threshold;
     run.options.max_depth = a.max_depth;
+    run.options.error_depth = a.error_depth;
   }
   if (o.max_hexes > 0) {
     run.fit = run.clock.run("fit", [&] {
-      return fit_max_hexes(solid.sdf(), run.cube, {o.threshold, o.max_depth}, o.max_hexes, o.method);
+      // From the error test's depth: the cap has no measured rounds to use the levels below it.
+      return fit_max_hexes(solid.sdf(), run.cube, {o.threshold, o.error_depth >= 0 ? o.error_depth : o.max_depth},
+                           o.max_hexes, o.method);
     });
+    run.options.error_depth = -1;
     run.options.threshold = run.fit->options.threshold;
     run.options.max_depth = run.fit->options.max_depth;
   }
@@ -229,8 +242,38 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
     check_memory_budget(run);
     mesh_grid();
   }
+  // The fitted grid's measured rounds (core/pipeline/fit.h): where the mesh lies farther from the
+  // input than the target, in either direction, the leaves holding those samples are refined and
+  // the grid meshed again, until the target holds, nothing below max_depth is left to refine, or
+  // kFitRounds rounds. The last measure is the run's fidelity. A hex cap has the last word: no
+  // rounds under max_hexes.
+  const bool rounds = tree && o.fidelity && o.hausdorff > 0 && o.max_hexes == 0;
+  const double far = o.hausdorff * solid.sdf().bounds().diagonal();
+  for (int round = 0; rounds; ++round) {
+    run.fidelity =
+        run.clock.run("fidelity", [&] { return solid.fidelity(run.meshes.inside, run.cube, o.lattice, far); });
+    const Fidelity& fid = *run.fidelity;
+    const bool stalled = !run.fit_rounds.empty() && !(fid.hausdorff_ratio < run.fit_rounds.back().hausdorff_ratio);
+    if ((fid.far_points.empty() && !(fid.iou < kFitIou)) || stalled || round == kFitRounds) break;
+    FitRound& r = run.fit_rounds.emplace_back();
+    r.hausdorff_ratio = run.fidelity->hausdorff_ratio;
+    r.far_points = run.fidelity->far_points.size();
+    r.hexes = run.meshes.inside.hexes.size() + run.meshes.outside.hexes.size();
+    r.refined_leaves = run.clock.run("fit-rounds", [&] {
+      std::size_t n = refine_leaves_at_points(*tree, run.fidelity->far_points);
+      if (fid.iou < kFitIou)
+        n += refine_leaves_at_points(*tree, run.fidelity->misclassified_points, kFitMisclassifiedPerLeaf);
+      if (n) run.adaptive = build_adaptive_complex(*tree);
+      return n;
+    });
+    if (r.refined_leaves == 0) break;
+    run.fidelity.reset();
+    check_memory_budget(run);
+    mesh_grid();
+  }
+  if (run.fidelity) run.fidelity->far_points = run.fidelity->misclassified_points = {};
   run.check = run.clock.run("check", [&] { return check_mesh(run.meshes.inside, &run.meshes.outside, &run.cube); });
-  if (o.fidelity)
+  if (o.fidelity && !run.fidelity)
     run.fidelity = run.clock.run("fidelity", [&] { return solid.fidelity(run.meshes.inside, run.cube, o.lattice); });
   run.peak_memory_bytes = peak_memory_bytes();
   return run;

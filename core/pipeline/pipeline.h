@@ -40,6 +40,11 @@ struct MeshOptions {
   // threshold x the finest cell size (core/grid/octree.h AdaptiveOptions), to max_depth.
   double threshold = 0;
   int max_depth = 5;
+  int error_depth = -1;         // adaptive: core/grid/octree.h AdaptiveOptions (set by hausdorff)
+  double volume_threshold = 0;  // adaptive: core/grid/octree.h AdaptiveOptions
+  // adaptive: AdaptiveOptions::surface_tolerance as a fraction of the input's bounding-box
+  // diagonal, tested at samples of the input surface a finest cell apart (a surface input only)
+  double surface_tolerance = 0;
   // > 0: the adaptive grid with threshold and max_depth chosen for this target Hausdorff ratio
   // (core/pipeline/fit.h adaptive_for_hausdorff); threshold and max_depth are then ignored.
   double hausdorff = 0;
@@ -84,6 +89,15 @@ struct RemedyStats {
   std::size_t refined_leaves = 0;  // octree leaves refined for them
 };
 
+// The fitted grid's measured rounds (mesh_solid; core/pipeline/fit.h): each measures the mesh's
+// Hausdorff distance to the input, refines the leaves where it exceeds the target and meshes again.
+struct FitRound {
+  double hausdorff_ratio = 0;  // measured before the round's refinement
+  std::size_t far_points = 0;  // samples farther than the target
+  std::size_t refined_leaves = 0;
+  std::size_t hexes = 0;  // inside + outside, as measured
+};
+
 struct MeshRun {
   MeshOptions options;           // as asked, with threshold and max_depth as fitted (hausdorff, max_hexes)
   std::optional<FitResult> fit;  // max_hexes: the settings the search built
@@ -101,6 +115,7 @@ struct MeshRun {
   MeshCheck check;
   MchexStats mchex;                   // method mchex (of the last meshing)
   RemedyStats remedy;                 // adaptive grid, method mchex
+  std::vector<FitRound> fit_rounds;   // hausdorff with fidelity: the measured rounds
   std::optional<Fidelity> fidelity;   // when asked for
   StageClock clock{true};             // read, bvh, octree, sdf, classify, mchex | ro, check, fidelity, write
   std::size_t peak_memory_bytes = 0;  // of the process, after the last stage

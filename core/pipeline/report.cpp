@@ -43,7 +43,9 @@ json adaptive_grid_json(const AdaptiveGrid& g, std::size_t unsampled, const Octr
   return {{"kind", "adaptive"},
           {"threshold", o.threshold},
           {"threshold_relative_to", "finest cell size"},
-          {"tolerance", adaptive_tolerance(cube, {o.threshold, o.max_depth})},
+          {"volume_threshold", o.volume_threshold},
+          {"tolerance", adaptive_tolerance(cube, {o.threshold, o.max_depth, o.error_depth})},
+          {"error_depth", o.error_depth >= 0 ? o.error_depth : o.max_depth},
           {"points_sampled_in_refinement", g.complex.points.size() - unsampled},
           {"max_depth", o.max_depth},
           {"levels", g.levels},
@@ -143,6 +145,13 @@ json fit_json(const MeshRun& run) {
     j["predicted_hexes"] = run.fit->predicted_hexes;
     j["trials"] = trials;
   }
+  json rounds = json::array();
+  for (const FitRound& r : run.fit_rounds)
+    rounds.push_back({{"hausdorff_ratio", r.hausdorff_ratio},
+                      {"far_points", r.far_points},
+                      {"refined_leaves", r.refined_leaves},
+                      {"hexes", r.hexes}});
+  j["rounds"] = rounds;
   return j;
 }
 

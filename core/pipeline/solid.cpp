@@ -62,7 +62,7 @@ SdfSource Solid::sdf_source() const {
   return s;
 }
 
-Fidelity Solid::fidelity(const HexMesh& inside, const Box& box, std::size_t lattice) const {
+Fidelity Solid::fidelity(const HexMesh& inside, const Box& box, std::size_t lattice, double far_tolerance) const {
   const double spacing = box.diagonal() / 400;
   const std::vector<Vec3> samples =
       surface_ ? sample_surface(*surface_, spacing) : sample_surface(*sdf_, padded_cube(sdf_->bounds(), 0.05), spacing);
@@ -72,7 +72,7 @@ Fidelity Solid::fidelity(const HexMesh& inside, const Box& box, std::size_t latt
       sdf.distance(p, d);
     };
   const bool bounds_sign = !surface_ || (facts_.surface.closed && facts_.surface.consistently_oriented);
-  return measure_fidelity(inside, *sdf_, samples, box, lattice, spacing, distance, bounds_sign);
+  return measure_fidelity(inside, *sdf_, samples, box, lattice, spacing, distance, bounds_sign, far_tolerance);
 }
 
 }  // namespace mchex

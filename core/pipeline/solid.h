@@ -102,7 +102,8 @@ class Solid {
 
   // The paper's Section 6 measures of an inside mesh against this solid (core/check/fidelity.h):
   // reference samples at 1/400 of the box diagonal, IoU on a lattice^3 lattice over the box.
-  Fidelity fidelity(const HexMesh& inside, const Box& box, std::size_t lattice) const;
+  // far_tolerance: Fidelity::far_points.
+  Fidelity fidelity(const HexMesh& inside, const Box& box, std::size_t lattice, double far_tolerance = 0) const;
 
  private:
   SolidFacts facts_;

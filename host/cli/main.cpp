@@ -77,6 +77,16 @@ int main(int argc, char** argv) {
   auto* max_depth = mesh->add_option("--max-depth", mo.options.max_depth, "--threshold: deepest refinement level")
                         ->check(CLI::Range(0, kMaxAdaptiveDepth))
                         ->capture_default_str();
+  auto* volume_threshold =
+      mesh->add_option("--volume-threshold", mo.options.volume_threshold,
+                       "--threshold: also refine a cell when its refinement error times its area exceeds V times "
+                       "the box volume")
+          ->check(CLI::NonNegativeNumber);
+  auto* surface_tolerance =
+      mesh->add_option("--surface-tolerance", mo.options.surface_tolerance,
+                       "--threshold: also refine a cell when a point of the input surface in it lies farther than S "
+                       "x the input's diagonal from the cell's trilinear isosurface")
+          ->check(CLI::NonNegativeNumber);
   auto* hausdorff =
       mesh->add_option("--hausdorff", mo.options.hausdorff,
                        fmt::format("the default grid: the adaptive grid fitted to this target Hausdorff ratio (the "
@@ -93,6 +103,8 @@ int main(int argc, char** argv) {
   depth->excludes(threshold)->excludes(max_depth)->excludes(hausdorff)->excludes(max_hexes);
   hausdorff->excludes(threshold)->excludes(max_depth);
   max_depth->needs(threshold);
+  volume_threshold->needs(threshold);
+  surface_tolerance->needs(threshold);
   mesh->add_option("--pad", mo.options.pad, "padding around the input, as a fraction of its largest extent")
       ->check(CLI::Range(0.0, 10.0))
       ->capture_default_str();

@@ -32,7 +32,12 @@ void write_json(const fs::path& path, const nlohmann::json& j) {
 
 void print_summary(const MeshRun& run, const MeshOutputs& outputs) {
   const MeshOptions& o = run.options;
-  if (run.adaptive)
+  if (run.adaptive && o.error_depth >= 0 && o.error_depth < o.max_depth)
+    fmt::print("mchex-gpu: {} -> adaptive grid of {} cells, {} levels (threshold {} to depth {}, max depth {}), method "
+               "{}\n",
+               run.input.name, run.adaptive->complex.cells.size(), run.adaptive->levels, o.threshold, o.error_depth,
+               o.max_depth, o.method);
+  else if (run.adaptive)
     fmt::print("mchex-gpu: {} -> adaptive grid of {} cells, {} levels (threshold {}, max depth {}), method {}\n",
                run.input.name, run.adaptive->complex.cells.size(), run.adaptive->levels, o.threshold, o.max_depth,
                o.method);
@@ -46,6 +51,14 @@ void print_summary(const MeshRun& run, const MeshOutputs& outputs) {
                run.fit ? fmt::format("at most {} hexes (--max-hexes; predicted {}, {} settings tried)", o.max_hexes,
                                      run.fit->predicted_hexes, run.fit->trials.size())
                        : "");
+  if (!run.fit_rounds.empty())
+    fmt::print("  fit rounds: {} (Hausdorff ratio {:.4f} -> {:.4f}, {} leaves refined where it was over)\n",
+               run.fit_rounds.size(), run.fit_rounds.front().hausdorff_ratio,
+               run.fidelity ? run.fidelity->hausdorff_ratio : 0.0, [&] {
+                 std::size_t n = 0;
+                 for (const FitRound& r : run.fit_rounds) n += r.refined_leaves;
+                 return n;
+               }());
   fmt::print("  inside : {:>10} hexes {:>10} vertices -> {}\n", run.meshes.inside.hexes.size(),
              run.meshes.inside.points.size(), outputs.inside);
   fmt::print("  outside: {:>10} hexes {:>10} vertices -> {}\n", run.meshes.outside.hexes.size(),
