@@ -34,7 +34,7 @@ HexMesh read_vtu(std::string_view text);
 HexMesh read_gmsh(std::string_view text);
 HexMesh read_meshb(std::string_view bytes);
 HexMesh read_abaqus(std::string_view text);
-// libexodusii reads the file by its path.
-HexMesh read_exodus(const std::filesystem::path& path);
+// `bytes` are the file's; a netCDF-4 file is read by libexodusii from `path`.
+HexMesh read_exodus(const std::filesystem::path& path, std::string_view bytes);
 
 }  // namespace mchex::io_detail

@@ -85,8 +85,7 @@ HexMesh read_hex_mesh(const std::filesystem::path& path) {
       case MeshFormat::kGmsh: return io_detail::read_gmsh(text);
       case MeshFormat::kMeditBinary: return io_detail::read_meshb(text);
       case MeshFormat::kAbaqus: return io_detail::read_abaqus(text);
-      // Mapped first all the same: a missing file or a folder fails as for every format.
-      case MeshFormat::kExodus: return io_detail::read_exodus(path);
+      case MeshFormat::kExodus: return io_detail::read_exodus(path, text);
     }
     throw FormatError("unknown format");
   } catch (const FormatError& e) {
