@@ -256,7 +256,7 @@ class MeshioFormats(unittest.TestCase):
         save("binary.meshb", meshio.Mesh(points, hex_only, cell_data={"medit:ref": [regions]}), file_format="medit")
         # meshio's binary Gmsh writer wants a distinct entity per block, as above.
         save("blocks_binary.msh",
-             meshio.Mesh(points, blocks[1:],
+             meshio.Mesh(points, blocks[1:], point_data={"gmsh:dim_tags": np.array([[3, 11 + i % 3] for i in range(len(points))])},
                          cell_data={"gmsh:geometrical": [np.full(len(b[1]), t) for b, t in zip(blocks[1:], (11, 12, 13))],
                                     "gmsh:physical": [np.full(len(b[1]), t) for b, t in zip(blocks[1:], (1, 2, 3))]}),
              expected_hexes=hexes[order], expected_regions=regions[order], file_format="gmsh", binary=True)
