@@ -96,17 +96,16 @@ std::vector<uint32_t> face_partners(const HexMesh& mesh) {
   const KeyGroups groups = group_by_key(mesh.points.size(), each_face, [&](uint32_t f) { return corners(f)[0]; });
   std::vector<uint32_t> partner(faces, kNone);
   parallel_for(mesh.points.size(), [&](std::size_t v) {
-    for (uint32_t a = groups.start[v]; a < groups.start[v + 1]; ++a) {
-      const uint32_t fa = groups.items[a];
-      const auto ca = corners(fa);
-      for (uint32_t b = a + 1; b < groups.start[v + 1]; ++b) {
-        const uint32_t fb = groups.items[b];
-        if (corners(fb) == ca) {
-          partner[fa] = fb;
-          partner[fb] = fa;
+    // Each face's sorted corners once, then compared pairwise within the (small) group.
+    thread_local std::vector<std::array<uint32_t, 4>> sorted;
+    sorted.clear();
+    for (uint32_t a = groups.start[v]; a < groups.start[v + 1]; ++a) sorted.push_back(corners(groups.items[a]));
+    for (std::size_t a = 0; a < sorted.size(); ++a)
+      for (std::size_t b = a + 1; b < sorted.size(); ++b)
+        if (sorted[a] == sorted[b]) {
+          partner[groups.items[groups.start[v] + a]] = groups.items[groups.start[v] + b];
+          partner[groups.items[groups.start[v] + b]] = groups.items[groups.start[v] + a];
         }
-      }
-    }
   });
   return partner;
 }
