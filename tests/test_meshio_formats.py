@@ -1,4 +1,5 @@
-"""Our mesh files checked against meshio, an independent reader and writer (Debian's meshio 5.x).
+"""Our mesh files checked against meshio, an independent reader and writer (Debian's
+python3-meshio 7.0.0-3, which calls itself 5.0.0).
 
 Formats: .mesh, .meshb, .vtu, .msh (ascii and binary), .exo and .inp. Both directions go through
 the gtest binary test_mesh_io (beside the CLI in the build tree):
@@ -9,7 +10,7 @@ the gtest binary test_mesh_io (beside the CLI in the build tree):
     sets, so those are read from the file with netCDF4 (the library meshio reads it with) and
     checked against faces found here by brute force;
   - meshio writes the sample (and variants with surface cells, several blocks, other byte layouts)
-    in the three formats; `mchex-gpu convert` reads each with our reader and writes it back as
+    in every format; `mchex-gpu convert` reads each with our reader and writes it back as
     .vtu, which meshio reads again for the comparison.
 
 ctest runs this from tests/ with MCHEX_GPU set to the CLI; MCHEX_TEST_MESH_IO may name the gtest

@@ -154,7 +154,7 @@ int main(int argc, char** argv) {
 
   CheckCommand co;
   auto* check = app.add_subcommand("check", "validate a hex mesh (and its outside mesh) and measure its quality");
-  check->add_option("mesh", co.mesh, "hex mesh (.mesh, .vtu or .msh)")->required();
+  check->add_option("mesh", co.mesh, "hex mesh (.mesh, .meshb, .vtu, .msh, .exo or .inp)")->required();
   check->add_option("--outside", co.outside, "the outside mesh: check that both conform and fill their box");
   check->add_option("--input", co.input, "the input surface: measure IoU and Hausdorff distance");
   check->add_option("--shape", co.shape, "the built-in shape the mesh was made from, as --input");
