@@ -35,7 +35,7 @@ class Cursor {
   Cursor(std::string_view bytes, int version) : bytes_(bytes), wide_(version == 5) {}
 
   [[noreturn]] void fail(const std::string& message) const {
-    throw FormatError("netCDF header byte " + std::to_string(pos_) + ": " + message);
+    throw FormatError("netCDF header byte " + std::to_string(pos_ + 4) + ": " + message);  // after the 4-byte magic
   }
   std::uint64_t big(std::size_t size, std::string_view what) {
     if (bytes_.size() - pos_ < size)
