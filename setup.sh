@@ -20,8 +20,12 @@ pkgs=(
   # Vulkan: loader, headers, Mesa lavapipe, glslang (GLSL -> SPIR-V), vulkaninfo
   libvulkan-dev mesa-vulkan-drivers glslang-tools spirv-tools vulkan-tools
   # independent readers for the tests (meshio), numpy for perf scripts, matplotlib for the plots
-  # of perf/curves.py
-  python3 python3-meshio python3-numpy python3-matplotlib
+  # of perf/curves.py; netCDF4 for meshio's Exodus reader (tests/test_meshio_formats.py)
+  python3 python3-meshio python3-numpy python3-matplotlib python3-netcdf4
+  # Exodus II .exo writer and reader (core/io/exodus.cpp; brings netCDF)
+  libexodusii-dev
+  # CalculiX: solves our .inp files in tests/test_calculix.py
+  calculix-ccx
   # formatting check (tests/test_format.py), clang + libFuzzer runtime for CI's fuzz pass
   clang clang-format libclang-rt-14-dev
   # test models: Assimp's sample files (valid and invalid) and OpenSCAD's bad STLs

@@ -10,7 +10,7 @@
 #      repeat code the rest covers on inputs large enough to take 30-60 minutes instrumented
 #      (measured: 2,200 of the suite's 2,800 s before test_sign), and all run in the first build;
 #   3. a bounded libFuzzer pass over every reader: surfaces (STL, OBJ, OFF, PLY) and hex meshes
-#      (.mesh, .vtu, .msh), seeded from the test models.
+#      (.mesh, .vtu, .msh ascii and binary, .meshb, .inp, .exo), seeded from the test models.
 # CPU-only because the drivers (PoCL, lavapipe) are not instrumented and their JIT code trips the
 # sanitizers; no reader depends on a device.
 # Usage: bash .ci/sanitize.sh [SECONDS_PER_FUZZER [RUNS_PER_FUZZER]]   (default 60, 60000)
@@ -50,12 +50,18 @@ for f in /usr/share/assimp/models/OFF/*.off; do [ -f "$f" ] && seed "$seeds/surf
 for f in /usr/share/assimp/models/PLY/*.ply; do
   [ -f "$f" ] && [ "$(stat -c %s "$f")" -lt 20000 ] && seed "$seeds/surface" 3 "$f"
 done
-for ext in mesh vtu msh; do
+for ext in mesh vtu msh meshb inp exo; do
   build-cpu/host/mchex-gpu mesh --shape sphere --depth 1 -o "build-cpu/seed.$ext" --quiet
 done
+build-cpu/host/mchex-gpu convert build-cpu/seed.msh build-cpu/seed_binary.msh --binary
+# The index is fuzz_read_mesh's extension: .mesh .vtu .msh .meshb .inp .exo.
 seed "$seeds/mesh" 0 build-cpu/seed.mesh
 seed "$seeds/mesh" 1 build-cpu/seed.vtu
 seed "$seeds/mesh" 2 build-cpu/seed.msh
+seed "$seeds/mesh" 2 build-cpu/seed_binary.msh
+seed "$seeds/mesh" 3 build-cpu/seed.meshb
+seed "$seeds/mesh" 4 build-cpu/seed.inp
+seed "$seeds/mesh" 5 build-cpu/seed.exo
 
 for target in fuzz_read_surface fuzz_read_mesh; do
   corpus=build-cpu/corpus_$target && rm -rf "$corpus" && mkdir -p "$corpus"

@@ -1,4 +1,8 @@
-// Gmsh .msh, version 4.1 ascii; mesh_io.h states the contract.
+// Gmsh .msh, version 4.1, ascii or binary; mesh_io.h states the contract.
+//
+// Binary (file-type 1, as `gmsh -bin` writes): the same sections, with $Entities, $Nodes and
+// $Elements holding native little-endian data (int 4 bytes, size_t 8 bytes, double 8 bytes), the
+// $MeshFormat line followed by the int 1 to tell the byte order; docs/formats.md has the layout.
 //
 // Written: one volume entity per region value, the region as its physical tag (meshio's
 // "gmsh:physical"), element blocks along runs of equal regions so that every reader keeps the hex
@@ -9,8 +13,11 @@
 // file before anything is allocated for it.
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cstdint>
+#include <cstring>
 #include <functional>
+#include <iterator>
 #include <limits>
 #include <map>
 #include <numeric>
@@ -28,6 +35,10 @@
 
 namespace mchex::io_detail {
 namespace {
+
+// The binary writer copies points and indices from memory as the little-endian data it declares.
+static_assert(std::endian::native == std::endian::little, "the binary .msh writer assumes a little-endian host");
+static_assert(sizeof(Vec3) == 3 * sizeof(double), "Vec3 must be three packed doubles");
 
 // Puts elements or nodes in ascending tag order: `tags` in file order; returns the permutation
 // (empty when the file order is already ascending). Tags must be unique.
@@ -49,6 +60,60 @@ void permute(std::vector<T>& v, const std::vector<std::size_t>& order) {
   for (std::size_t i = 0; i < order.size(); ++i) out[i] = v[order[i]];
   v.swap(out);
 }
+
+// Nodes per element of the Gmsh element types a binary file may hold beside hexahedra (a binary
+// element block cannot be skipped by lines); 0 for a type this reader does not know.
+std::size_t gmsh_nodes_per_element(std::int64_t type) {
+  constexpr std::size_t kNodes[] = {0, 2, 3, 4, 4, 8, 6, 5, 3, 6, 9, 10, 27, 18, 14, 1, 8, 20, 15, 13};
+  return type >= 0 && type < static_cast<std::int64_t>(std::size(kNodes)) ? kNodes[type] : 0;
+}
+
+template <class T>
+void put_binary(std::string& s, T v) {
+  char b[sizeof v];
+  std::memcpy(b, &v, sizeof v);
+  s.append(b, sizeof v);
+}
+
+// The binary data between the tokens of a binary file, bounds-checked.
+class Bytes {
+ public:
+  Bytes(const char* file_begin, const char* p, const char* end) : begin_(file_begin), p_(p), end_(end) {}
+  template <class T>
+  T get(std::string_view what) {
+    need(sizeof(T), what);
+    T v;
+    std::memcpy(&v, p_, sizeof v);
+    p_ += sizeof v;
+    return v;
+  }
+  // A count of records of `bytes` each, refused when the rest of the file cannot hold it.
+  std::uint64_t count(std::string_view what, std::size_t bytes) {
+    const auto c = get<std::uint64_t>(what);
+    if (c > static_cast<std::uint64_t>(end_ - p_) / bytes)
+      fail(std::string(what) + " " + std::to_string(c) +
+           " is more than the rest of the file can hold (truncated or "
+           "corrupt file?)");
+    return c;
+  }
+  void skip(std::uint64_t bytes, std::string_view what) {
+    need(bytes, what);
+    p_ += bytes;
+  }
+  const char* position() const { return p_; }
+  [[noreturn]] void fail(const std::string& message) const {
+    throw FormatError("byte " + std::to_string(p_ - begin_) + ": " + message);
+  }
+
+ private:
+  void need(std::uint64_t bytes, std::string_view what) const {
+    if (static_cast<std::uint64_t>(end_ - p_) < bytes)
+      fail("unexpected end of file where " + std::string(what) + " was expected (truncated file?)");
+  }
+  const char* begin_;
+  const char* p_;
+  const char* end_;
+};
 
 // Node tag -> point index, the points being numbered by ascending tag.
 class NodeNumbering {
@@ -126,12 +191,164 @@ class GmshReader {
     if (version != "4.1")
       in_.fail("Gmsh format version " + shown(version) + " is not supported: save as version 4.1 ASCII");
     const std::string_view type = in_.token("the file type");
-    if (type != "0") in_.fail("binary Gmsh files are not supported: save as version 4.1 ASCII");
-    in_.integer<std::uint64_t>("the data size");
+    if (type != "0" && type != "1") in_.fail("file type " + shown(type) + " is neither 0 (ascii) nor 1 (binary)");
+    binary_ = type == "1";
+    const auto data_size = in_.integer<std::uint64_t>("the data size");
+    if (binary_) {
+      if (data_size != 8)
+        in_.fail("binary data size " + std::to_string(data_size) + ": only 8-byte size_t is supported");
+      // The int 1 follows the line end, in the writer's byte order.
+      const char* p = in_.position();
+      if (p != in_.end() && *p == '\r') ++p;
+      if (p == in_.end() || *p != '\n') in_.fail("no line end before the binary byte-order int");
+      Bytes b = bytes(p + 1);
+      const auto one = b.get<int32_t>("the byte-order int");
+      if (one != 1) b.fail("the byte-order int is not 1: a big-endian or corrupt binary file");
+      in_.set_position(b.position());
+    }
     in_.expect("$EndMeshFormat");
   }
 
+  Bytes bytes(const char* from) const { return Bytes(in_.file_begin(), from, in_.end()); }
+  // Binary data starts after the line end that ends the section header.
+  Bytes section_bytes() {
+    const char* p = in_.position();
+    if (p != in_.end() && *p == '\r') ++p;
+    if (p == in_.end() || *p != '\n') in_.fail("no line end after the section header");
+    return bytes(p + 1);
+  }
+
+  void read_entities_binary() {
+    Bytes b = section_bytes();
+    std::array<std::uint64_t, 4> counts{};
+    for (int d = 0; d < 4; ++d) counts[d] = b.count("an entity count", d == 0 ? 36 : 68);
+    for (int d = 0; d < 4; ++d) {
+      for (std::uint64_t i = 0; i < counts[d]; ++i) {
+        const auto tag = b.get<int32_t>("an entity tag");
+        b.skip(d == 0 ? 24 : 48, "an entity box");
+        const std::uint64_t physicals = b.count("a physical tag count", 4);
+        for (std::uint64_t k = 0; k < physicals; ++k) {
+          const auto physical = b.get<int32_t>("a physical tag");
+          if (k == 0 && d == 3) volume_physical_[tag] = physical;
+        }
+        if (d > 0) b.skip(4 * b.count("a bounding entity count", 4), "bounding entity tags");
+      }
+    }
+    in_.set_position(b.position());
+    in_.expect("$EndEntities");
+  }
+
+  void read_nodes_binary() {
+    Bytes b = section_bytes();
+    const std::uint64_t blocks = b.count("the node block count", 20);
+    const std::uint64_t total = b.count("the node count", 32);
+    if (total > kMaxPoints) b.fail(std::to_string(total) + " nodes are more than 32-bit indices can address");
+    b.skip(16, "the node tag range");
+    std::vector<std::uint64_t> tags;
+    tags.reserve(total);
+    mesh_.points.reserve(total);
+    for (std::uint64_t k = 0; k < blocks; ++k) {
+      const auto dim = b.get<int32_t>("an entity dimension");
+      b.get<int32_t>("an entity tag");
+      const auto parametric = b.get<int32_t>("the parametric flag");
+      if (dim < 0 || dim > 3) b.fail("entity dimension " + std::to_string(dim) + " is not 0..3");
+      if (parametric != 0 && parametric != 1)
+        b.fail("parametric flag " + std::to_string(parametric) + " is not 0 or 1");
+      const std::size_t per = 8 * (3 + (parametric != 0 ? static_cast<std::size_t>(dim) : 0));
+      const std::uint64_t n = b.count("a node block size", 8 + per);
+      if (n > total - tags.size())
+        b.fail("the node blocks hold more than the " + std::to_string(total) + " nodes announced");
+      for (std::uint64_t i = 0; i < n; ++i) {
+        tags.push_back(b.get<std::uint64_t>("a node tag"));
+        if (tags.back() == 0) b.fail("node tag 0 (tags start at 1)");
+      }
+      for (std::uint64_t i = 0; i < n; ++i) {
+        Vec3 p;
+        for (int a = 0; a < 3; ++a) p[a] = b.get<double>("a node coordinate");
+        if (!is_finite(p)) b.fail("node " + std::to_string(tags[tags.size() - n + i]) + " has a non-finite coordinate");
+        b.skip(per - 24, "parametric coordinates");
+        mesh_.points.push_back(p);
+      }
+    }
+    if (tags.size() != total)
+      b.fail("the node blocks hold " + std::to_string(tags.size()) + " nodes, not the " + std::to_string(total) +
+             " announced");
+    in_.set_position(b.position());
+    in_.expect("$EndNodes");
+    number_nodes(std::move(tags));
+  }
+
+  void read_elements_binary() {
+    Bytes b = section_bytes();
+    const std::uint64_t blocks = b.count("the element block count", 20);
+    const std::uint64_t total = b.count("the element count", 16);
+    b.skip(16, "the element tag range");
+    std::vector<std::uint64_t> tags;
+    tags.reserve(total);
+    std::uint64_t seen = 0;
+    for (std::uint64_t k = 0; k < blocks; ++k) {
+      const auto dim = b.get<int32_t>("an entity dimension");
+      const auto entity = b.get<int32_t>("an entity tag");
+      const auto type = b.get<int32_t>("an element type");
+      const std::size_t nodes = gmsh_nodes_per_element(type);
+      if (nodes == 0) b.fail("element type " + std::to_string(type) + " is not known to this reader");
+      const std::uint64_t n = b.count("an element block size", 8 * (1 + nodes));
+      if (n > total - seen)
+        b.fail("the element blocks hold more than the " + std::to_string(total) + " elements announced");
+      seen += n;
+      if (dim < 0 || dim > 3) b.fail("entity dimension " + std::to_string(dim) + " is not 0..3");
+      if (dim < 3) {
+        b.skip(n * 8 * (1 + nodes), "an element");
+        continue;
+      }
+      constexpr int32_t kHexahedron8 = 5;
+      if (type != kHexahedron8)
+        b.fail("volume entity " + std::to_string(entity) + " holds elements of type " + std::to_string(type) +
+               ": only 8-node hexahedra (type 5) can be read");
+      const auto physical = volume_physical_.find(entity);
+      const int32_t region = physical != volume_physical_.end() ? physical->second : entity;
+      for (std::uint64_t i = 0; i < n; ++i) {
+        tags.push_back(b.get<std::uint64_t>("an element tag"));
+        Hex hex;
+        for (uint32_t& v : hex) {
+          const auto tag = b.get<std::uint64_t>("a node tag");
+          const std::optional<uint32_t> index = nodes_.index(tag);
+          if (!index)
+            b.fail("element " + std::to_string(tags.back()) + " uses node " + std::to_string(tag) +
+                   ", which $Nodes does not define");
+          v = *index;
+        }
+        mesh_.hexes.push_back(hex);
+        mesh_.region.push_back(region);
+      }
+    }
+    if (seen != total)
+      b.fail("the element blocks hold " + std::to_string(seen) + " elements, not the " + std::to_string(total) +
+             " announced");
+    in_.set_position(b.position());
+    in_.expect("$EndElements");
+    order_elements(tags);
+  }
+
+  void number_nodes(std::vector<std::uint64_t> tags) {
+    const std::vector<std::size_t> order = tag_order(tags, "node");
+    if (!order.empty()) {
+      permute(tags, order);
+      permute(mesh_.points, order);
+    }
+    nodes_ = NodeNumbering(std::move(tags));
+  }
+
+  void order_elements(const std::vector<std::uint64_t>& tags) {
+    const std::vector<std::size_t> order = tag_order(tags, "element");
+    if (!order.empty()) {
+      permute(mesh_.hexes, order);
+      permute(mesh_.region, order);
+    }
+  }
+
   void read_entities() {
+    if (binary_) return read_entities_binary();
     std::array<std::uint64_t, 4> counts{};
     for (int d = 0; d < 4; ++d) counts[d] = in_.count("entity", d == 0 ? 5 : 9);
     for (int d = 0; d < 4; ++d) {
@@ -153,6 +370,7 @@ class GmshReader {
   void read_nodes() {
     if (have_nodes_) in_.fail("a second $Nodes section");
     have_nodes_ = true;
+    if (binary_) return read_nodes_binary();
     const std::uint64_t blocks = in_.count("node block", 4);
     const std::uint64_t total = in_.count("node", 4);
     if (total > kMaxPoints) in_.fail(std::to_string(total) + " nodes are more than 32-bit indices can address");
@@ -189,18 +407,14 @@ class GmshReader {
       in_.fail("the node blocks hold " + std::to_string(tags.size()) + " nodes, not the " + std::to_string(total) +
                " announced");
     in_.expect("$EndNodes");
-    const std::vector<std::size_t> order = tag_order(tags, "node");
-    if (!order.empty()) {
-      permute(tags, order);
-      permute(mesh_.points, order);
-    }
-    nodes_ = NodeNumbering(std::move(tags));
+    number_nodes(std::move(tags));
   }
 
   void read_elements() {
     if (!have_nodes_) in_.fail("$Elements before $Nodes");
     if (have_elements_) in_.fail("a second $Elements section");
     have_elements_ = true;
+    if (binary_) return read_elements_binary();
     const std::uint64_t blocks = in_.count("element block", 4);
     const std::uint64_t total = in_.count("element", 2);
     in_.integer<std::uint64_t>("the smallest element tag");
@@ -249,11 +463,7 @@ class GmshReader {
       in_.fail("the element blocks hold " + std::to_string(seen) + " elements, not the " + std::to_string(total) +
                " announced");
     in_.expect("$EndElements");
-    const std::vector<std::size_t> order = tag_order(tags, "element");
-    if (!order.empty()) {
-      permute(mesh_.hexes, order);
-      permute(mesh_.region, order);
-    }
+    order_elements(tags);
   }
 
   Scanner in_;
@@ -263,11 +473,12 @@ class GmshReader {
   bool have_format_ = false;
   bool have_nodes_ = false;
   bool have_elements_ = false;
+  bool binary_ = false;
 };
 
 }  // namespace
 
-void write_gmsh(const HexMesh& mesh, AtomicFile& out) {
+void write_gmsh(const HexMesh& mesh, AtomicFile& out, bool binary) {
   // Element blocks follow runs of equal regions: one block per region would reorder the hexes
   // for every reader but ours, and Gmsh accepts several blocks of one entity.
   struct Run {
@@ -307,7 +518,11 @@ void write_gmsh(const HexMesh& mesh, AtomicFile& out) {
     for (const Vec3& p : mesh.points) boxes.back().extend(p);
   }
 
-  std::string s = "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n";
+  std::string s = binary ? "$MeshFormat\n4.1 1 8\n" : "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n";
+  if (binary) {
+    put_binary<int32_t>(s, 1);  // tells the reader the byte order
+    s += "\n$EndMeshFormat\n";
+  }
   if (!values.empty()) {
     s += "$PhysicalNames\n";
     put_number(s, values.size());
@@ -320,6 +535,71 @@ void write_gmsh(const HexMesh& mesh, AtomicFile& out) {
       s += "\"\n";
     }
     s += "$EndPhysicalNames\n";
+  }
+  const std::size_t n = mesh.points.size();
+  const std::size_t m = mesh.hexes.size();
+  // The first run at or before hex `begin`, for a chunk of element records.
+  auto run_at = [&](std::size_t begin) {
+    return static_cast<std::size_t>(
+        std::upper_bound(runs.begin(), runs.end(), begin, [](std::size_t h, const Run& run) { return h < run.begin; }) -
+        runs.begin() - 1);
+  };
+  if (binary) {
+    s += "$Entities\n";
+    for (const std::uint64_t c : {std::uint64_t{0}, std::uint64_t{0}, std::uint64_t{0}, std::uint64_t{boxes.size()}})
+      put_binary(s, c);
+    for (std::size_t k = 0; k < boxes.size(); ++k) {
+      put_binary<int32_t>(s, static_cast<int32_t>(bare_nodes ? int64_t{1} : entity_of(values[k])));
+      for (const Vec3& corner : {boxes[k].lo, boxes[k].hi})
+        for (int a = 0; a < 3; ++a) put_binary(s, corner[a]);
+      put_binary<std::uint64_t>(s, bare_nodes ? 0 : 1);
+      if (!bare_nodes) put_binary<int32_t>(s, values[k]);
+      put_binary<std::uint64_t>(s, 0);  // no bounding surfaces
+    }
+    s += "\n$EndEntities\n$Nodes\n";
+    const std::uint64_t any_node = n == 0 ? 0 : 1;
+    for (const std::uint64_t c : {any_node, std::uint64_t{n}, any_node, std::uint64_t{n}}) put_binary(s, c);
+    if (n != 0) {
+      put_binary<int32_t>(s, 3);
+      put_binary<int32_t>(s, static_cast<int32_t>(bare_nodes ? int64_t{1} : entity_of(values.front())));
+      put_binary<int32_t>(s, 0);
+      put_binary<std::uint64_t>(s, n);
+    }
+    out.write(s);
+    write_records(out, n, [](std::size_t begin, std::size_t end, std::string& text) {
+      text.resize((end - begin) * 8);
+      for (std::size_t i = begin; i < end; ++i) {
+        const std::uint64_t tag = i + 1;
+        std::memcpy(text.data() + 8 * (i - begin), &tag, 8);
+      }
+    });
+    write_records(out, n, [&](std::size_t begin, std::size_t end, std::string& text) {
+      text.assign(reinterpret_cast<const char*>(mesh.points.data() + begin), (end - begin) * sizeof(Vec3));
+    });
+    s = "\n$EndNodes\n$Elements\n";
+    const std::uint64_t any_hex = m == 0 ? 0 : 1;
+    for (const std::uint64_t c : {std::uint64_t{runs.size()}, std::uint64_t{m}, any_hex, std::uint64_t{m}})
+      put_binary(s, c);
+    out.write(s);
+    write_records(out, m, [&](std::size_t begin, std::size_t end, std::string& text) {
+      text.reserve((end - begin) * 72 + 64);
+      std::size_t r = run_at(begin);
+      for (std::size_t h = begin; h < end; ++h) {
+        if (h == runs[r].end) ++r;
+        if (h == runs[r].begin) {
+          put_binary<int32_t>(text, 3);
+          put_binary<int32_t>(text, static_cast<int32_t>(entity_of(runs[r].region)));
+          put_binary<int32_t>(text, 5);
+          put_binary<std::uint64_t>(text, runs[r].end - runs[r].begin);
+        }
+        std::uint64_t record[9];
+        record[0] = h + 1;
+        for (int c = 0; c < 8; ++c) record[c + 1] = std::uint64_t{mesh.hexes[h][c]} + 1;
+        text.append(reinterpret_cast<const char*>(record), sizeof record);
+      }
+    });
+    out.write("\n$EndElements\n");
+    return;
   }
   s += "$Entities\n0 0 0 ";
   put_number(s, boxes.size());
@@ -340,7 +620,6 @@ void write_gmsh(const HexMesh& mesh, AtomicFile& out) {
     }
   }
   s += "$EndEntities\n$Nodes\n";
-  const std::size_t n = mesh.points.size();
   const std::size_t any_node = n == 0 ? 0 : 1;
   put_line(s, {any_node, n, any_node, n});
   if (n != 0)
@@ -356,14 +635,11 @@ void write_gmsh(const HexMesh& mesh, AtomicFile& out) {
   write_points_text(out, mesh.points, "\n");
 
   s = "$EndNodes\n$Elements\n";
-  const std::size_t m = mesh.hexes.size();
   put_line(s, {runs.size(), m, m == 0 ? std::size_t{0} : std::size_t{1}, m});
   out.write(s);
   write_records(out, m, [&](std::size_t begin, std::size_t end, std::string& text) {
     text.reserve((end - begin) * 90);
-    std::size_t r = static_cast<std::size_t>(
-        std::upper_bound(runs.begin(), runs.end(), begin, [](std::size_t h, const Run& run) { return h < run.begin; }) -
-        runs.begin() - 1);
+    std::size_t r = run_at(begin);
     for (std::size_t h = begin; h < end; ++h) {
       if (h == runs[r].end) ++r;
       if (h == runs[r].begin) {

@@ -1,6 +1,6 @@
 // The dispatch of mesh_io.h: the format by extension, the checks every writer relies on, and the
 // one place where a format's reason becomes an InputError "PATH: reason". The formats themselves
-// are in medit.cpp, vtu.cpp and gmsh.cpp (declared in mesh_formats.h).
+// are in medit.cpp, meshb.cpp, vtu.cpp, gmsh.cpp, exodus.cpp and abaqus.cpp (mesh_formats.h).
 #include "core/io/mesh_io.h"
 
 #include <algorithm>
@@ -45,14 +45,17 @@ MeshFormat mesh_format(const std::filesystem::path& path) {
   std::transform(lower.begin(), lower.end(), lower.begin(),
                  [](char c) { return c >= 'A' && c <= 'Z' ? static_cast<char>(c - 'A' + 'a') : c; });
   if (lower == ".mesh") return MeshFormat::kMedit;
+  if (lower == ".meshb") return MeshFormat::kMeditBinary;
   if (lower == ".vtu") return MeshFormat::kVtu;
   if (lower == ".msh") return MeshFormat::kGmsh;
-  if (extension.empty())
-    throw InputError(path.string() + ": no file extension to tell the mesh format (use .mesh, .vtu or .msh)");
-  throw InputError(path.string() + ": unknown mesh format '" + extension + "' (use .mesh, .vtu or .msh)");
+  if (lower == ".exo") return MeshFormat::kExodus;
+  if (lower == ".inp") return MeshFormat::kAbaqus;
+  constexpr const char* kKnown = " (use .mesh, .meshb, .vtu, .msh, .exo or .inp)";
+  if (extension.empty()) throw InputError(path.string() + ": no file extension to tell the mesh format" + kKnown);
+  throw InputError(path.string() + ": unknown mesh format '" + extension + "'" + kKnown);
 }
 
-void write_hex_mesh(const HexMesh& mesh, const std::filesystem::path& path) {
+void write_hex_mesh(const HexMesh& mesh, const std::filesystem::path& path, const MeshWriteOptions& options) {
   const MeshFormat format = mesh_format(path);
   try {
     check_writable(mesh);
@@ -60,7 +63,10 @@ void write_hex_mesh(const HexMesh& mesh, const std::filesystem::path& path) {
     switch (format) {
       case MeshFormat::kMedit: io_detail::write_medit(mesh, out); break;
       case MeshFormat::kVtu: io_detail::write_vtu(mesh, out); break;
-      case MeshFormat::kGmsh: io_detail::write_gmsh(mesh, out); break;
+      case MeshFormat::kGmsh: io_detail::write_gmsh(mesh, out, options.binary); break;
+      case MeshFormat::kMeditBinary: io_detail::write_meshb(mesh, out); break;
+      case MeshFormat::kExodus: io_detail::write_exodus(mesh, out); break;
+      case MeshFormat::kAbaqus: io_detail::write_abaqus(mesh, out); break;
     }
     out.commit();
   } catch (const FormatError& e) {
@@ -77,6 +83,9 @@ HexMesh read_hex_mesh(const std::filesystem::path& path) {
       case MeshFormat::kMedit: return io_detail::read_medit(text);
       case MeshFormat::kVtu: return io_detail::read_vtu(text);
       case MeshFormat::kGmsh: return io_detail::read_gmsh(text);
+      case MeshFormat::kMeditBinary: return io_detail::read_meshb(text);
+      case MeshFormat::kAbaqus: return io_detail::read_abaqus(text);
+      case MeshFormat::kExodus: return io_detail::read_exodus(path, text);
     }
     throw FormatError("unknown format");
   } catch (const FormatError& e) {

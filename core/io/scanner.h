@@ -120,6 +120,16 @@ class Scanner {
     }
   }
 
+  // Where the next token starts looking, for a format that puts binary data between its tokens
+  // (Gmsh 4.1 binary); set_position moves past such data.
+  const char* position() const { return p_; }
+  const char* end() const { return end_; }
+  const char* file_begin() const { return file_begin_; }
+  void set_position(const char* p) {
+    p_ = p;
+    last_ = p;
+  }
+
   [[noreturn]] void fail(const std::string& message) const {
     throw FormatError("line " + std::to_string(1 + std::count(file_begin_, last_, '\n')) + ": " + message);
   }

@@ -291,11 +291,12 @@ MeshRun run_pipeline(const MeshRequest& request, const Solid& solid) {
   return mesh_solid(request, solid, StageClock(request.options.quiet));
 }
 
-void write_meshes(MeshRun& run, const std::filesystem::path& inside, const std::filesystem::path& outside) {
+void write_meshes(MeshRun& run, const std::filesystem::path& inside, const std::filesystem::path& outside,
+                  const MeshWriteOptions& write) {
   if (!run.check.ok) throw std::logic_error("write_meshes: the mesh fails its own check");
   run.clock.run("write", [&] {
-    write_hex_mesh(run.meshes.inside, inside);
-    write_hex_mesh(run.meshes.outside, outside);
+    write_hex_mesh(run.meshes.inside, inside, write);
+    write_hex_mesh(run.meshes.outside, outside, write);
   });
   run.peak_memory_bytes = peak_memory_bytes();
 }

@@ -28,6 +28,7 @@
 #include "core/device/backend.h"
 #include "core/grid/grid.h"
 #include "core/grid/octree.h"
+#include "core/io/mesh_io.h"
 #include "core/pipeline/fit.h"
 #include "core/pipeline/solid.h"
 
@@ -130,6 +131,7 @@ MeshRun run_pipeline(const MeshRequest& request, const Solid& solid);
 // Both meshes written (core/io/mesh_io.h, atomically; the format follows each extension) as the
 // run's stage "write", the peak memory updated. A mesh that fails its check is never written:
 // std::logic_error if run.check is not ok.
-void write_meshes(MeshRun& run, const std::filesystem::path& inside, const std::filesystem::path& outside);
+void write_meshes(MeshRun& run, const std::filesystem::path& inside, const std::filesystem::path& outside,
+                  const MeshWriteOptions& write = {});
 
 }  // namespace mchex

@@ -14,6 +14,7 @@ namespace mchex::cli {
 struct MeshCommand {
   std::string input, shape, inside = "inside.mesh", outside, report, backend = "auto";
   MeshOptions options;
+  MeshWriteOptions write;  // --binary
 };
 int run_mesh(const MeshCommand& command, bool quiet);
 

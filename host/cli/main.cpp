@@ -36,6 +36,11 @@
 using namespace mchex;
 using namespace mchex::cli;
 
+// Gmsh's own command line writes binary files with -bin ("when possible"); so here.
+constexpr const char* kBinaryHelp =
+    "write .msh as Gmsh 4.1 binary, as gmsh -bin does (.vtu, .meshb and .exo are always binary, .mesh and .inp "
+    "always ascii)";
+
 int main(int argc, char** argv) {
   install_signal_cleanup();
   CLI::App app{"mchex-gpu: all-hex meshes of a solid and of the box around it (MCHex, Tong & Zhang 2025)"};
@@ -50,7 +55,9 @@ int main(int argc, char** argv) {
   auto* mesh = app.add_subcommand("mesh", "mesh a surface (STL, OBJ, OFF, PLY) or a built-in shape");
   mesh->add_option("input", mo.input, "input surface file; without it, --shape (default: torus)");
   mesh->add_option("--shape", mo.shape, "built-in analytic shape: sphere, torus, rounded-box, two-holed");
-  mesh->add_option("-o,--output", mo.inside, "inside mesh (.mesh, .vtu or .msh)")->capture_default_str();
+  mesh->add_option("-o,--output", mo.inside, "inside mesh (.mesh, .meshb, .vtu, .msh, .exo or .inp)")
+      ->capture_default_str();
+  mesh->add_flag("--binary", mo.write.binary, kBinaryHelp);
   mesh->add_option("--outside", mo.outside, "outside mesh (default: outside.EXT beside the inside mesh)");
   mesh->add_option("--method", mo.options.method,
                    "mchex: cut every cell by the isosurface (MC33, local refinement where the paper "
@@ -159,7 +166,7 @@ int main(int argc, char** argv) {
 
   CheckCommand co;
   auto* check = app.add_subcommand("check", "validate a hex mesh (and its outside mesh) and measure its quality");
-  check->add_option("mesh", co.mesh, "hex mesh (.mesh, .vtu or .msh)")->required();
+  check->add_option("mesh", co.mesh, "hex mesh (.mesh, .meshb, .vtu, .msh, .exo or .inp)")->required();
   check->add_option("--outside", co.outside, "the outside mesh: check that both conform and fill their box");
   check->add_option("--input", co.input, "the input surface: measure IoU and Hausdorff distance");
   check->add_option("--shape", co.shape, "the built-in shape the mesh was made from, as --input");
@@ -181,9 +188,12 @@ int main(int argc, char** argv) {
       ->capture_default_str();
 
   std::string convert_in, convert_out;
-  auto* convert = app.add_subcommand("convert", "convert a hex mesh between .mesh, .vtu and .msh");
+  MeshWriteOptions convert_write;
+  auto* convert = app.add_subcommand(
+      "convert", "convert a hex mesh between .mesh, .meshb, .vtu, .msh, .exo and .inp (regions kept)");
   convert->add_option("input", convert_in, "hex mesh to read")->required();
   convert->add_option("output", convert_out, "hex mesh to write; the format follows the extension")->required();
+  convert->add_flag("--binary", convert_write.binary, kBinaryHelp);
 
   bool devices_json = false;
   auto* devices = app.add_subcommand("devices", "list the compute backends, platforms and devices found");
@@ -217,7 +227,7 @@ int main(int argc, char** argv) {
     }
     if (convert->parsed()) {
       mesh_format(convert_out);
-      write_hex_mesh(read_hex_mesh(convert_in), convert_out);
+      write_hex_mesh(read_hex_mesh(convert_in), convert_out, convert_write);
       return 0;
     }
     return run_check(co, quiet);

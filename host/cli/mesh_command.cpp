@@ -95,7 +95,7 @@ int run_mesh(const MeshCommand& o, bool quiet) {
   request.open_backend = [&] { return make_backend(o.backend); };
   MeshRun run = run_pipeline(request);
   // A mesh that fails its own check is never written: the report (if asked for) says why.
-  if (run.check.ok) write_meshes(run, inside_path, outside_path);
+  if (run.check.ok) write_meshes(run, inside_path, outside_path, o.write);
   const MeshOutputs outputs{inside_path.string(), outside_path.string()};
   if (!o.report.empty()) write_json(o.report, report_json(run, &outputs));
   if (!quiet) print_summary(run, outputs);

@@ -1,0 +1,98 @@
+// Write and read throughput of every mesh format (core/io/mesh_io.h), in hexes per second, on an
+// n^3 block of hexes (default n = 144: 2.99 M hexes, 3.0 M points) with two regions (a ball of
+// region 1 inside region 2, so that .exo has an interface side set and its boundary node set) and
+// coordinates of a mesher's kind (irrational, full precision). The target is 20 M hexes
+// per second written in every format. Files go to --dir (default /dev/shm when it exists, so that
+// the figure is the format's cost and not the disk's). Prints a table and one JSON line.
+//   bench_formats [--n N] [--dir FOLDER] [--repeat R]
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "core/base/parallel.h"
+#include "core/io/mesh_io.h"
+#include "core/mesh/hex_mesh.h"
+#include "perf/bench_common.h"
+
+using namespace mchex;
+using bench::seconds_of;
+namespace fs = std::filesystem;
+
+namespace {
+
+HexMesh block(uint32_t n) {
+  HexMesh mesh;
+  const uint32_t s = n + 1;
+  mesh.points.reserve(std::size_t(s) * s * s);
+  // A mildly warped lattice: coordinates need all 17 digits, as a mesher's do.
+  for (uint32_t k = 0; k < s; ++k)
+    for (uint32_t j = 0; j < s; ++j)
+      for (uint32_t i = 0; i < s; ++i) {
+        const double x = i / double(n), y = j / double(n), z = k / double(n);
+        mesh.points.push_back({x + 0.01 * std::sin(7 * y), y + 0.01 * std::sin(5 * z), z + 0.01 * std::sin(3 * x)});
+      }
+  mesh.hexes.reserve(std::size_t(n) * n * n);
+  for (uint32_t k = 0; k < n; ++k)
+    for (uint32_t j = 0; j < n; ++j)
+      for (uint32_t i = 0; i < n; ++i) {
+        const uint32_t b = i + s * j + s * s * k;
+        mesh.hexes.push_back({b, b + 1, b + 1 + s, b + s, b + s * s, b + 1 + s * s, b + 1 + s + s * s, b + s + s * s});
+        const double dx = (i + 0.5) / n - 0.5, dy = (j + 0.5) / n - 0.5, dz = (k + 0.5) / n - 0.5;
+        mesh.region.push_back(dx * dx + dy * dy + dz * dz < 0.09 ? kInside : kOutside);
+      }
+  return mesh;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  uint32_t n = 144;
+  int repeat = 3;
+  fs::path dir = fs::is_directory("/dev/shm") ? fs::path("/dev/shm") : fs::temp_directory_path();
+  for (int i = 1; i + 1 < argc; i += 2) {
+    if (!std::strcmp(argv[i], "--n")) n = static_cast<uint32_t>(std::stoul(argv[i + 1]));
+    if (!std::strcmp(argv[i], "--dir")) dir = argv[i + 1];
+    if (!std::strcmp(argv[i], "--repeat")) repeat = std::stoi(argv[i + 1]);
+  }
+  const HexMesh mesh = block(n);
+  const double hexes = static_cast<double>(mesh.hexes.size());
+  std::printf("bench_formats: %zu hexes, %zu points, %d threads, files in %s (best of %d)\n", mesh.hexes.size(),
+              mesh.points.size(), hardware_threads(), dir.c_str(), repeat);
+  std::printf("%-14s %12s %12s %12s %12s\n", "format", "MB", "write s", "write Mhex/s", "read Mhex/s");
+  struct Case {
+    const char* name;
+    const char* extension;
+    bool binary;
+  };
+  const Case cases[] = {{".mesh", ".mesh", false},     {".meshb", ".meshb", false},   {".vtu", ".vtu", false},
+                        {".msh ascii", ".msh", false}, {".msh binary", ".msh", true}, {".exo", ".exo", false},
+                        {".inp", ".inp", false}};
+  nlohmann::json j = {{"bench", "formats"}, {"hexes", mesh.hexes.size()}, {"threads", hardware_threads()}};
+  for (const Case& c : cases) {
+    const fs::path path = dir / (std::string("mchex_bench_formats") + c.extension);
+    MeshWriteOptions options;
+    options.binary = c.binary;
+    double write = 1e30, read = 1e30;
+    for (int r = 0; r < repeat; ++r) {
+      write = std::min(write, seconds_of([&] { write_hex_mesh(mesh, path, options); }));
+      read = std::min(read, seconds_of([&] {
+                        const HexMesh back = read_hex_mesh(path);
+                        if (back.hexes.size() != mesh.hexes.size()) std::abort();
+                      }));
+    }
+    const double mb = static_cast<double>(fs::file_size(path)) / 1e6;
+    fs::remove(path);
+    std::printf("%-14s %12.1f %12.3f %12.1f %12.1f\n", c.name, mb, write, hexes / write / 1e6, hexes / read / 1e6);
+    j[c.name] = {{"mb", mb},
+                 {"write_s", write},
+                 {"write_mhex_per_s", hexes / write / 1e6},
+                 {"read_mhex_per_s", hexes / read / 1e6}};
+  }
+  std::printf("%s\n", j.dump().c_str());
+}
