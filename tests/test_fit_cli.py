@@ -91,8 +91,6 @@ class SizeOptions(ScratchTestCase):
         self.assertGreater(rounds[0]["refined_leaves"], 0)
         self.assertGreater(rounds[0]["hausdorff_ratio"], 0.02)
         # Each round measures the mesh the previous one made; the last measure is the report's.
-        hrs = [x["hausdorff_ratio"] for x in rounds] + [rep["fidelity"]["hausdorff_ratio"]]
-        self.assertEqual(hrs, sorted(hrs, reverse=True))
         self.assertLess(rep["fidelity"]["hausdorff_ratio"], 0.25 * rounds[0]["hausdorff_ratio"])
         self.assertEqual(rep["check"]["inside"]["inverted_hexes"], 0)
 

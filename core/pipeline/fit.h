@@ -3,18 +3,17 @@
 // Hausdorff distance between the inside mesh's boundary and the input surface over the input's
 // bounding-box diagonal), and optionally capped in output size.
 //
-// What drives HR. MCHex places the surface where the trilinear interpolant of each cell crosses
-// zero (paper Section 5), so on a cell the surface is misplaced by at most about the refinement
-// error the octree allowed there (threshold x the finest cell size, core/grid/octree.h) plus what
-// a cell of the finest size cannot resolve (a feature thinner than a cell is lost whole, a sharp
-// tip is cut back by a few cells). The finest cell size h = cube edge / 3^D therefore sets HR:
-// the rule picks the smallest max depth D with h <= kFinestCellPerHausdorff x H x diagonal, and
-// the refinement threshold kFitThreshold (in units of h, so the coarser cells' error stays well
-// below h). Both constants are measured (docs/pipeline.md has the table): on the npm bunny,
-// gearwheel and cube and a bumpy torus the measured HR was 0.07 to 0.87 h / diagonal, so a
-// finest cell of H x diagonal gives HR <= H on them; the irregular tetrahedron's sharp tips
-// lose about 4 h. A threshold of 0.2 already lost the analytic torus's finest level (IoU 0.978
-// against 0.997 at 0.05, the paper's batch value).
+// The rule, in two steps (docs/pipeline.md "The fitted grid" has the measurements):
+//  1. the base grid: the paper's error test (threshold kFitThreshold, in finest cells of the error
+//     depth) refines to the error depth D, the smallest with cube edge / 3^D <= kFinestCellPerHausdorff
+//     x H x diagonal; the octree's max depth is D + kFitExtraLevels, for step 2 only;
+//  2. measured rounds (core/pipeline/pipeline.cpp, with the fidelity measure on and no cap): the
+//     mesh is measured, the leaves holding samples farther than H x diagonal from the other surface
+//     (and, while the IoU is under kFitIou, leaves holding kFitMisclassifiedPerLeaf lattice samples
+//     where mesh and solid disagree) are refined, and the grid meshed again, at most kFitRounds
+//     times. The a-priori error underestimates what MC loses at tips, thin parts and sharp edges
+//     (a tip about one cell across: 0.3 to 1.3 finest cells of error where the mesh lies 5 cells
+//     below the input); the measure is what the report says, so the rounds aim at that.
 //
 // The cap (fit_max_hexes). The output size of a setting is predicted from its built grid before
 // any meshing: refine, balance and build the complex (cheap next to meshing), evaluate the SDF at
@@ -40,12 +39,13 @@
 
 namespace mchex {
 
-// The default target Hausdorff ratio: max depth 4 on any model (the finest cell is 1.2 x the largest
-// extent / 81, at most 0.0148 x its diagonal): IoU 0.989 to 1 (median 0.996) on the models
-// above and the analytic shapes; the sharp ones (gearwheel, tetrahedron) need depth 5 for 0.994.
+// The default target Hausdorff ratio: about the MCHex prototype's HR at its defaults (0.0046 to
+// 0.0066 on the models of ../shared/notes/reference-figures.md); its base grid has error depth 4 on
+// any model (the finest cell is 1.2 x the largest extent / 81, at most 0.0148 x its diagonal).
 inline constexpr double kDefaultHausdorffRatio = 0.005;
-// Finest cell size per unit of H x input diagonal (measured HR <= 0.87 finest cells / diagonal
-// on smooth models).
+// The base grid's finest cell per unit of H x input diagonal: HR was 0.07 to 0.87 finest cells /
+// diagonal on smooth models at depths 3 to 5, so 3 H leaves the rounds the smooth models' worst
+// places and the sharp ones' tips.
 inline constexpr double kFinestCellPerHausdorff = 3.0;
 // The refinement threshold the rule uses, in finest cells (core/grid/octree.h AdaptiveOptions).
 inline constexpr double kFitThreshold = 0.05;
@@ -60,9 +60,10 @@ inline constexpr std::size_t kFitMisclassifiedPerLeaf = 2;
 inline constexpr double kFitIou = 0.998;
 
 // The adaptive settings for target Hausdorff ratio `hausdorff_ratio` (> 0) of a solid with these
-// bounds meshed over `cube`: max depth the smallest D (at most kMaxAdaptiveDepth) with
-// cube edge / 3^D <= kFinestCellPerHausdorff x hausdorff_ratio x bounds diagonal, threshold
-// kFitThreshold. InputError for a ratio that is not positive and finite.
+// bounds meshed over `cube`: error depth the smallest D (at most kMaxAdaptiveDepth) with
+// cube edge / 3^D <= kFinestCellPerHausdorff x hausdorff_ratio x bounds diagonal, max depth
+// D + kFitExtraLevels (at most kMaxAdaptiveDepth), threshold kFitThreshold. InputError for a ratio
+// that is not positive and finite.
 AdaptiveOptions adaptive_for_hausdorff(double hausdorff_ratio, const Box& bounds, const Box& cube);
 
 // Output hexes (inside and outside together) that `method` ("mchex" | "ro") makes from `grid`

@@ -253,10 +253,13 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
     run.fidelity =
         run.clock.run("fidelity", [&] { return solid.fidelity(run.meshes.inside, run.cube, o.lattice, far); });
     const Fidelity& fid = *run.fidelity;
-    const bool stalled = !run.fit_rounds.empty() && !(fid.hausdorff_ratio < run.fit_rounds.back().hausdorff_ratio);
+    // A round that lowered neither the HR nor the IoU's shortfall would repeat itself.
+    const bool stalled = !run.fit_rounds.empty() && !(fid.hausdorff_ratio < run.fit_rounds.back().hausdorff_ratio) &&
+                         !(fid.iou > run.fit_rounds.back().iou);
     if ((fid.far_points.empty() && !(fid.iou < kFitIou)) || stalled || round == kFitRounds) break;
     FitRound& r = run.fit_rounds.emplace_back();
     r.hausdorff_ratio = run.fidelity->hausdorff_ratio;
+    r.iou = run.fidelity->iou;
     r.far_points = run.fidelity->far_points.size();
     r.hexes = run.meshes.inside.hexes.size() + run.meshes.outside.hexes.size();
     r.refined_leaves = run.clock.run("fit-rounds", [&] {

@@ -94,6 +94,7 @@ struct RemedyStats {
 // Hausdorff distance to the input, refines the leaves where it exceeds the target and meshes again.
 struct FitRound {
   double hausdorff_ratio = 0;  // measured before the round's refinement
+  double iou = 0;              // likewise
   std::size_t far_points = 0;  // samples farther than the target
   std::size_t refined_leaves = 0;
   std::size_t hexes = 0;  // inside + outside, as measured

@@ -148,6 +148,7 @@ json fit_json(const MeshRun& run) {
   json rounds = json::array();
   for (const FitRound& r : run.fit_rounds)
     rounds.push_back({{"hausdorff_ratio", r.hausdorff_ratio},
+                      {"iou", r.iou},
                       {"far_points", r.far_points},
                       {"refined_leaves", r.refined_leaves},
                       {"hexes", r.hexes}});
