@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <limits>
@@ -215,33 +216,147 @@ double scaled_triple(Vec3 a, Vec3 b, Vec3 c) { return triple(normalized(a), norm
 // normalized(v) from v's length already known (the same operations, so the same doubles).
 Vec3 normalized_by(Vec3 v, double length) { return length > 0 ? v / length : Vec3{}; }
 
-std::array<double, 9> scaled_from_edges(const Edges& e, const std::array<double, 12>& lengths) {
-  // Each edge meets two corners: normalized once.
-  std::array<double, 9> s{};
-  if (e.parallel) {
-    // Every corner's triple is the same one.
-    s.fill(triple(normalized_by(e.xi[0][0], lengths[0]), normalized_by(e.eta[0][0], lengths[1]),
-                  normalized_by(e.zeta[0][0], lengths[2])));
-    s[8] = scaled_triple(bilinear(e.xi, 0.5, 0.5), bilinear(e.eta, 0.5, 0.5), bilinear(e.zeta, 0.5, 0.5));
-    return s;
-  }
-  Vec3 xi[2][2], eta[2][2], zeta[2][2];
-  for (int u = 0; u < 2; ++u)
-    for (int v = 0; v < 2; ++v) {
-      const int n = 3 * (2 * u + v);  // Edges::for_each order
-      xi[u][v] = normalized_by(e.xi[u][v], lengths[n]);
-      eta[u][v] = normalized_by(e.eta[u][v], lengths[n + 1]);
-      zeta[u][v] = normalized_by(e.zeta[u][v], lengths[n + 2]);
-    }
-  for (int c = 0; c < 2; ++c) {
-    for (int b = 0; b < 2; ++b) {
-      for (int a = 0; a < 2; ++a) {
-        s[corner_index(a, b, c)] = triple(xi[b][c], eta[a][c], zeta[a][b]);
+// The 12 edges at unit length (zero for an edge of zero length), each normalized once. Of a
+// parallelepiped (Edges::parallel) only [0][0] of each direction is set: the others are equal.
+struct UnitEdges {
+  Vec3 xi[2][2]{}, eta[2][2]{}, zeta[2][2]{};
+  UnitEdges(const Edges& e, const std::array<double, 12>& lengths) {
+    for (int u = 0; u < 2; ++u)
+      for (int v = 0; v < 2; ++v) {
+        if (e.parallel && (u | v)) continue;
+        const int n = 3 * (2 * u + v);  // Edges::for_each order
+        xi[u][v] = normalized_by(e.xi[u][v], lengths[n]);
+        eta[u][v] = normalized_by(e.eta[u][v], lengths[n + 1]);
+        zeta[u][v] = normalized_by(e.zeta[u][v], lengths[n + 2]);
       }
-    }
   }
-  s[8] = scaled_triple(bilinear(e.xi, 0.5, 0.5), bilinear(e.eta, 0.5, 0.5), bilinear(e.zeta, 0.5, 0.5));
-  return s;
+};
+
+// An angle atan2(s, c) taken in [0, 2 pi), kept as the pair: ordered by angle_key without a
+// trigonometric function, and turned into degrees only for the extremes (atan2 of the pair is
+// accurate at every angle, where acos of a cosine is not near 0 and 180 degrees).
+struct Angle {
+  double c = 1, s = 0;
+};
+
+// Increasing with the angle on [0, 2 pi): -cos|cos| on [0, pi], 2 + cos|cos| on (pi, 2 pi). A pair
+// (0, 0), the angle at a zero-length edge, counts as angle 0, as degrees() says.
+double angle_key(const Angle& a) {
+  const double r = a.c * a.c + a.s * a.s;
+  if (!(r > 0)) return -1;
+  const double t = a.c * std::abs(a.c) / r;
+  return a.s > 0 || (a.s == 0 && a.c > 0) ? -t : 2 + t;
+}
+
+double degrees(const Angle& a) {
+  constexpr double kPi = 3.14159265358979323846;
+  if (a.c == 0 && a.s == 0) return 0;  // atan2(0, -0) would say 180
+  double t = std::atan2(a.s, a.c);
+  if (t < 0) t += 2 * kPi;
+  return t / kPi * 180 + 0.0;  // exact at multiples of 90 (pi / 2 over pi is 0.5); + 0.0: no -0
+}
+
+// The measures of the corner at reference vertex (a, b, k), from the unit Jacobian columns there
+// (U, V, W: +xi, +eta, +zeta edges) and their lengths over the mean edge length (lu, lv, lw).
+//  - scaled Jacobian: det(U, V, W).
+//  - dihedral angles (docs/quality.md): the edges leaving the corner are x = su U, y = sv V,
+//    z = sw W with s = +1 at a reference coordinate 0 and -1 at 1. The face (x, y) has normal
+//    x cross y at the corner, the face (x, z) normal x cross z; with unit vectors the interior
+//    angle between them along x is
+//      theta_x = atan2(det(U, V, W), (x cross y) . (x cross z)):
+//    (x cross y) . (x cross z) is |x|^2 times the dot product of y and z projected off x, and
+//    (x cross y) cross (x cross z) = det(x, y, z) x gives the sine. The sine takes the sign of
+//    det J = det(U, V, W) (not of det(x, y, z) = su sv sw det J, whose sign flips from corner to
+//    corner), so a corner where the hex folds over gives an angle above 180 degrees.
+//    With A = U x V, B = V x W, C = W x U: (x cross y).(x cross z) = -sv sw A.C, and cyclically.
+//  - 1 / kappa: J = (u, v, w) = (lu U, lv V, lw W) up to the common scale h, which kappa does
+//    not see; |J^-1|_F = |(v x w, w x u, u x v)|_F / |det J|, so
+//      1 / kappa = 3 det J / (|J|_F |J^-1|_F |det J|) = 3 det J / (|J|_F sqrt(|v x w|^2 + ...)).
+//    The lengths are over h so that the squares stay in range for any model size.
+struct Corner {
+  double scaled_jacobian;
+  Angle dihedral[3];  // along the xi, eta, zeta edge
+  double inverse_condition;
+};
+
+Corner corner_measures(Vec3 U, Vec3 V, Vec3 W, double lu, double lv, double lw, int a, int b, int k) {
+  const double su = a ? -1 : 1, sv = b ? -1 : 1, sw = k ? -1 : 1;
+  const Vec3 A = cross(U, V), B = cross(V, W), C = cross(W, U);
+  Corner m;
+  m.scaled_jacobian = dot(U, B);  // triple(U, V, W)
+  const double sj = m.scaled_jacobian;
+  m.dihedral[0] = {-(sv * sw) * dot(A, C), sj};
+  m.dihedral[1] = {-(su * sw) * dot(B, A), sj};
+  m.dihedral[2] = {-(su * sv) * dot(C, B), sj};
+  const double uu = lu * lu, vv = lv * lv, ww = lw * lw;
+  const double den = (uu + vv + ww) * (uu * vv * dot(A, A) + vv * ww * dot(B, B) + ww * uu * dot(C, C));
+  m.inverse_condition = den > 0 ? 3 * lu * lv * lw * sj / std::sqrt(den) : 0.0;
+  return m;
+}
+
+// Every corner of the hex, f(corner index, measures).
+double inverse_mean_edge(const std::array<double, 12>& lengths) {
+  const double h = mean_edge(lengths);
+  return h > 0 ? 1 / h : 0.0;
+}
+
+template <class F>
+void for_each_corner(const Edges& e, const std::array<double, 12>& lengths, const UnitEdges& n, F&& f) {
+  const double inv_h = inverse_mean_edge(lengths);
+  for (int k = 0; k < 2; ++k)
+    for (int b = 0; b < 2; ++b)
+      for (int a = 0; a < 2; ++a) {
+        const int p = e.parallel ? 0 : 1;  // a parallelepiped keeps its unit edges in [0][0]
+        const Corner m = corner_measures(n.xi[p * b][p * k], n.eta[p * a][p * k], n.zeta[p * a][p * b],
+                                         lengths[3 * (2 * b + k)] * inv_h, lengths[3 * (2 * a + k) + 1] * inv_h,
+                                         lengths[3 * (2 * a + b) + 2] * inv_h, a, b, k);
+        f(corner_index(a, b, k), m);
+      }
+}
+
+// The centre's scaled Jacobian: J's columns there are the means of each direction's 4 edges.
+double centre_scaled_jacobian(const Edges& e) {
+  return scaled_triple(bilinear(e.xi, 0.5, 0.5), bilinear(e.eta, 0.5, 0.5), bilinear(e.zeta, 0.5, 0.5));
+}
+
+// The sampled measures of quality_of, in one pass over the corners.
+struct CornerSummary {
+  std::array<double, 9> scaled{};  // scaled_jacobians
+  Angle min_angle, max_angle;
+  double min_inverse_condition = std::numeric_limits<double>::infinity();
+};
+
+CornerSummary corner_summary(const Edges& e, const std::array<double, 12>& lengths) {
+  const UnitEdges n(e, lengths);
+  CornerSummary r;
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  auto take = [&](const Angle& t) {
+    const double key = angle_key(t);
+    if (key < lo) lo = key, r.min_angle = t;
+    if (key > hi) hi = key, r.max_angle = t;
+  };
+  if (e.parallel) {
+    // Every corner is corner 0 with some edges reversed: the same scaled Jacobian and 1 / kappa,
+    // and along each direction the angles theta and 180 - theta, the pair (c, s) and (-c, s),
+    // bit for bit (reversing a vector negates its products exactly).
+    const double inv_h = inverse_mean_edge(lengths);
+    const Corner m = corner_measures(n.xi[0][0], n.eta[0][0], n.zeta[0][0], lengths[0] * inv_h, lengths[1] * inv_h,
+                                     lengths[2] * inv_h, 0, 0, 0);
+    r.scaled.fill(m.scaled_jacobian);
+    for (const Angle& t : m.dihedral) {
+      take(t);
+      take({-t.c, t.s});
+    }
+    r.min_inverse_condition = m.inverse_condition;
+  } else {
+    for_each_corner(e, lengths, n, [&](int corner, const Corner& m) {
+      r.scaled[corner] = m.scaled_jacobian;
+      for (const Angle& t : m.dihedral) take(t);
+      r.min_inverse_condition = std::min(r.min_inverse_condition, m.inverse_condition);
+    });
+  }
+  r.scaled[8] = centre_scaled_jacobian(e);
+  return r;
 }
 
 }  // namespace
@@ -288,12 +403,36 @@ std::array<double, 8> corner_jacobians(const HexCorners& c) {
 
 std::array<double, 9> scaled_jacobians(const HexCorners& c) {
   const Edges e(c);
-  return scaled_from_edges(e, e.lengths());
+  return corner_summary(e, e.lengths()).scaled;
 }
 
 double scaled_jacobian(const HexCorners& c) {
   const auto s = scaled_jacobians(c);
   return *std::min_element(s.begin(), s.end());
+}
+
+std::array<double, 24> dihedral_angles(const HexCorners& c) {
+  const Edges e(c, /*shortcuts=*/false);
+  const std::array<double, 12> lengths = e.lengths();
+  std::array<double, 24> angles{};
+  for_each_corner(e, lengths, UnitEdges(e, lengths), [&](int corner, const Corner& m) {
+    for (int d = 0; d < 3; ++d) angles[3 * corner + d] = degrees(m.dihedral[d]);
+  });
+  return angles;
+}
+
+std::array<double, 8> inverse_conditions(const HexCorners& c) {
+  const Edges e(c, /*shortcuts=*/false);
+  const std::array<double, 12> lengths = e.lengths();
+  std::array<double, 8> v{};
+  for_each_corner(e, lengths, UnitEdges(e, lengths),
+                  [&](int corner, const Corner& m) { v[corner] = m.inverse_condition; });
+  return v;
+}
+
+double inverse_condition(const HexCorners& c) {
+  const auto v = inverse_conditions(c);
+  return *std::min_element(v.begin(), v.end());
 }
 
 namespace {
@@ -313,8 +452,11 @@ HexQuality quality_of(const Edges& e) {
   q.min_bernstein = min_of(beta);
   const std::array<double, 12> lengths = e.lengths();
   q.min_bernstein_scaled = scaled_by_size(q.min_bernstein, mean_edge(lengths));
-  const auto s = scaled_from_edges(e, lengths);
-  q.scaled_jacobian = *std::min_element(s.begin(), s.end());
+  const CornerSummary corners = corner_summary(e, lengths);
+  q.scaled_jacobian = *std::min_element(corners.scaled.begin(), corners.scaled.end());
+  q.min_dihedral_angle = degrees(corners.min_angle);
+  q.max_dihedral_angle = degrees(corners.max_angle);
+  q.inverse_condition = corners.min_inverse_condition;
   q.edge_ratio = ratio_of_edges(lengths);
   q.volume = volume_of(beta);
   return q;
