@@ -220,6 +220,7 @@ Vec3 normalized_by(Vec3 v, double length) { return length > 0 ? v / length : Vec
 // parallelepiped (Edges::parallel) only [0][0] of each direction is set: the others are equal.
 struct UnitEdges {
   Vec3 xi[2][2]{}, eta[2][2]{}, zeta[2][2]{};
+  double nxi[2][2]{}, neta[2][2]{}, nzeta[2][2]{};  // their squared lengths: 1 up to rounding, or 0
   UnitEdges(const Edges& e, const std::array<double, 12>& lengths) {
     for (int u = 0; u < 2; ++u)
       for (int v = 0; v < 2; ++v) {
@@ -228,29 +229,35 @@ struct UnitEdges {
         xi[u][v] = normalized_by(e.xi[u][v], lengths[n]);
         eta[u][v] = normalized_by(e.eta[u][v], lengths[n + 1]);
         zeta[u][v] = normalized_by(e.zeta[u][v], lengths[n + 2]);
+        nxi[u][v] = dot(xi[u][v], xi[u][v]);
+        neta[u][v] = dot(eta[u][v], eta[u][v]);
+        nzeta[u][v] = dot(zeta[u][v], zeta[u][v]);
       }
   }
 };
 
-// An angle atan2(s, c) taken in [0, 2 pi), kept as the pair: ordered by angle_key without a
-// trigonometric function, and turned into degrees only for the extremes (atan2 of the pair is
-// accurate at every angle, where acos of a cosine is not near 0 and 180 degrees).
+// An angle atan2(s, c) taken in [0, 2 pi), kept as the pair: ordered by angle_less without a
+// division or a trigonometric function, and turned into degrees only for the extremes (atan2 of
+// the pair is accurate at every angle, where acos of a cosine is not near 0 and 180 degrees).
 struct Angle {
   double c = 1, s = 0;
 };
 
-// Increasing with the angle on [0, 2 pi): -cos|cos| on [0, pi], 2 + cos|cos| on (pi, 2 pi). A pair
-// (0, 0), the angle at a zero-length edge, counts as angle 0, as degrees() says.
-double angle_key(const Angle& a) {
-  const double r = a.c * a.c + a.s * a.s;
-  if (!(r > 0)) return -1;
-  const double t = a.c * std::abs(a.c) / r;
-  return a.s > 0 || (a.s == 0 && a.c > 0) ? -t : 2 + t;
+// (0, 0), the angle at an edge of zero length, is angle 0.
+Angle make_angle(double c, double s) { return c == 0 && s == 0 ? Angle{1, 0} : Angle{c, s}; }
+
+// Which half turn an angle is in: [0, pi) or [pi, 2 pi).
+int half_turn(const Angle& a) { return a.s > 0 || (a.s == 0 && a.c > 0) ? 0 : 1; }
+
+// a < b as angles in [0, 2 pi): by half turn, then within one (less than pi apart) by the sign of
+// the cross product of the two pairs.
+bool angle_less(const Angle& a, const Angle& b) {
+  const int ha = half_turn(a), hb = half_turn(b);
+  return ha != hb ? ha < hb : a.c * b.s - a.s * b.c > 0;
 }
 
 double degrees(const Angle& a) {
   constexpr double kPi = 3.14159265358979323846;
-  if (a.c == 0 && a.s == 0) return 0;  // atan2(0, -0) would say 180
   double t = std::atan2(a.s, a.c);
   if (t < 0) t += 2 * kPi;
   return t / kPi * 180 + 0.0;  // exact at multiples of 90 (pi / 2 over pi is 0.5); + 0.0: no -0
@@ -272,27 +279,36 @@ double degrees(const Angle& a) {
 //  - 1 / kappa: J = (u, v, w) = (lu U, lv V, lw W) up to the common scale h, which kappa does
 //    not see; |J^-1|_F = |(v x w, w x u, u x v)|_F / |det J|, so
 //      1 / kappa = 3 det J / (|J|_F |J^-1|_F |det J|) = 3 det J / (|J|_F sqrt(|v x w|^2 + ...)).
-//    The lengths are over h so that the squares stay in range for any model size.
+//    Kept as its square with the sign of det J (condition_key; no square root per corner): the
+//    order is the same. The lengths are over h so that the squares stay in range for any size.
 struct Corner {
-  double scaled_jacobian;
-  Angle dihedral[3];  // along the xi, eta, zeta edge
-  double inverse_condition;
+  double scaled_jacobian;  // also the sine part of the three angles
+  double cosine[3];        // the cosine parts, along the xi, eta, zeta edge
+  double condition_key;    // 1 / kappa times |1 / kappa|
+  Angle dihedral(int d) const { return make_angle(cosine[d], scaled_jacobian); }
 };
 
-Corner corner_measures(Vec3 U, Vec3 V, Vec3 W, double lu, double lv, double lw, int a, int b, int k) {
+// With A, B, C as above, Binet-Cauchy gives every product of them from the dot products of U, V,
+// W: (U x V).(W x U) = (U.W)(V.U) - (U.U)(V.W) and so on; 3 dot products instead of 3 cross
+// products and 6 dot products per corner. nu = U.U etc. (1, or 0 for a zero-length edge).
+inline Corner corner_measures(Vec3 U, Vec3 V, Vec3 W, double nu, double nv, double nw, double lu, double lv, double lw,
+                              int a, int b, int k) {
   const double su = a ? -1 : 1, sv = b ? -1 : 1, sw = k ? -1 : 1;
-  const Vec3 A = cross(U, V), B = cross(V, W), C = cross(W, U);
+  const double p = dot(U, V), q = dot(V, W), r = dot(W, U);
   Corner m;
-  m.scaled_jacobian = dot(U, B);  // triple(U, V, W)
+  m.scaled_jacobian = triple(U, V, W);
   const double sj = m.scaled_jacobian;
-  m.dihedral[0] = {-(sv * sw) * dot(A, C), sj};
-  m.dihedral[1] = {-(su * sw) * dot(B, A), sj};
-  m.dihedral[2] = {-(su * sv) * dot(C, B), sj};
+  m.cosine[0] = -(sv * sw) * (r * p - nu * q);  // A.C
+  m.cosine[1] = -(su * sw) * (p * q - nv * r);  // B.A
+  m.cosine[2] = -(su * sv) * (q * r - nw * p);  // C.B
   const double uu = lu * lu, vv = lv * lv, ww = lw * lw;
-  const double den = (uu + vv + ww) * (uu * vv * dot(A, A) + vv * ww * dot(B, B) + ww * uu * dot(C, C));
-  m.inverse_condition = den > 0 ? 3 * lu * lv * lw * sj / std::sqrt(den) : 0.0;
+  const double aa = nu * nv - p * p, bb = nv * nw - q * q, cc = nw * nu - r * r;  // |A|^2, |B|^2, |C|^2
+  const double den = (uu + vv + ww) * (uu * vv * aa + vv * ww * bb + ww * uu * cc);
+  m.condition_key = den > 0 ? 9 * (uu * vv * ww) * (sj * std::abs(sj)) / den : 0.0;
   return m;
 }
+
+double inverse_condition_of(double key) { return key < 0 ? -std::sqrt(-key) : std::sqrt(key); }
 
 // Every corner of the hex, f(corner index, measures).
 double inverse_mean_edge(const std::array<double, 12>& lengths) {
@@ -307,9 +323,10 @@ void for_each_corner(const Edges& e, const std::array<double, 12>& lengths, cons
     for (int b = 0; b < 2; ++b)
       for (int a = 0; a < 2; ++a) {
         const int p = e.parallel ? 0 : 1;  // a parallelepiped keeps its unit edges in [0][0]
-        const Corner m = corner_measures(n.xi[p * b][p * k], n.eta[p * a][p * k], n.zeta[p * a][p * b],
-                                         lengths[3 * (2 * b + k)] * inv_h, lengths[3 * (2 * a + k) + 1] * inv_h,
-                                         lengths[3 * (2 * a + b) + 2] * inv_h, a, b, k);
+        const Corner m =
+            corner_measures(n.xi[p * b][p * k], n.eta[p * a][p * k], n.zeta[p * a][p * b], n.nxi[p * b][p * k],
+                            n.neta[p * a][p * k], n.nzeta[p * a][p * b], lengths[3 * (2 * b + k)] * inv_h,
+                            lengths[3 * (2 * a + k) + 1] * inv_h, lengths[3 * (2 * a + b) + 2] * inv_h, a, b, k);
         f(corner_index(a, b, k), m);
       }
 }
@@ -323,36 +340,43 @@ double centre_scaled_jacobian(const Edges& e) {
 struct CornerSummary {
   std::array<double, 9> scaled{};  // scaled_jacobians
   Angle min_angle, max_angle;
-  double min_inverse_condition = std::numeric_limits<double>::infinity();
+  double min_condition_key = std::numeric_limits<double>::infinity();
 };
 
 CornerSummary corner_summary(const Edges& e, const std::array<double, 12>& lengths) {
   const UnitEdges n(e, lengths);
   CornerSummary r;
-  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-  auto take = [&](const Angle& t) {
-    const double key = angle_key(t);
-    if (key < lo) lo = key, r.min_angle = t;
-    if (key > hi) hi = key, r.max_angle = t;
+  bool first = true;
+  // The three angles of a corner share their sine part s: in the half turn [0, pi) (s >= 0) the
+  // angle falls as the cosine part rises, in [pi, 2 pi) it rises with it. So only the largest and
+  // the smallest cosine part of a corner can be the hex's extremes.
+  auto take = [&](double c_lo, double c_hi, double s) {
+    const Angle smallest = make_angle(s >= 0 ? c_hi : c_lo, s), largest = make_angle(s >= 0 ? c_lo : c_hi, s);
+    if (first || angle_less(smallest, r.min_angle)) r.min_angle = smallest;
+    if (first || angle_less(r.max_angle, largest)) r.max_angle = largest;
+    first = false;
+  };
+  auto take_corner = [&](const Corner& m) {
+    const double lo = std::min({m.cosine[0], m.cosine[1], m.cosine[2]});
+    const double hi = std::max({m.cosine[0], m.cosine[1], m.cosine[2]});
+    take(lo, hi, m.scaled_jacobian);
   };
   if (e.parallel) {
     // Every corner is corner 0 with some edges reversed: the same scaled Jacobian and 1 / kappa,
-    // and along each direction the angles theta and 180 - theta, the pair (c, s) and (-c, s),
-    // bit for bit (reversing a vector negates its products exactly).
+    // and along each direction the angles theta and 180 - theta, cosine parts c and -c, bit for
+    // bit (reversing a vector negates its products exactly).
     const double inv_h = inverse_mean_edge(lengths);
-    const Corner m = corner_measures(n.xi[0][0], n.eta[0][0], n.zeta[0][0], lengths[0] * inv_h, lengths[1] * inv_h,
-                                     lengths[2] * inv_h, 0, 0, 0);
+    const Corner m = corner_measures(n.xi[0][0], n.eta[0][0], n.zeta[0][0], n.nxi[0][0], n.neta[0][0], n.nzeta[0][0],
+                                     lengths[0] * inv_h, lengths[1] * inv_h, lengths[2] * inv_h, 0, 0, 0);
     r.scaled.fill(m.scaled_jacobian);
-    for (const Angle& t : m.dihedral) {
-      take(t);
-      take({-t.c, t.s});
-    }
-    r.min_inverse_condition = m.inverse_condition;
+    const double a = std::max({std::abs(m.cosine[0]), std::abs(m.cosine[1]), std::abs(m.cosine[2])});
+    take(-a, a, m.scaled_jacobian);
+    r.min_condition_key = m.condition_key;
   } else {
     for_each_corner(e, lengths, n, [&](int corner, const Corner& m) {
       r.scaled[corner] = m.scaled_jacobian;
-      for (const Angle& t : m.dihedral) take(t);
-      r.min_inverse_condition = std::min(r.min_inverse_condition, m.inverse_condition);
+      take_corner(m);
+      r.min_condition_key = std::min(r.min_condition_key, m.condition_key);
     });
   }
   r.scaled[8] = centre_scaled_jacobian(e);
@@ -416,7 +440,7 @@ std::array<double, 24> dihedral_angles(const HexCorners& c) {
   const std::array<double, 12> lengths = e.lengths();
   std::array<double, 24> angles{};
   for_each_corner(e, lengths, UnitEdges(e, lengths), [&](int corner, const Corner& m) {
-    for (int d = 0; d < 3; ++d) angles[3 * corner + d] = degrees(m.dihedral[d]);
+    for (int d = 0; d < 3; ++d) angles[3 * corner + d] = degrees(m.dihedral(d));
   });
   return angles;
 }
@@ -426,7 +450,7 @@ std::array<double, 8> inverse_conditions(const HexCorners& c) {
   const std::array<double, 12> lengths = e.lengths();
   std::array<double, 8> v{};
   for_each_corner(e, lengths, UnitEdges(e, lengths),
-                  [&](int corner, const Corner& m) { v[corner] = m.inverse_condition; });
+                  [&](int corner, const Corner& m) { v[corner] = inverse_condition_of(m.condition_key); });
   return v;
 }
 
@@ -456,7 +480,7 @@ HexQuality quality_of(const Edges& e) {
   q.scaled_jacobian = *std::min_element(corners.scaled.begin(), corners.scaled.end());
   q.min_dihedral_angle = degrees(corners.min_angle);
   q.max_dihedral_angle = degrees(corners.max_angle);
-  q.inverse_condition = corners.min_inverse_condition;
+  q.inverse_condition = inverse_condition_of(corners.min_condition_key);
   q.edge_ratio = ratio_of_edges(lengths);
   q.volume = volume_of(beta);
   return q;
