@@ -22,6 +22,9 @@ pkgs=(
   # independent readers for the tests (meshio), numpy for perf scripts, matplotlib for the plots
   # of perf/curves.py
   python3 python3-meshio python3-numpy python3-matplotlib
+  # a second, independent judge of the .msh output: gmsh's Jacobian bounds and matrices
+  # (tests/test_quality_refs.py)
+  python3-gmsh
   # formatting check (tests/test_format.py), clang + libFuzzer runtime for CI's fuzz pass
   clang clang-format libclang-rt-14-dev
   # test models: Assimp's sample files (valid and invalid) and OpenSCAD's bad STLs
