@@ -2,12 +2,13 @@
 //
 // Written: Float64 points, Int64 connectivity and offsets, UInt8 types (VTK_HEXAHEDRON, 12), an
 // Int32 CellData "region" and a Float64 CellData "scaled_jacobian" (each hex's minimum over the 9
-// points, core/mesh/quality.h, so that ParaView can colour by it without its own filter), as raw appended little-endian data with UInt64 block headers, so that
-// the large arrays go from memory to the file without formatting. Read: one Piece, ascii, base64
-// "binary" or appended (raw or base64) DataArrays, uncompressed, either byte order, UInt32 or
-// UInt64 headers, any integer type for indices; every offset and block size is checked against
-// the file before it is used, so a truncated or corrupt file is an error and never a read past
-// its end.
+// points, core/mesh/quality.h, so that ParaView can colour by it without a filter of its own), as
+// raw appended little-endian data with UInt64 block headers, so that the large arrays go from
+// memory to the file without formatting. Read: one Piece, ascii, base64 "binary" or appended (raw
+// or base64) DataArrays, uncompressed, either byte order, UInt32 or UInt64 headers, any integer
+// type for indices, other cell arrays ignored; every offset and block size is checked against the
+// file before it is used, so a truncated or corrupt file is an error and never a read past its
+// end.
 #include <algorithm>
 #include <array>
 #include <bit>
@@ -339,7 +340,7 @@ void write_vtu(const HexMesh& mesh, AtomicFile& out) {
   const std::uint64_t n = mesh.points.size();
   const std::uint64_t m = mesh.hexes.size();
   constexpr std::uint8_t kVtkHexahedron = 12;
-  const std::array<std::uint64_t, 6> bytes = {n * sizeof(Vec3), m * 8 * sizeof(int64_t), m * sizeof(int64_t), m,
+  const std::array<std::uint64_t, 6> bytes = {n * sizeof(Vec3),    m * 8 * sizeof(int64_t), m * sizeof(int64_t), m,
                                               m * sizeof(int32_t), m * sizeof(double)};
   std::array<std::uint64_t, 6> offset{};
   for (std::size_t i = 1; i < offset.size(); ++i) offset[i] = offset[i - 1] + sizeof(std::uint64_t) + bytes[i - 1];
