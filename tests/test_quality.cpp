@@ -594,6 +594,16 @@ TEST(quality, InvertedAndDegenerateCorners) {
   EXPECT_EQ(hex_quality(point).min_dihedral_angle, 0.0);
 }
 
+// scaled_jacobian (the .vtu field) and hex_quality (the check) give the same double.
+TEST(quality, ScaledJacobianAloneEqualsHexQuality) {
+  std::mt19937_64 rng(24);
+  auto same_bits = [](double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; };
+  for (int t = 0; t < 300; ++t) {
+    const HexCorners c = t % 3 == 0 ? map_corners(kUnitCube, random_affine(rng, t % 2 == 0)) : random_hex(rng, 0.4);
+    EXPECT_TRUE(same_bits(scaled_jacobian(c), hex_quality(c).scaled_jacobian)) << t;
+  }
+}
+
 TEST(quality, AnglesAndConditionAreSizeIndependent) {
   std::mt19937_64 rng(23);
   for (int t = 0; t < 50; ++t) {

@@ -425,9 +425,20 @@ std::array<double, 8> corner_jacobians(const HexCorners& c) {
   return d;
 }
 
+// The scaled Jacobian alone (the .vtu writer's field): the corner triples of corner_summary, the
+// same operations, without the angles and the condition number.
 std::array<double, 9> scaled_jacobians(const HexCorners& c) {
   const Edges e(c);
-  return corner_summary(e, e.lengths()).scaled;
+  const UnitEdges n(e, e.lengths());
+  std::array<double, 9> s{};
+  for (int k = 0; k < 2; ++k)
+    for (int b = 0; b < 2; ++b)
+      for (int a = 0; a < 2; ++a) {
+        const int p = e.parallel ? 0 : 1;
+        s[corner_index(a, b, k)] = triple(n.xi[p * b][p * k], n.eta[p * a][p * k], n.zeta[p * a][p * b]);
+      }
+  s[8] = centre_scaled_jacobian(e);
+  return s;
 }
 
 double scaled_jacobian(const HexCorners& c) {
