@@ -96,6 +96,30 @@ class QualityReferences(ScratchTestCase):
                 self.assertEqual(h["below"] + h["above"], 0)
                 self.assertGreater(field.min(), 0)
 
+    def test_printed_summary(self):
+        """`check` prints the minimum scaled Jacobian to three significant digits (a tiny one must
+        not read 0.0000) and the histogram rows and region lines of its JSON."""
+        inside, outside = self.mesh(".vtu")
+        r = run("check", inside, "--outside", outside, "--json")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        c = json.loads(r.stdout)["check"]
+        r = run("check", inside, "--outside", outside)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        lines = r.stdout.splitlines()
+        for side, label in (("inside", "inside "), ("outside", "outside")):
+            q = c[side]["quality"]
+            self.assertIn(f"  {label} quality: min scaled Jacobian {q['min_scaled_jacobian']:.3g} "
+                          f"(mean {q['mean_scaled_jacobian']:.3g})", r.stdout)
+            for name, key in (("scaled Jacobian", "scaled_jacobian_histogram"),
+                              ("Bernstein bound", "bernstein_scaled_histogram")):
+                counts = q[key]["counts"]
+                row = f"    {name:<16} {counts[0]} | " + " ".join(map(str, counts[1:]))
+                self.assertTrue(any(line.startswith(row) for line in lines), row)
+            regions = c[side]["regions"]
+            self.assertEqual([g["region"] for g in regions], [1 if side == "inside" else 2])
+            self.assertIn(f"  {label} region {regions[0]['region']}: {regions[0]['quality']['count']} hexes",
+                          r.stdout)
+
     def test_gmsh_finds_every_jacobian_positive(self):
         self.assertIsNotNone(gmsh, "python3-gmsh is not installed (bash setup.sh)")
         paths = self.mesh(".msh")
