@@ -26,6 +26,9 @@ pkgs=(
   libexodusii-dev
   # CalculiX: solves our .inp files in tests/test_calculix.py
   calculix-ccx
+  # a second, independent judge of the .msh output: gmsh's Jacobian bounds and matrices
+  # (tests/test_quality_refs.py)
+  python3-gmsh
   # formatting check (tests/test_format.py), clang + libFuzzer runtime for CI's fuzz pass
   clang clang-format libclang-rt-14-dev
   # test models: Assimp's sample files (valid and invalid) and OpenSCAD's bad STLs

@@ -14,6 +14,7 @@
 
 #include "core/check/mesh_check.h"
 #include "core/mesh/hex_faces.h"
+#include "core/mesh/quality.h"
 
 namespace mchex {
 namespace {
@@ -699,6 +700,168 @@ TEST(mesh_check, JsonReport) {
   EXPECT_TRUE(e["inside"]["quality"]["min_scaled_jacobian"].is_null());
   EXPECT_EQ(e["outside"], nullptr);
   EXPECT_FALSE(e.dump().empty());
+}
+
+// ---------------------------------------------------------------------------------------------
+// Quality statistics: histograms and the per-region split (docs/quality.md).
+
+TEST(mesh_check, HistogramBinsAtTheirEdges) {
+  Histogram h;
+  for (double e : Histogram::kEdges) h.add(e);  // each edge starts its bin; 1 closes the last
+  EXPECT_EQ(h.counts, (std::array<std::size_t, Histogram::kBins>{1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 2}));
+  Histogram below_edges;
+  for (int i = 1; i < Histogram::kBins; ++i) below_edges.add(std::nextafter(Histogram::kEdges[i], -2.0));
+  EXPECT_EQ(below_edges.counts, (std::array<std::size_t, Histogram::kBins>{1, 1, 1, 1, 1, 1, 1, 1, 1, 1, 0}));
+  Histogram outside;
+  for (double v : {-1.5, std::nextafter(-1.0, -2.0), std::nan(""), std::nextafter(1.0, 2.0), 27.0}) outside.add(v);
+  EXPECT_EQ(outside.below, 3u);
+  EXPECT_EQ(outside.above, 2u);
+  EXPECT_EQ(outside.total(), 5u);
+  h.join(outside);
+  EXPECT_EQ(h.total(), 17u);
+}
+
+// Disjoint hexes x += s y (each its own 8 points): scaled Jacobian 1 / sqrt(1 + s^2) at all 9
+// points, dihedral angles atan(1/|s|) and 180 - atan(1/|s|), edge ratio sqrt(1 + s^2), det J = 1.
+struct ShearedHexes {
+  HexMesh mesh;
+  std::vector<double> shear;
+  void add(double s, int32_t region, double offset) {
+    const auto base = static_cast<uint32_t>(mesh.points.size());
+    for (Vec3 p : kUnitCubeCorners) mesh.points.push_back(Vec3{p.x + s * p.y + offset, p.y, p.z});
+    Hex h;
+    for (uint32_t i = 0; i < 8; ++i) h[i] = base + i;
+    mesh.hexes.push_back(h);
+    mesh.region.push_back(region);
+    shear.push_back(s);
+  }
+};
+
+constexpr double kPi = 3.14159265358979323846;
+
+// The bin of v by its definition, edge by edge.
+int bin_of(double v) {
+  int i = 0;
+  while (i + 1 < Histogram::kBins && v >= Histogram::kEdges[i + 1]) ++i;
+  return i;
+}
+
+TEST(mesh_check, QualityHistogramsAndRegions) {
+  // Scaled Jacobians aimed at every bin from 0 to 1 (and 1 itself), in three regions.
+  ShearedHexes m;
+  const double targets[] = {0.05, 0.15, 0.25, 0.35, 0.45, 0.55, 0.65, 0.75, 0.85, 0.95, 1.0, 0.62, 0.33};
+  const int32_t labels[] = {1, 2, 5};
+  for (std::size_t i = 0; i < std::size(targets); ++i)
+    m.add(std::sqrt(1 / (targets[i] * targets[i]) - 1), labels[i % 3], 100.0 * static_cast<double>(i));
+  const MeshCheck c = check_mesh(m.mesh, nullptr, nullptr);
+  ASSERT_TRUE(c.ok) << (c.errors.empty() ? "" : c.errors.front());
+  const QualityStats& q = c.inside.quality;
+  ASSERT_EQ(q.count, std::size(targets));
+
+  // Expected values per region and overall, from the closed forms.
+  struct Expect {
+    std::size_t count = 0;
+    double min_sj = 2, max_sj = -2, min_angle = 360, max_angle = 0, min_ratio = 1e300, max_ratio = 0;
+    std::array<std::size_t, Histogram::kBins> sj{}, bernstein{};
+  };
+  std::map<int32_t, Expect> per_region;
+  Expect all;
+  for (std::size_t i = 0; i < m.shear.size(); ++i) {
+    const double s = m.shear[i];
+    const double sj = 1 / std::sqrt(1 + s * s);
+    const double acute = std::atan(1 / s) * 180 / kPi;
+    const double ratio = std::sqrt(1 + s * s);
+    const double h = (8 + 4 * std::sqrt(1 + s * s)) / 12;  // mean edge
+    for (Expect* e : {&per_region[m.mesh.region[i]], &all}) {
+      ++e->count;
+      e->min_sj = std::min(e->min_sj, sj);
+      e->max_sj = std::max(e->max_sj, sj);
+      e->min_angle = std::min(e->min_angle, s == 0 ? 90.0 : acute);
+      e->max_angle = std::max(e->max_angle, s == 0 ? 90.0 : 180 - acute);
+      e->min_ratio = std::min(e->min_ratio, ratio);
+      e->max_ratio = std::max(e->max_ratio, ratio);
+      ++e->sj[bin_of(sj)];
+      ++e->bernstein[bin_of(1 / (h * h * h))];
+    }
+  }
+  auto expect_stats = [](const QualityStats& got, const Expect& e, const std::string& what) {
+    EXPECT_EQ(got.count, e.count) << what;
+    EXPECT_NEAR(got.min_scaled_jacobian, e.min_sj, 1e-12) << what;
+    EXPECT_NEAR(got.max_scaled_jacobian, e.max_sj, 1e-12) << what;
+    EXPECT_NEAR(got.min_dihedral_angle, e.min_angle, 1e-9) << what;
+    EXPECT_NEAR(got.max_dihedral_angle, e.max_angle, 1e-9) << what;
+    EXPECT_NEAR(got.min_edge_ratio, e.min_ratio, 1e-12) << what;
+    EXPECT_NEAR(got.max_edge_ratio, e.max_ratio, 1e-12) << what;
+    EXPECT_EQ(got.scaled_jacobian_histogram.counts, e.sj) << what;
+    EXPECT_EQ(got.bernstein_scaled_histogram.counts, e.bernstein) << what;
+    EXPECT_EQ(got.scaled_jacobian_histogram.total(), e.count) << what;
+    EXPECT_EQ(got.certified, e.count) << what;
+  };
+  expect_stats(q, all, "all");
+  // The targets were aimed at bins 1..10 (one each, two more in [0.6, 0.7) and [0.3, 0.4)).
+  EXPECT_EQ(q.scaled_jacobian_histogram.counts,
+            (std::array<std::size_t, Histogram::kBins>{0, 1, 1, 1, 2, 1, 1, 2, 1, 1, 2}));
+  ASSERT_EQ(c.inside.regions.size(), 3u);
+  EXPECT_FALSE(c.inside.too_many_regions);
+  for (std::size_t r = 0; r < 3; ++r) {
+    EXPECT_EQ(c.inside.regions[r].region, labels[r]);
+    expect_stats(c.inside.regions[r].quality, per_region[labels[r]], "region " + std::to_string(labels[r]));
+  }
+
+  // The same hexes in the JSON report.
+  const nlohmann::json j = to_json(c);
+  const nlohmann::json& jq = j["inside"]["quality"];
+  EXPECT_EQ(
+      jq["scaled_jacobian_histogram"]["counts"].get<std::vector<std::size_t>>(),
+      std::vector<std::size_t>(q.scaled_jacobian_histogram.counts.begin(), q.scaled_jacobian_histogram.counts.end()));
+  EXPECT_EQ(jq["scaled_jacobian_histogram"]["edges"].size(), Histogram::kBins + 1u);
+  EXPECT_EQ(jq["scaled_jacobian_histogram"]["edges"][2], 0.1);
+  EXPECT_EQ(jq["bernstein_scaled_histogram"]["below"], 0);
+  EXPECT_EQ(jq["min_dihedral_angle"], q.min_dihedral_angle);
+  EXPECT_EQ(jq["max_inverse_condition"], q.max_inverse_condition);
+  ASSERT_EQ(j["inside"]["regions"].size(), 3u);
+  EXPECT_EQ(j["inside"]["regions"][2]["region"], 5);
+  EXPECT_EQ(j["inside"]["regions"][2]["quality"]["count"], per_region[5].count);
+}
+
+TEST(mesh_check, InvertedHexesFillTheFirstBin) {
+  ShearedHexes m;
+  m.add(0, 1, 0);
+  m.add(0, 1, 10);
+  // Mirror the second hex: scaled Jacobian -1, an error, and the bin [-1, 0).
+  for (uint32_t i = 8; i < 16; ++i) m.mesh.points[i].x = -m.mesh.points[i].x;
+  const MeshCheck c = check_mesh(m.mesh, nullptr, nullptr);
+  EXPECT_FALSE(c.ok);
+  EXPECT_EQ(c.inside.inverted_hexes, 1u);
+  const QualityStats& q = c.inside.quality;
+  EXPECT_EQ(q.scaled_jacobian_histogram.counts[0], 1u);
+  EXPECT_EQ(q.scaled_jacobian_histogram.counts[Histogram::kBins - 1], 1u);
+  EXPECT_EQ(q.bernstein_scaled_histogram.counts[0], 1u);
+  EXPECT_EQ(q.min_scaled_jacobian, -1.0);
+  EXPECT_EQ(q.max_dihedral_angle, 270.0);
+  EXPECT_EQ(q.min_inverse_condition, -1.0);
+  EXPECT_EQ(q.max_inverse_condition, 1.0);
+}
+
+TEST(mesh_check, RegionsWithoutLabelsOrTooMany) {
+  ShearedHexes m;
+  for (std::size_t i = 0; i <= MeshStats::kMaxRegions; ++i)
+    m.add(0, static_cast<int32_t>(i) - 7, 2.0 * static_cast<double>(i));
+  const MeshCheck many = check_mesh(m.mesh, nullptr, nullptr);
+  EXPECT_TRUE(many.ok);
+  EXPECT_TRUE(many.inside.too_many_regions);
+  EXPECT_TRUE(many.inside.regions.empty());
+  EXPECT_TRUE(to_json(many)["inside"]["regions"].is_null());
+  EXPECT_EQ(many.inside.quality.count, MeshStats::kMaxRegions + 1);
+
+  m.mesh.region.clear();
+  CheckOptions unlabelled;
+  unlabelled.require_regions = false;
+  const MeshCheck none = check_mesh(m.mesh, nullptr, nullptr, unlabelled);
+  EXPECT_TRUE(none.ok);
+  EXPECT_FALSE(none.inside.too_many_regions);
+  EXPECT_TRUE(none.inside.regions.empty());
+  EXPECT_TRUE(to_json(none)["inside"]["regions"].empty());
 }
 
 // An 81^3 grid split by a ball (531441 hexes): the counts at the size the mesher makes.

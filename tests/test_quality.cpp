@@ -180,6 +180,9 @@ TEST(quality, ParallelepipedShortcutIsBitIdentical) {
     EXPECT_TRUE(same_bits(q.scaled_jacobian, full.scaled_jacobian)) << what << " " << t;
     EXPECT_TRUE(same_bits(q.edge_ratio, full.edge_ratio)) << what << " " << t;
     EXPECT_TRUE(same_bits(q.volume, full.volume)) << what << " " << t;
+    EXPECT_TRUE(same_bits(q.min_dihedral_angle, full.min_dihedral_angle)) << what << " " << t;
+    EXPECT_TRUE(same_bits(q.max_dihedral_angle, full.max_dihedral_angle)) << what << " " << t;
+    EXPECT_TRUE(same_bits(q.inverse_condition, full.inverse_condition)) << what << " " << t;
   };
   std::mt19937_64 rng(13);
   std::uniform_real_distribution<double> coord(-3, 3);
@@ -402,6 +405,215 @@ TEST(quality, ScaledBernsteinIsSizeIndependent) {
     EXPECT_NEAR(min_bernstein(big), 512 * min_bernstein(c), 1e-9);
     EXPECT_NEAR(scaled_jacobian(big), scaled_jacobian(c), 1e-12);
     EXPECT_NEAR(edge_ratio(big), edge_ratio(c), 1e-12);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Dihedral angles and the inverse condition number (docs/quality.md), against closed forms and
+// against references built here from the matrix itself: the angle between two faces from the
+// edges projected off their common edge (acos), kappa from an inverse by cofactors.
+
+constexpr double kPi = 3.14159265358979323846;
+double deg(double radians) { return radians * 180 / kPi; }
+
+// The interior angle along edge x between the faces (x, y) and (x, z), in degrees: the angle
+// between y and z with their components along x removed.
+double projected_angle(Vec3 x, Vec3 y, Vec3 z) {
+  const Vec3 ux = normalized(x);
+  const Vec3 py = y - dot(y, ux) * ux, pz = z - dot(z, ux) * ux;
+  return deg(std::acos(std::clamp(dot(py, pz) / (norm(py) * norm(pz)), -1.0, 1.0)));
+}
+
+// Knupp's kappa = |A|_F |A^-1|_F / 3 with A^-1 = adj(A) / det A, the adjugate entry by entry.
+double reference_inverse_condition(const std::array<Vec3, 3>& columns) {
+  double a[3][3];
+  for (int c = 0; c < 3; ++c)
+    for (int r = 0; r < 3; ++r) a[r][c] = columns[c][r];
+  const double det = a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) -
+                     a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
+                     a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
+  double f = 0, g = 0;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) {
+      f += a[r][c] * a[r][c];
+      // Cofactor of (r, c): the 2 x 2 minor without row r and column c, signed.
+      const int r0 = (r + 1) % 3, r1 = (r + 2) % 3, c0 = (c + 1) % 3, c1 = (c + 2) % 3;
+      const double cof = a[r0][c0] * a[r1][c1] - a[r0][c1] * a[r1][c0];
+      g += cof * cof / (det * det);
+    }
+  return 3 / (std::sqrt(f) * std::sqrt(g));
+}
+
+TEST(quality, CubeHasRightDihedralAnglesAndInverseConditionOne) {
+  for (double a : dihedral_angles(kUnitCube)) EXPECT_EQ(a, 90.0);
+  for (double k : inverse_conditions(kUnitCube)) EXPECT_EQ(k, 1.0);
+  EXPECT_EQ(inverse_condition(kUnitCube), 1.0);
+  const HexQuality q = hex_quality(kUnitCube);
+  EXPECT_EQ(q.min_dihedral_angle, 90.0);
+  EXPECT_EQ(q.max_dihedral_angle, 90.0);
+  EXPECT_EQ(q.inverse_condition, 1.0);
+  EXPECT_EQ(q.edge_ratio, 1.0);
+  EXPECT_EQ(q.scaled_jacobian, 1.0);
+  // Any size and place: a box keeps its right angles; kappa sees the aspect ratio.
+  const HexCorners box = map_corners(kUnitCube, [](Vec3 p) { return Vec3{1e-9 * p.x - 5e-9, 2e-9 * p.y, 3e-9 * p.z}; });
+  for (double a : dihedral_angles(box)) EXPECT_EQ(a, 90.0);
+  // |A|_F = sqrt(14), |A^-1|_F = sqrt(1 + 1/4 + 1/9) = 7/6.
+  for (double k : inverse_conditions(box)) EXPECT_NEAR(k, 18 / (7 * std::sqrt(14.0)), 1e-15);
+  EXPECT_NEAR(hex_quality(box).inverse_condition, 18 / (7 * std::sqrt(14.0)), 1e-15);
+  EXPECT_NEAR(hex_quality(box).edge_ratio, 3.0, 1e-15);
+}
+
+// x += s y: the faces along z meet at atan(1/s) and 180 - atan(1/s); every other edge has 90.
+// J = [[1, s, 0], [0, 1, 0], [0, 0, 1]], J^-1 = [[1, -s, 0], ...]: kappa = (3 + s^2) / 3.
+TEST(quality, ShearedHexAngles) {
+  for (const double s : {0.75, 0.1, 3.0, -2.0}) {
+    const HexCorners c = map_corners(kUnitCube, [&](Vec3 p) { return Vec3{p.x + s * p.y, p.y, p.z}; });
+    const double acute = deg(std::atan(1 / std::abs(s)));
+    const auto angles = dihedral_angles(c);
+    for (int corner = 0; corner < 8; ++corner) {
+      EXPECT_NEAR(angles[3 * corner + 0], 90.0, 1e-12) << s << " " << corner;
+      EXPECT_NEAR(angles[3 * corner + 1], 90.0, 1e-12) << s << " " << corner;
+      const double z = angles[3 * corner + 2];
+      EXPECT_TRUE(std::abs(z - acute) < 1e-12 || std::abs(z - (180 - acute)) < 1e-12) << s << " " << z;
+    }
+    const HexQuality q = hex_quality(c);
+    EXPECT_NEAR(q.min_dihedral_angle, acute, 1e-12) << s;
+    EXPECT_NEAR(q.max_dihedral_angle, 180 - acute, 1e-12) << s;
+    EXPECT_NEAR(q.inverse_condition, 3 / (3 + s * s), 1e-15) << s;
+  }
+}
+
+// A square frustum (base 2 x 2, top 1 x 1, height 1): planar faces, so both ends of each edge
+// agree. Base edges atan(2), top edges 180 - atan(2); along the lateral edges the outward side
+// normals (0, -1, 1/2) and (1, 0, 1/2) have cos 1/5 between them, the interior angle acos(-1/5).
+TEST(quality, FrustumAngles) {
+  const HexCorners f = {
+      {{0, 0, 0}, {2, 0, 0}, {2, 2, 0}, {0, 2, 0}, {0.5, 0.5, 1}, {1.5, 0.5, 1}, {1.5, 1.5, 1}, {0.5, 1.5, 1}}};
+  const double base = deg(std::atan(2.0)), lateral = deg(std::acos(-0.2));
+  const auto angles = dihedral_angles(f);
+  for (int corner = 0; corner < 8; ++corner) {
+    const double along_face = corner < 4 ? base : 180 - base;
+    EXPECT_NEAR(angles[3 * corner + 0], along_face, 1e-12) << corner;
+    EXPECT_NEAR(angles[3 * corner + 1], along_face, 1e-12) << corner;
+    EXPECT_NEAR(angles[3 * corner + 2], lateral, 1e-12) << corner;
+  }
+  const HexQuality q = hex_quality(f);
+  EXPECT_NEAR(q.min_dihedral_angle, base, 1e-12);
+  EXPECT_NEAR(q.max_dihedral_angle, 180 - base, 1e-12);
+  // The corner matrices: base corners 2 U, 2 V and a lateral edge, top corners 1, 1 and one.
+  const auto k = inverse_conditions(f);
+  EXPECT_NEAR(k[0], reference_inverse_condition({Vec3{2, 0, 0}, Vec3{0, 2, 0}, Vec3{0.5, 0.5, 1}}), 1e-14);
+  EXPECT_NEAR(k[6], reference_inverse_condition({Vec3{1, 0, 0}, Vec3{0, 1, 0}, Vec3{-0.5, -0.5, 1}}), 1e-14);
+  EXPECT_NEAR(q.inverse_condition, *std::min_element(k.begin(), k.end()), 0.0);
+}
+
+// Affine hexes: along each direction's 4 parallel edges the cross-section is a parallelogram,
+// angles theta and 180 - theta; 1 / kappa is that of A at every corner.
+TEST(quality, AffineHexAnglesAndConditionAgainstReferences) {
+  std::mt19937_64 rng(21);
+  for (int t = 0; t < 200; ++t) {
+    const Affine a = random_affine(rng, t % 2 == 0);
+    const HexCorners c = map_corners(kUnitCube, a);
+    double lo = 360, hi = 0;
+    for (int d = 0; d < 3; ++d) {
+      const double theta = projected_angle(a.col[d], a.col[(d + 1) % 3], a.col[(d + 2) % 3]);
+      lo = std::min({lo, theta, 180 - theta});
+      hi = std::max({hi, theta, 180 - theta});
+    }
+    const HexQuality q = hex_quality(c);
+    EXPECT_NEAR(q.min_dihedral_angle, lo, 1e-9) << t;
+    EXPECT_NEAR(q.max_dihedral_angle, hi, 1e-9) << t;
+    const double kappa = reference_inverse_condition({a.col[0], a.col[1], a.col[2]});
+    for (double k : inverse_conditions(c)) EXPECT_NEAR(k, kappa, 1e-12) << t;
+    EXPECT_NEAR(q.inverse_condition, kappa, 1e-12) << t;
+    EXPECT_GT(q.inverse_condition, 0);
+    EXPECT_LE(q.inverse_condition, 1 + 1e-15);
+  }
+}
+
+// General hexes: each of the 24 angles against the projected-edge reference at its corner.
+TEST(quality, DihedralAnglesOfDistortedHexesAgainstReference) {
+  std::mt19937_64 rng(22);
+  for (int t = 0; t < 200; ++t) {
+    const HexCorners c = random_hex(rng, 0.3);
+    const auto angles = dihedral_angles(c);
+    const auto kappas = inverse_conditions(c);
+    for (int corner = 0; corner < 8; ++corner) {
+      const Vec3 r = reference_corner(corner);
+      // The edges leaving the corner, to the neighbours along xi, eta, zeta.
+      Vec3 e[3];
+      for (int d = 0; d < 3; ++d) {
+        Vec3 n = r;
+        n[d] = 1 - n[d];
+        const int other = static_cast<int>(std::find(kUnitCube.begin(), kUnitCube.end(), n) - kUnitCube.begin());
+        e[d] = c[other] - c[corner];
+      }
+      // Where the hex folds over at the corner (det J < 0) the interior angle is the reflex one,
+      // and 1 / kappa takes the sign of det J.
+      const bool folded = corner_jacobians(c)[corner] < 0;
+      for (int d = 0; d < 3; ++d) {
+        const double a = projected_angle(e[d], e[(d + 1) % 3], e[(d + 2) % 3]);
+        EXPECT_NEAR(angles[3 * corner + d], folded ? 360 - a : a, 1e-9) << t;
+      }
+      // Reversing an edge leaves kappa alone: the +xi, +eta, +zeta columns or the leaving edges.
+      const double k = reference_inverse_condition({e[0], e[1], e[2]});
+      EXPECT_NEAR(kappas[corner], folded ? -k : k, 1e-12) << t;
+    }
+    const HexQuality q = hex_quality(c);
+    EXPECT_EQ(q.min_dihedral_angle, *std::min_element(angles.begin(), angles.end())) << t;
+    EXPECT_EQ(q.max_dihedral_angle, *std::max_element(angles.begin(), angles.end())) << t;
+    EXPECT_EQ(q.inverse_condition, *std::min_element(kappas.begin(), kappas.end())) << t;
+  }
+}
+
+// Folded and degenerate corners: the mirrored cube is inverted at every corner (270 degrees,
+// 1 / kappa = -1); a collapsed edge has angle 0 and 1 / kappa = 0 at its ends.
+TEST(quality, InvertedAndDegenerateCorners) {
+  for (double a : dihedral_angles(mirrored(kUnitCube))) EXPECT_EQ(a, 270.0);
+  for (double k : inverse_conditions(mirrored(kUnitCube))) EXPECT_EQ(k, -1.0);
+  const HexQuality m = hex_quality(mirrored(kUnitCube));
+  EXPECT_EQ(m.min_dihedral_angle, 270.0);
+  EXPECT_EQ(m.inverse_condition, -1.0);
+  // Corner 6 pushed through the centre: the angles there pass 180.
+  HexCorners pushed = kUnitCube;
+  pushed[6] = {0.25, 0.25, 0.25};
+  EXPECT_GT(hex_quality(pushed).max_dihedral_angle, 180.0);
+  EXPECT_LT(hex_quality(pushed).inverse_condition, 0.0);
+
+  HexCorners collapsed = kUnitCube;
+  collapsed[6] = collapsed[7];
+  const auto angles = dihedral_angles(collapsed);
+  EXPECT_EQ(angles[3 * 6 + 0], 0.0);  // the xi edge from 7 to 6 has zero length
+  EXPECT_EQ(angles[3 * 7 + 0], 0.0);
+  EXPECT_EQ(inverse_conditions(collapsed)[6], 0.0);
+  EXPECT_EQ(hex_quality(collapsed).min_dihedral_angle, 0.0);
+  EXPECT_EQ(hex_quality(collapsed).inverse_condition, 0.0);
+
+  HexCorners point{};
+  EXPECT_EQ(hex_quality(point).inverse_condition, 0.0);
+  EXPECT_EQ(hex_quality(point).min_dihedral_angle, 0.0);
+}
+
+// scaled_jacobian (the .vtu field) and hex_quality (the check) give the same double.
+TEST(quality, ScaledJacobianAloneEqualsHexQuality) {
+  std::mt19937_64 rng(24);
+  auto same_bits = [](double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; };
+  for (int t = 0; t < 300; ++t) {
+    const HexCorners c = t % 3 == 0 ? map_corners(kUnitCube, random_affine(rng, t % 2 == 0)) : random_hex(rng, 0.4);
+    EXPECT_TRUE(same_bits(scaled_jacobian(c), hex_quality(c).scaled_jacobian)) << t;
+  }
+}
+
+TEST(quality, AnglesAndConditionAreSizeIndependent) {
+  std::mt19937_64 rng(23);
+  for (int t = 0; t < 50; ++t) {
+    const HexCorners c = random_hex(rng, 0.3);
+    for (const double scale : {1e-150, 1e150}) {
+      const HexCorners s = map_corners(c, [&](Vec3 p) { return scale * p; });
+      EXPECT_NEAR(hex_quality(s).min_dihedral_angle, hex_quality(c).min_dihedral_angle, 1e-9);
+      EXPECT_NEAR(hex_quality(s).max_dihedral_angle, hex_quality(c).max_dihedral_angle, 1e-9);
+      EXPECT_NEAR(hex_quality(s).inverse_condition, hex_quality(c).inverse_condition, 1e-12);
+    }
   }
 }
 

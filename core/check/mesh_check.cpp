@@ -86,6 +86,75 @@ struct PointPass {
   }
 };
 
+void add_hex(QualityStats& s, const HexQuality& q) {
+  ++s.count;
+  s.min_scaled_jacobian = std::min(s.min_scaled_jacobian, q.scaled_jacobian);
+  s.max_scaled_jacobian = std::max(s.max_scaled_jacobian, q.scaled_jacobian);
+  s.mean_scaled_jacobian += q.scaled_jacobian;
+  s.certified += q.certified() ? 1 : 0;
+  s.min_bernstein_scaled = std::min(s.min_bernstein_scaled, q.min_bernstein_scaled);
+  s.min_edge_ratio = std::min(s.min_edge_ratio, q.edge_ratio);
+  s.max_edge_ratio = std::max(s.max_edge_ratio, q.edge_ratio);
+  s.min_dihedral_angle = std::min(s.min_dihedral_angle, q.min_dihedral_angle);
+  s.max_dihedral_angle = std::max(s.max_dihedral_angle, q.max_dihedral_angle);
+  s.min_inverse_condition = std::min(s.min_inverse_condition, q.inverse_condition);
+  s.max_inverse_condition = std::max(s.max_inverse_condition, q.inverse_condition);
+  s.volume += q.volume;
+  s.scaled_jacobian_histogram.add(q.scaled_jacobian);
+  s.bernstein_scaled_histogram.add(q.min_bernstein_scaled);
+}
+
+void join_quality(QualityStats& q, const QualityStats& r) {
+  q.count += r.count;
+  q.min_scaled_jacobian = std::min(q.min_scaled_jacobian, r.min_scaled_jacobian);
+  q.max_scaled_jacobian = std::max(q.max_scaled_jacobian, r.max_scaled_jacobian);
+  q.mean_scaled_jacobian += r.mean_scaled_jacobian;
+  q.certified += r.certified;
+  q.min_bernstein_scaled = std::min(q.min_bernstein_scaled, r.min_bernstein_scaled);
+  q.min_edge_ratio = std::min(q.min_edge_ratio, r.min_edge_ratio);
+  q.max_edge_ratio = std::max(q.max_edge_ratio, r.max_edge_ratio);
+  q.min_dihedral_angle = std::min(q.min_dihedral_angle, r.min_dihedral_angle);
+  q.max_dihedral_angle = std::max(q.max_dihedral_angle, r.max_dihedral_angle);
+  q.min_inverse_condition = std::min(q.min_inverse_condition, r.min_inverse_condition);
+  q.max_inverse_condition = std::max(q.max_inverse_condition, r.max_inverse_condition);
+  q.volume += r.volume;
+  q.scaled_jacobian_histogram.join(r.scaled_jacobian_histogram);
+  q.bernstein_scaled_histogram.join(r.bernstein_scaled_histogram);
+}
+
+// The sums held during the pass become means.
+void finish(QualityStats& q) {
+  if (q.count > 0) q.mean_scaled_jacobian /= static_cast<double>(q.count);
+}
+
+// Quality per region label during the pass: a short vector kept sorted by label (a mesh has a
+// few labels; the pipeline's one each), given up past MeshStats::kMaxRegions labels.
+struct RegionPass {
+  std::vector<RegionQuality> regions;
+  bool too_many = false;
+
+  QualityStats* find(int32_t label) {
+    if (too_many) return nullptr;
+    const auto it = std::lower_bound(regions.begin(), regions.end(), label,
+                                     [](const RegionQuality& r, int32_t l) { return r.region < l; });
+    if (it != regions.end() && it->region == label) return &it->quality;
+    if (regions.size() == MeshStats::kMaxRegions) {
+      too_many = true;
+      regions.clear();
+      return nullptr;
+    }
+    return &regions.insert(it, RegionQuality{label, {}})->quality;
+  }
+  void join(const RegionPass& o) {
+    if (o.too_many) {
+      too_many = true;
+      regions.clear();
+    }
+    for (const RegionQuality& r : o.regions)
+      if (QualityStats* q = find(r.region)) join_quality(*q, r.quality);
+  }
+};
+
 struct HexPass {
   explicit HexPass(std::size_t max_messages) : messages(max_messages) {}
   Messages messages;
@@ -93,21 +162,15 @@ struct HexPass {
   std::size_t repeated = 0;
   std::size_t inverted = 0;
   QualityStats quality;  // mean_scaled_jacobian holds the sum until the end
+  RegionPass regions;
   Box corners_box;
   void join(HexPass&& o) {
     messages.join(std::move(o.messages));
     bad_index += o.bad_index;
     repeated += o.repeated;
     inverted += o.inverted;
-    QualityStats& q = quality;
-    const QualityStats& r = o.quality;
-    q.count += r.count;
-    q.min_scaled_jacobian = std::min(q.min_scaled_jacobian, r.min_scaled_jacobian);
-    q.mean_scaled_jacobian += r.mean_scaled_jacobian;
-    q.certified += r.certified;
-    q.min_bernstein_scaled = std::min(q.min_bernstein_scaled, r.min_bernstein_scaled);
-    q.max_edge_ratio = std::max(q.max_edge_ratio, r.max_edge_ratio);
-    q.volume += r.volume;
+    join_quality(quality, o.quality);
+    regions.join(o.regions);
     extend_by_box(corners_box, o.corners_box);
   }
 };
@@ -118,6 +181,7 @@ HexPass check_hexes(const HexMesh& mesh, const std::string& name, std::size_t ma
                     std::vector<uint8_t>& valid) {
   valid.assign(mesh.hexes.size(), 0);
   const std::size_t np = mesh.points.size();
+  const bool labelled = mesh.region.size() == mesh.hexes.size();
   const HexPass proto(max_messages);
   return deterministic_reduce(mesh.hexes.size(), 4096, proto, [&](std::size_t b, std::size_t e, HexPass& acc) {
     for (std::size_t h = b; h < e; ++h) {
@@ -152,14 +216,9 @@ HexPass check_hexes(const HexMesh& mesh, const std::string& name, std::size_t ma
                              q.min_corner_jacobian);
         });
       }
-      QualityStats& s = acc.quality;
-      ++s.count;
-      s.min_scaled_jacobian = std::min(s.min_scaled_jacobian, q.scaled_jacobian);
-      s.mean_scaled_jacobian += q.scaled_jacobian;
-      s.certified += q.certified() ? 1 : 0;
-      s.min_bernstein_scaled = std::min(s.min_bernstein_scaled, q.min_bernstein_scaled);
-      s.max_edge_ratio = std::max(s.max_edge_ratio, q.edge_ratio);
-      s.volume += q.volume;
+      add_hex(acc.quality, q);
+      if (labelled)
+        if (QualityStats* r = acc.regions.find(mesh.region[h])) add_hex(*r, q);
       for (Vec3 p : c) acc.corners_box.extend(p);
     }
   });
@@ -470,7 +529,10 @@ MeshResult check_one(const HexMesh& mesh, const std::string& name, const CheckOp
   s.repeated_vertex_hexes = hexes.repeated;
   s.inverted_hexes = hexes.inverted;
   s.quality = hexes.quality;
-  if (s.quality.count > 0) s.quality.mean_scaled_jacobian /= static_cast<double>(s.quality.count);
+  finish(s.quality);
+  s.regions = std::move(hexes.regions.regions);
+  s.too_many_regions = hexes.regions.too_many;
+  for (RegionQuality& r : s.regions) finish(r.quality);
   r.corners_box = hexes.corners_box;
   hexes.messages.append_sorted_to(messages);
 
@@ -723,6 +785,31 @@ nlohmann::json number(double x) {
 
 }  // namespace
 
+void Histogram::add(double v) {
+  if (!(v >= kEdges.front())) {
+    ++below;
+    return;
+  }
+  if (v > kEdges.back()) {
+    ++above;
+    return;
+  }
+  // A first guess from the tenths, settled by comparing with the edges themselves (v * 10 rounds;
+  // the edges are the doubles nearest k / 10, and the comparison is what the bins say).
+  int i = v < 0 ? 0 : std::min(kBins - 1, 1 + static_cast<int>(v * 10));
+  while (i > 0 && v < kEdges[i]) --i;
+  while (i < kBins - 1 && v >= kEdges[i + 1]) ++i;
+  ++counts[i];
+}
+
+void Histogram::join(const Histogram& o) {
+  for (int i = 0; i < kBins; ++i) counts[i] += o.counts[i];
+  below += o.below;
+  above += o.above;
+}
+
+std::size_t Histogram::total() const { return std::accumulate(counts.begin(), counts.end(), below + above); }
+
 std::vector<std::array<uint32_t, 4>> boundary_quads(const HexMesh& mesh) {
   const std::vector<uint8_t> valid(mesh.hexes.size(), 1);
   std::vector<std::array<uint32_t, 4>> quads = check_faces(mesh, "", valid, 0).boundary;
@@ -760,14 +847,26 @@ MeshCheck check_mesh(const HexMesh& inside, const HexMesh* outside, const Box* b
   return check;
 }
 
+nlohmann::json to_json(const Histogram& h) {
+  return {{"edges", Histogram::kEdges}, {"counts", h.counts}, {"below", h.below}, {"above", h.above}};
+}
+
 nlohmann::json to_json(const QualityStats& q) {
   return {{"count", q.count},
           {"min_scaled_jacobian", number(q.min_scaled_jacobian)},
+          {"max_scaled_jacobian", number(q.max_scaled_jacobian)},
           {"mean_scaled_jacobian", number(q.mean_scaled_jacobian)},
           {"certified", q.certified},
           {"min_bernstein_scaled", number(q.min_bernstein_scaled)},
+          {"min_edge_ratio", number(q.min_edge_ratio)},
           {"max_edge_ratio", number(q.max_edge_ratio)},
-          {"volume", number(q.volume)}};
+          {"min_dihedral_angle", number(q.min_dihedral_angle)},
+          {"max_dihedral_angle", number(q.max_dihedral_angle)},
+          {"min_inverse_condition", number(q.min_inverse_condition)},
+          {"max_inverse_condition", number(q.max_inverse_condition)},
+          {"volume", number(q.volume)},
+          {"scaled_jacobian_histogram", to_json(q.scaled_jacobian_histogram)},
+          {"bernstein_scaled_histogram", to_json(q.bernstein_scaled_histogram)}};
 }
 
 nlohmann::json to_json(const BoundaryStats& b) {
@@ -783,6 +882,9 @@ nlohmann::json to_json(const BoundaryStats& b) {
 }
 
 nlohmann::json to_json(const MeshStats& m) {
+  // null when there were too many labels to break down; [] when there are none.
+  nlohmann::json regions = m.too_many_regions ? nlohmann::json(nullptr) : nlohmann::json::array();
+  for (const RegionQuality& r : m.regions) regions.push_back({{"region", r.region}, {"quality", to_json(r.quality)}});
   return {{"points", m.points},
           {"hexes", m.hexes},
           {"nonfinite_points", m.nonfinite_points},
@@ -797,6 +899,7 @@ nlohmann::json to_json(const MeshStats& m) {
           {"interior_faces", m.interior_faces},
           {"boundary_faces", m.boundary_faces},
           {"quality", to_json(m.quality)},
+          {"regions", regions},
           {"boundary", to_json(m.boundary)}};
 }
 

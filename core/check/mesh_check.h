@@ -11,8 +11,10 @@
 //    side plane of the box (else a gap), which makes the inside boundary off the box equal to
 //    the outside boundary face for face; interface faces are oppositely oriented; the two
 //    volumes add up to the box volume.
-// What is only reported: quality (scaled Jacobian, Bernstein certificate, edge ratio) and the
-// shape of each mesh's boundary surface (closed 2-manifold? Euler characteristic,
+// What is only reported: quality (scaled Jacobian, Bernstein certificate and bound, edge ratio,
+// dihedral angles, inverse condition number; docs/quality.md), for the mesh and per region
+// label, with histograms of the scaled Jacobian and the Bernstein bound; and the shape of each
+// mesh's boundary surface (closed 2-manifold? Euler characteristic,
 // components). Meshes from the RO method, for instance, may touch themselves along an edge.
 //
 // Faces are matched by sorting, not hashing: face references are bucketed by their smallest
@@ -43,14 +45,45 @@ struct CheckOptions {
   bool require_regions = true;
 };
 
+// Counts of one per-hex measure in fixed bins, the same for every mesh so that histograms of
+// two meshes or two runs compare bin for bin. Bin i holds kEdges[i] <= v < kEdges[i + 1], the
+// last bin [0.9, 1] closed; `below` counts v < -1 (and NaN), `above` v > 1. The scaled
+// Jacobian lies in [-1, 1]; the Bernstein bound min beta / h^3 can lie outside.
+struct Histogram {
+  static constexpr int kBins = 11;
+  static constexpr std::array<double, kBins + 1> kEdges = {-1, 0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1};
+  std::array<std::size_t, kBins> counts{};
+  std::size_t below = 0;
+  std::size_t above = 0;
+  void add(double v);
+  void join(const Histogram& other);
+  std::size_t total() const;
+};
+
+// Quality over a set of hexes (HexQuality per hex, core/mesh/quality.h); min and max over the
+// hexes of each per-hex value, the angles in degrees.
 struct QualityStats {
   std::size_t count = 0;  // hexes measured: those with valid indices and finite corners
   double min_scaled_jacobian = std::numeric_limits<double>::infinity();
+  double max_scaled_jacobian = -std::numeric_limits<double>::infinity();
   double mean_scaled_jacobian = 0;
   std::size_t certified = 0;                                              // all 27 Bernstein coefficients of det J > 0
   double min_bernstein_scaled = std::numeric_limits<double>::infinity();  // min beta / h^3
+  double min_edge_ratio = std::numeric_limits<double>::infinity();
   double max_edge_ratio = 0;
-  double volume = 0;  // sum of exact trilinear volumes
+  double min_dihedral_angle = std::numeric_limits<double>::infinity();
+  double max_dihedral_angle = -std::numeric_limits<double>::infinity();
+  double min_inverse_condition = std::numeric_limits<double>::infinity();
+  double max_inverse_condition = -std::numeric_limits<double>::infinity();
+  double volume = 0;                     // sum of exact trilinear volumes
+  Histogram scaled_jacobian_histogram;   // of each hex's min over the 9 points
+  Histogram bernstein_scaled_histogram;  // of each hex's min beta / h^3
+};
+
+// The quality of the hexes with one region label.
+struct RegionQuality {
+  int32_t region = 0;
+  QualityStats quality;
 };
 
 // The boundary surface of one mesh: the faces that are in exactly one of its hexes.
@@ -83,6 +116,11 @@ struct MeshStats {
   std::size_t interior_faces = 0;
   std::size_t boundary_faces = 0;
   QualityStats quality;
+  // Per region label, ascending; empty when the mesh has no labels (or not one per hex), and when
+  // it has more than kMaxRegions distinct labels (then too_many_regions).
+  static constexpr std::size_t kMaxRegions = 256;
+  std::vector<RegionQuality> regions;
+  bool too_many_regions = false;
   BoundaryStats boundary;
 };
 
@@ -121,6 +159,7 @@ MeshCheck check_mesh(const HexMesh& inside, const HexMesh* outside, const Box* b
 // mesh's indices must be in range (as check_mesh or the mesh reader ensure).
 std::vector<std::array<uint32_t, 4>> boundary_quads(const HexMesh& mesh);
 
+nlohmann::json to_json(const Histogram& h);
 nlohmann::json to_json(const QualityStats& q);
 nlohmann::json to_json(const BoundaryStats& b);
 nlohmann::json to_json(const MeshStats& m);

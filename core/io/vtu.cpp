@@ -1,12 +1,14 @@
 // VTK XML UnstructuredGrid .vtu; mesh_io.h states the contract.
 //
-// Written: Float64 points, Int64 connectivity and offsets, UInt8 types (VTK_HEXAHEDRON, 12) and an
-// Int32 CellData "region", as raw appended little-endian data with UInt64 block headers, so that
-// the large arrays go from memory to the file without formatting. Read: one Piece, ascii, base64
-// "binary" or appended (raw or base64) DataArrays, uncompressed, either byte order, UInt32 or
-// UInt64 headers, any integer type for indices; every offset and block size is checked against
-// the file before it is used, so a truncated or corrupt file is an error and never a read past
-// its end.
+// Written: Float64 points, Int64 connectivity and offsets, UInt8 types (VTK_HEXAHEDRON, 12), an
+// Int32 CellData "region" and a Float64 CellData "scaled_jacobian" (each hex's minimum over the 9
+// points, core/mesh/quality.h, so that ParaView can colour by it without a filter of its own), as
+// raw appended little-endian data with UInt64 block headers, so that the large arrays go from
+// memory to the file without formatting. Read: one Piece, ascii, base64 "binary" or appended (raw
+// or base64) DataArrays, uncompressed, either byte order, UInt32 or UInt64 headers, any integer
+// type for indices, other cell arrays ignored; every offset and block size is checked against the
+// file before it is used, so a truncated or corrupt file is an error and never a read past its
+// end.
 #include <algorithm>
 #include <array>
 #include <bit>
@@ -20,12 +22,14 @@
 #include <utility>
 #include <vector>
 
+#include "core/base/parallel.h"
 #include "core/io/base64.h"
 #include "core/io/format_error.h"
 #include "core/io/mesh_formats.h"
 #include "core/io/scanner.h"
 #include "core/io/text_numbers.h"
 #include "core/io/vtk_xml.h"
+#include "core/mesh/quality.h"
 
 namespace mchex::io_detail {
 namespace {
@@ -336,9 +340,9 @@ void write_vtu(const HexMesh& mesh, AtomicFile& out) {
   const std::uint64_t n = mesh.points.size();
   const std::uint64_t m = mesh.hexes.size();
   constexpr std::uint8_t kVtkHexahedron = 12;
-  const std::array<std::uint64_t, 5> bytes = {n * sizeof(Vec3), m * 8 * sizeof(int64_t), m * sizeof(int64_t), m,
-                                              m * sizeof(int32_t)};
-  std::array<std::uint64_t, 5> offset{};
+  const std::array<std::uint64_t, 6> bytes = {n * sizeof(Vec3),    m * 8 * sizeof(int64_t), m * sizeof(int64_t), m,
+                                              m * sizeof(int32_t), m * sizeof(double)};
+  std::array<std::uint64_t, 6> offset{};
   for (std::size_t i = 1; i < offset.size(); ++i) offset[i] = offset[i - 1] + sizeof(std::uint64_t) + bytes[i - 1];
   auto off = [&](std::size_t i) { return std::to_string(offset[i]); };
 
@@ -360,6 +364,7 @@ void write_vtu(const HexMesh& mesh, AtomicFile& out) {
       "      </Cells>\n"
       "      <CellData Scalars=\"region\">\n"
       "        <DataArray type=\"Int32\" Name=\"region\" format=\"appended\" offset=\"" + off(4) + "\"/>\n"
+      "        <DataArray type=\"Float64\" Name=\"scaled_jacobian\" format=\"appended\" offset=\"" + off(5) + "\"/>\n"
       "      </CellData>\n"
       "    </Piece>\n"
       "  </UnstructuredGrid>\n"
@@ -400,6 +405,18 @@ void write_vtu(const HexMesh& mesh, AtomicFile& out) {
 
   block_header(bytes[4]);
   out.write(mesh.region.data(), bytes[4]);
+
+  // Computed a chunk at a time, in parallel: no array of m values held beside the mesh.
+  block_header(bytes[5]);
+  std::vector<double> quality;
+  for (std::size_t begin = 0; begin < m; begin += kChunk) {
+    const std::size_t end = std::min<std::size_t>(m, begin + kChunk);
+    quality.resize(end - begin);
+    parallel_chunks(end - begin, 1024, [&](std::size_t b, std::size_t e) {
+      for (std::size_t i = b; i < e; ++i) quality[i] = scaled_jacobian(mesh.corners(begin + i));
+    });
+    out.write(quality.data(), quality.size() * sizeof(double));
+  }
 
   out.write("\n  </AppendedData>\n</VTKFile>\n");
 }

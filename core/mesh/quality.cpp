@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <limits>
@@ -215,33 +216,171 @@ double scaled_triple(Vec3 a, Vec3 b, Vec3 c) { return triple(normalized(a), norm
 // normalized(v) from v's length already known (the same operations, so the same doubles).
 Vec3 normalized_by(Vec3 v, double length) { return length > 0 ? v / length : Vec3{}; }
 
-std::array<double, 9> scaled_from_edges(const Edges& e, const std::array<double, 12>& lengths) {
-  // Each edge meets two corners: normalized once.
-  std::array<double, 9> s{};
-  if (e.parallel) {
-    // Every corner's triple is the same one.
-    s.fill(triple(normalized_by(e.xi[0][0], lengths[0]), normalized_by(e.eta[0][0], lengths[1]),
-                  normalized_by(e.zeta[0][0], lengths[2])));
-    s[8] = scaled_triple(bilinear(e.xi, 0.5, 0.5), bilinear(e.eta, 0.5, 0.5), bilinear(e.zeta, 0.5, 0.5));
-    return s;
-  }
-  Vec3 xi[2][2], eta[2][2], zeta[2][2];
-  for (int u = 0; u < 2; ++u)
-    for (int v = 0; v < 2; ++v) {
-      const int n = 3 * (2 * u + v);  // Edges::for_each order
-      xi[u][v] = normalized_by(e.xi[u][v], lengths[n]);
-      eta[u][v] = normalized_by(e.eta[u][v], lengths[n + 1]);
-      zeta[u][v] = normalized_by(e.zeta[u][v], lengths[n + 2]);
-    }
-  for (int c = 0; c < 2; ++c) {
-    for (int b = 0; b < 2; ++b) {
-      for (int a = 0; a < 2; ++a) {
-        s[corner_index(a, b, c)] = triple(xi[b][c], eta[a][c], zeta[a][b]);
+// The 12 edges at unit length (zero for an edge of zero length), each normalized once. Of a
+// parallelepiped (Edges::parallel) only [0][0] of each direction is set: the others are equal.
+struct UnitEdges {
+  Vec3 xi[2][2]{}, eta[2][2]{}, zeta[2][2]{};
+  double nxi[2][2]{}, neta[2][2]{}, nzeta[2][2]{};  // their squared lengths: 1 up to rounding, or 0
+  UnitEdges(const Edges& e, const std::array<double, 12>& lengths) {
+    for (int u = 0; u < 2; ++u)
+      for (int v = 0; v < 2; ++v) {
+        if (e.parallel && (u | v)) continue;
+        const int n = 3 * (2 * u + v);  // Edges::for_each order
+        xi[u][v] = normalized_by(e.xi[u][v], lengths[n]);
+        eta[u][v] = normalized_by(e.eta[u][v], lengths[n + 1]);
+        zeta[u][v] = normalized_by(e.zeta[u][v], lengths[n + 2]);
+        nxi[u][v] = dot(xi[u][v], xi[u][v]);
+        neta[u][v] = dot(eta[u][v], eta[u][v]);
+        nzeta[u][v] = dot(zeta[u][v], zeta[u][v]);
       }
-    }
   }
-  s[8] = scaled_triple(bilinear(e.xi, 0.5, 0.5), bilinear(e.eta, 0.5, 0.5), bilinear(e.zeta, 0.5, 0.5));
-  return s;
+};
+
+// An angle atan2(s, c) taken in [0, 2 pi), kept as the pair: ordered by angle_less without a
+// division or a trigonometric function, and turned into degrees only for the extremes (atan2 of
+// the pair is accurate at every angle, where acos of a cosine is not near 0 and 180 degrees).
+struct Angle {
+  double c = 1, s = 0;
+};
+
+// (0, 0), the angle at an edge of zero length, is angle 0.
+Angle make_angle(double c, double s) { return c == 0 && s == 0 ? Angle{1, 0} : Angle{c, s}; }
+
+// Which half turn an angle is in: [0, pi) or [pi, 2 pi).
+int half_turn(const Angle& a) { return a.s > 0 || (a.s == 0 && a.c > 0) ? 0 : 1; }
+
+// a < b as angles in [0, 2 pi): by half turn, then within one (less than pi apart) by the sign of
+// the cross product of the two pairs.
+bool angle_less(const Angle& a, const Angle& b) {
+  const int ha = half_turn(a), hb = half_turn(b);
+  return ha != hb ? ha < hb : a.c * b.s - a.s * b.c > 0;
+}
+
+double degrees(const Angle& a) {
+  constexpr double kPi = 3.14159265358979323846;
+  double t = std::atan2(a.s, a.c);
+  if (t < 0) t += 2 * kPi;
+  return t / kPi * 180 + 0.0;  // exact at multiples of 90 (pi / 2 over pi is 0.5); + 0.0: no -0
+}
+
+// The measures of the corner at reference vertex (a, b, k), from the unit Jacobian columns there
+// (U, V, W: +xi, +eta, +zeta edges) and their lengths over the mean edge length (lu, lv, lw).
+//  - scaled Jacobian: det(U, V, W).
+//  - dihedral angles (docs/quality.md): the edges leaving the corner are x = su U, y = sv V,
+//    z = sw W with s = +1 at a reference coordinate 0 and -1 at 1. The face (x, y) has normal
+//    x cross y at the corner, the face (x, z) normal x cross z; with unit vectors the interior
+//    angle between them along x is
+//      theta_x = atan2(det(U, V, W), (x cross y) . (x cross z)):
+//    (x cross y) . (x cross z) is |x|^2 times the dot product of y and z projected off x, and
+//    (x cross y) cross (x cross z) = det(x, y, z) x gives the sine. The sine takes the sign of
+//    det J = det(U, V, W) (not of det(x, y, z) = su sv sw det J, whose sign flips from corner to
+//    corner), so a corner where the hex folds over gives an angle above 180 degrees.
+//    With A = U x V, B = V x W, C = W x U: (x cross y).(x cross z) = -sv sw A.C, and cyclically.
+//  - 1 / kappa: J = (u, v, w) = (lu U, lv V, lw W) up to the common scale h, which kappa does
+//    not see; |J^-1|_F = |(v x w, w x u, u x v)|_F / |det J|, so
+//      1 / kappa = 3 det J / (|J|_F |J^-1|_F |det J|) = 3 det J / (|J|_F sqrt(|v x w|^2 + ...)).
+//    Kept as its square with the sign of det J (condition_key; no square root per corner): the
+//    order is the same. The lengths are over h so that the squares stay in range for any size.
+struct Corner {
+  double scaled_jacobian;  // also the sine part of the three angles
+  double cosine[3];        // the cosine parts, along the xi, eta, zeta edge
+  double condition_key;    // 1 / kappa times |1 / kappa|
+  Angle dihedral(int d) const { return make_angle(cosine[d], scaled_jacobian); }
+};
+
+// With A, B, C as above, Binet-Cauchy gives every product of them from the dot products of U, V,
+// W: (U x V).(W x U) = (U.W)(V.U) - (U.U)(V.W) and so on; 3 dot products instead of 3 cross
+// products and 6 dot products per corner. nu = U.U etc. (1, or 0 for a zero-length edge).
+inline Corner corner_measures(Vec3 U, Vec3 V, Vec3 W, double nu, double nv, double nw, double lu, double lv, double lw,
+                              int a, int b, int k) {
+  const double su = a ? -1 : 1, sv = b ? -1 : 1, sw = k ? -1 : 1;
+  const double p = dot(U, V), q = dot(V, W), r = dot(W, U);
+  Corner m;
+  m.scaled_jacobian = triple(U, V, W);
+  const double sj = m.scaled_jacobian;
+  m.cosine[0] = -(sv * sw) * (r * p - nu * q);  // A.C
+  m.cosine[1] = -(su * sw) * (p * q - nv * r);  // B.A
+  m.cosine[2] = -(su * sv) * (q * r - nw * p);  // C.B
+  const double uu = lu * lu, vv = lv * lv, ww = lw * lw;
+  const double aa = nu * nv - p * p, bb = nv * nw - q * q, cc = nw * nu - r * r;  // |A|^2, |B|^2, |C|^2
+  const double den = (uu + vv + ww) * (uu * vv * aa + vv * ww * bb + ww * uu * cc);
+  m.condition_key = den > 0 ? 9 * (uu * vv * ww) * (sj * std::abs(sj)) / den : 0.0;
+  return m;
+}
+
+double inverse_condition_of(double key) { return key < 0 ? -std::sqrt(-key) : std::sqrt(key); }
+
+// Every corner of the hex, f(corner index, measures).
+double inverse_mean_edge(const std::array<double, 12>& lengths) {
+  const double h = mean_edge(lengths);
+  return h > 0 ? 1 / h : 0.0;
+}
+
+template <class F>
+void for_each_corner(const Edges& e, const std::array<double, 12>& lengths, const UnitEdges& n, F&& f) {
+  const double inv_h = inverse_mean_edge(lengths);
+  for (int k = 0; k < 2; ++k)
+    for (int b = 0; b < 2; ++b)
+      for (int a = 0; a < 2; ++a) {
+        const int p = e.parallel ? 0 : 1;  // a parallelepiped keeps its unit edges in [0][0]
+        const Corner m =
+            corner_measures(n.xi[p * b][p * k], n.eta[p * a][p * k], n.zeta[p * a][p * b], n.nxi[p * b][p * k],
+                            n.neta[p * a][p * k], n.nzeta[p * a][p * b], lengths[3 * (2 * b + k)] * inv_h,
+                            lengths[3 * (2 * a + k) + 1] * inv_h, lengths[3 * (2 * a + b) + 2] * inv_h, a, b, k);
+        f(corner_index(a, b, k), m);
+      }
+}
+
+// The centre's scaled Jacobian: J's columns there are the means of each direction's 4 edges.
+double centre_scaled_jacobian(const Edges& e) {
+  return scaled_triple(bilinear(e.xi, 0.5, 0.5), bilinear(e.eta, 0.5, 0.5), bilinear(e.zeta, 0.5, 0.5));
+}
+
+// The sampled measures of quality_of, in one pass over the corners.
+struct CornerSummary {
+  std::array<double, 9> scaled{};  // scaled_jacobians
+  Angle min_angle, max_angle;
+  double min_condition_key = std::numeric_limits<double>::infinity();
+};
+
+CornerSummary corner_summary(const Edges& e, const std::array<double, 12>& lengths) {
+  const UnitEdges n(e, lengths);
+  CornerSummary r;
+  bool first = true;
+  // The three angles of a corner share their sine part s: in the half turn [0, pi) (s >= 0) the
+  // angle falls as the cosine part rises, in [pi, 2 pi) it rises with it. So only the largest and
+  // the smallest cosine part of a corner can be the hex's extremes.
+  auto take = [&](double c_lo, double c_hi, double s) {
+    const Angle smallest = make_angle(s >= 0 ? c_hi : c_lo, s), largest = make_angle(s >= 0 ? c_lo : c_hi, s);
+    if (first || angle_less(smallest, r.min_angle)) r.min_angle = smallest;
+    if (first || angle_less(r.max_angle, largest)) r.max_angle = largest;
+    first = false;
+  };
+  auto take_corner = [&](const Corner& m) {
+    const double lo = std::min({m.cosine[0], m.cosine[1], m.cosine[2]});
+    const double hi = std::max({m.cosine[0], m.cosine[1], m.cosine[2]});
+    take(lo, hi, m.scaled_jacobian);
+  };
+  if (e.parallel) {
+    // Every corner is corner 0 with some edges reversed: the same scaled Jacobian and 1 / kappa,
+    // and along each direction the angles theta and 180 - theta, cosine parts c and -c, bit for
+    // bit (reversing a vector negates its products exactly).
+    const double inv_h = inverse_mean_edge(lengths);
+    const Corner m = corner_measures(n.xi[0][0], n.eta[0][0], n.zeta[0][0], n.nxi[0][0], n.neta[0][0], n.nzeta[0][0],
+                                     lengths[0] * inv_h, lengths[1] * inv_h, lengths[2] * inv_h, 0, 0, 0);
+    r.scaled.fill(m.scaled_jacobian);
+    const double a = std::max({std::abs(m.cosine[0]), std::abs(m.cosine[1]), std::abs(m.cosine[2])});
+    take(-a, a, m.scaled_jacobian);
+    r.min_condition_key = m.condition_key;
+  } else {
+    for_each_corner(e, lengths, n, [&](int corner, const Corner& m) {
+      r.scaled[corner] = m.scaled_jacobian;
+      take_corner(m);
+      r.min_condition_key = std::min(r.min_condition_key, m.condition_key);
+    });
+  }
+  r.scaled[8] = centre_scaled_jacobian(e);
+  return r;
 }
 
 }  // namespace
@@ -286,14 +425,49 @@ std::array<double, 8> corner_jacobians(const HexCorners& c) {
   return d;
 }
 
+// The scaled Jacobian alone (the .vtu writer's field): the corner triples of corner_summary, the
+// same operations, without the angles and the condition number.
 std::array<double, 9> scaled_jacobians(const HexCorners& c) {
   const Edges e(c);
-  return scaled_from_edges(e, e.lengths());
+  const UnitEdges n(e, e.lengths());
+  std::array<double, 9> s{};
+  for (int k = 0; k < 2; ++k)
+    for (int b = 0; b < 2; ++b)
+      for (int a = 0; a < 2; ++a) {
+        const int p = e.parallel ? 0 : 1;
+        s[corner_index(a, b, k)] = triple(n.xi[p * b][p * k], n.eta[p * a][p * k], n.zeta[p * a][p * b]);
+      }
+  s[8] = centre_scaled_jacobian(e);
+  return s;
 }
 
 double scaled_jacobian(const HexCorners& c) {
   const auto s = scaled_jacobians(c);
   return *std::min_element(s.begin(), s.end());
+}
+
+std::array<double, 24> dihedral_angles(const HexCorners& c) {
+  const Edges e(c, /*shortcuts=*/false);
+  const std::array<double, 12> lengths = e.lengths();
+  std::array<double, 24> angles{};
+  for_each_corner(e, lengths, UnitEdges(e, lengths), [&](int corner, const Corner& m) {
+    for (int d = 0; d < 3; ++d) angles[3 * corner + d] = degrees(m.dihedral(d));
+  });
+  return angles;
+}
+
+std::array<double, 8> inverse_conditions(const HexCorners& c) {
+  const Edges e(c, /*shortcuts=*/false);
+  const std::array<double, 12> lengths = e.lengths();
+  std::array<double, 8> v{};
+  for_each_corner(e, lengths, UnitEdges(e, lengths),
+                  [&](int corner, const Corner& m) { v[corner] = inverse_condition_of(m.condition_key); });
+  return v;
+}
+
+double inverse_condition(const HexCorners& c) {
+  const auto v = inverse_conditions(c);
+  return *std::min_element(v.begin(), v.end());
 }
 
 namespace {
@@ -313,8 +487,11 @@ HexQuality quality_of(const Edges& e) {
   q.min_bernstein = min_of(beta);
   const std::array<double, 12> lengths = e.lengths();
   q.min_bernstein_scaled = scaled_by_size(q.min_bernstein, mean_edge(lengths));
-  const auto s = scaled_from_edges(e, lengths);
-  q.scaled_jacobian = *std::min_element(s.begin(), s.end());
+  const CornerSummary corners = corner_summary(e, lengths);
+  q.scaled_jacobian = *std::min_element(corners.scaled.begin(), corners.scaled.end());
+  q.min_dihedral_angle = degrees(corners.min_angle);
+  q.max_dihedral_angle = degrees(corners.max_angle);
+  q.inverse_condition = inverse_condition_of(corners.min_condition_key);
   q.edge_ratio = ratio_of_edges(lengths);
   q.volume = volume_of(beta);
   return q;

@@ -10,8 +10,9 @@
 //    from the monomial form; we build them directly from products of edge vectors, see
 //    quality.cpp). All 27 > 0 proves det J > 0 on the whole closed element.
 //  - the customary sampled measures (ParaView/Verdict): scaled Jacobian at the 8 corners and
-//    the centre, edge ratio. These can be positive on an element whose det J is negative
-//    somewhere inside; the tests construct such an element.
+//    the centre, edge ratio, dihedral angles and the inverse condition number at the corners.
+//    These can be positive on an element whose det J is negative somewhere inside; the tests
+//    construct such an element. docs/quality.md defines each one.
 #pragma once
 
 #include <array>
@@ -72,6 +73,18 @@ std::array<double, 8> corner_jacobians(const HexCorners& c);
 std::array<double, 9> scaled_jacobians(const HexCorners& c);
 double scaled_jacobian(const HexCorners& c);  // min of scaled_jacobians
 
+// Dihedral angles in degrees, [3 * corner + d] for the edge leaving `corner` along reference axis
+// d (0 xi, 1 eta, 2 zeta): the interior angle between the two faces of the hex at that edge,
+// from the faces' normals at the corner (each the cross product of the face's two edges there).
+// In [0, 360): below 180 where det J > 0 at the corner, above 180 where it is negative; 0 for a
+// zero-length edge. Each edge has two values, one at each end (equal where its faces are planar).
+std::array<double, 24> dihedral_angles(const HexCorners& c);
+// 1 / kappa(J) at the 8 corners, kappa = |J|_F |J^-1|_F / 3 (Knupp's condition number) with J the
+// three edge vectors leaving the corner: in (0, 1] where det J > 0 (1 for a cube), its sign, and 0
+// where det J = 0.
+std::array<double, 8> inverse_conditions(const HexCorners& c);
+double inverse_condition(const HexCorners& c);  // min of inverse_conditions
+
 // Everything above that a mesh check needs, computed once per element.
 struct HexQuality {
   double min_corner_jacobian = 0;  // min over the 8 corners of det J
@@ -79,6 +92,9 @@ struct HexQuality {
   double min_bernstein_scaled = 0;
   double scaled_jacobian = 0;  // min over the 9 points
   double edge_ratio = 0;
+  double min_dihedral_angle = 0;  // degrees, min and max of dihedral_angles
+  double max_dihedral_angle = 0;
+  double inverse_condition = 0;  // min of inverse_conditions
   double volume = 0;
   bool certified() const { return min_bernstein > 0; }
 };

@@ -45,7 +45,7 @@ int run_check(const CheckCommand& o, bool quiet) {
     fmt::print("{}\n", j.dump(2));
   } else if (!quiet) {
     fmt::print("mchex-gpu check: {}{}\n", o.mesh, outside ? " + " + o.outside : "");
-    fmt::print("{}", summary(check));
+    fmt::print("{}", summary(check, /*detailed=*/true));
     if (fid) fmt::print("{}", fidelity_line(*fid));
   }
   if (!check.ok) {

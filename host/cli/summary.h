@@ -11,8 +11,9 @@ namespace mchex::cli {
 
 // The check's first error message ("unknown error" when it kept none).
 std::string first_error(const MeshCheck& check);
-// Quality and boundary of each mesh, conformity of the pair, structure: one line each.
-std::string summary(const MeshCheck& check);
+// Quality and boundary of each mesh, conformity of the pair, structure: a line or two each.
+// `detailed` (what `check` prints) adds the histograms and the quality per region.
+std::string summary(const MeshCheck& check, bool detailed = false);
 // IoU and Hausdorff distance, one line.
 std::string fidelity_line(const Fidelity& f);
 
