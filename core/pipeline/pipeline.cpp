@@ -229,6 +229,9 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
     check_memory_budget(run);
     mesh_grid();
   }
+  if (o.optimize)
+    run.optimize =
+        run.clock.run("optimize", [&] { return mchex::optimize(run.meshes, &solid.sdf(), o.optimize_options); });
   run.check = run.clock.run("check", [&] { return check_mesh(run.meshes.inside, &run.meshes.outside, &run.cube); });
   if (o.fidelity)
     run.fidelity = run.clock.run("fidelity", [&] { return solid.fidelity(run.meshes.inside, run.cube, o.lattice); });
