@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "core/base/parallel.h"
+#include "core/base/stage_clock.h"
 #include "core/check/mesh_check.h"
 #include "core/mesh/quality.h"
 
@@ -51,9 +52,12 @@ constexpr CornerTable kCorners = make_corner_table();
 // points are only near it: edge crossings of the interpolated field, face and cell centres).
 enum : uint8_t { kOnSurface = 1, kFixed = 2, kPlaced = 4 };
 
-constexpr int kDirections = 3, kSteps = 4;
-constexpr int kCandidates = 1 + kDirections * kSteps;  // slot 0: the current point (projected)
-constexpr std::size_t kMaxValence = 48;                // vertices in more hexes are left fixed
+// Steps along the ideal-corner and neighbour-mean directions (full, half, quarter), and along the
+// gradient of the worst scaled Jacobian (in units of the vertex's mean edge length: the worst
+// hexes are thin, so the steps that help them are short).
+constexpr int kSteps = 3, kGradientSteps = 6;
+constexpr int kCandidates = 1 + 2 * kSteps + kGradientSteps;  // slot 0: the current point (projected)
+constexpr std::size_t kMaxValence = 48;                       // vertices in more hexes are left fixed
 
 // The pair as one mesh: inside points first, then the outside points that are not on the
 // interface; hexes of the inside, then of the outside.
@@ -176,6 +180,9 @@ struct Optimizer {
   std::vector<Vec3> normal;     // surface vertices: the area-weighted boundary normal
   std::vector<double> sj;       // per hex, the scaled Jacobian (min over the 9 points)
   std::vector<uint8_t> certified;
+  // A vertex is visited again only once a vertex sharing a hex with it has moved (or it moved
+  // itself): otherwise its candidates and their scores are those it has already refused.
+  std::vector<uint8_t> dirty;
   Box box;
 
   Optimizer(Joined& joined, const SignedDistance* s, const OptimizeOptions& opt, const HexMesh& inside, bool pair)
@@ -183,6 +190,7 @@ struct Optimizer {
     const std::size_t nv = j.x.size();
     incident = vertex_hexes(nv, j.hexes);
     flags.assign(nv, 0);
+    dirty.assign(nv, 1);
     locked.assign(nv, 0);
     normal.assign(nv, Vec3{});
     for (const Vec3& p : j.x) box.extend(p);
@@ -272,32 +280,49 @@ struct Optimizer {
     double min = kInf, sum = 0, max_ratio = 0;
   };
 
-  // The quality of v's hexes with v at y; stops early (min = -inf) as soon as a hex loses its
-  // certificate, falls below `floor` or passes `ratio_cap`.
-  Local evaluate(uint32_t v, Vec3 y, double floor, double ratio_cap, std::size_t* worst = nullptr,
+  // The scaled Jacobians of v's hexes with v at y (the certificate and the edge ratio, given a
+  // finite ratio_cap, are apart: they are asked only of the candidate chosen); stops early
+  // (min = -inf) as soon as a hex falls below `floor` or passes `ratio_cap`.
+  // `first` (an offset into v's incident hexes) is measured first: the worst hex at the current
+  // point, which rejects most candidates that fall below the floor at once. `worst` returns the
+  // offset of the worst hex, `worst_point` its worst of the 9 points.
+  Local evaluate(uint32_t v, Vec3 y, double floor, double ratio_cap, uint32_t first = 0, uint32_t* worst = nullptr,
                  int* worst_point = nullptr) const {
     Local l;
-    for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k) {
+    const uint32_t b = incident.start[v], n = incident.start[v + 1] - b;
+    for (uint32_t i = 0; i < n; ++i) {
+      const uint32_t off = i == 0 ? first : (i <= first ? i - 1 : i);
+      const uint32_t k = b + off;
       const uint32_t h = incident.items[k] / 8, corner = incident.items[k] % 8;
       HexCorners c = corners_of(j.x, j.hexes[h]);
       c[corner] = y;
-      const HexQuality q = hex_quality(c);
-      if ((certified[h] && !q.certified()) || q.scaled_jacobian < floor || q.edge_ratio > ratio_cap) {
+      const std::array<double, 9> s = scaled_jacobians(c);
+      const auto lowest = std::min_element(s.begin(), s.end());
+      const double ratio = ratio_cap < kInf ? edge_ratio(c) : 0;
+      if (*lowest < floor || ratio > ratio_cap) {
         l.min = -kInf;
         return l;
       }
-      if (q.scaled_jacobian < l.min) {
-        l.min = q.scaled_jacobian;
-        if (worst) {
-          *worst = h;
-          const auto s = scaled_jacobians(c);
-          *worst_point = int(std::min_element(s.begin(), s.end()) - s.begin());
-        }
+      if (*lowest < l.min) {
+        l.min = *lowest;
+        if (worst) *worst = off, *worst_point = int(lowest - s.begin());
       }
-      l.sum += q.scaled_jacobian;
-      l.max_ratio = std::max(l.max_ratio, q.edge_ratio);
+      l.sum += *lowest;
+      l.max_ratio = std::max(l.max_ratio, ratio);
     }
     return l;
+  }
+
+  // Whether every hex of v that is certified now stays certified with v at y.
+  bool keeps_certificates(uint32_t v, Vec3 y) const {
+    for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k) {
+      const uint32_t h = incident.items[k] / 8, corner = incident.items[k] % 8;
+      if (!certified[h]) continue;
+      HexCorners c = corners_of(j.x, j.hexes[h]);
+      c[corner] = y;
+      if (!bernstein_certified(c)) return false;
+    }
+    return true;
   }
 
   // Keeps only the motion a vertex may make: in the plane or along the line of its box face or
@@ -332,9 +357,10 @@ struct Optimizer {
     mean = mean / (3.0 * count);
     length /= 3.0 * count;
     // Gradient of the worst scaled Jacobian at v (central differences on that one point).
-    std::size_t worst_hex = 0;
+    uint32_t worst_offset = 0;
     int worst_point = 0;
-    const Local now = evaluate(v, x, -kInf, kInf, &worst_hex, &worst_point);
+    const Local now = evaluate(v, x, -kInf, kInf, 0, &worst_offset, &worst_point);
+    const std::size_t worst_hex = incident.items[incident.start[v] + worst_offset] / 8;
     Vec3 gradient{};
     if (now.min > -kInf) {
       const Hex& h = j.hexes[worst_hex];
@@ -351,13 +377,15 @@ struct Optimizer {
         gradient[a] = (up - down) / (2 * step);
       }
     }
-    const Vec3 dirs[kDirections] = {constrain(v, ideal - x), constrain(v, mean - x),
-                                    0.5 * length * normalized(constrain(v, gradient))};
+    const Vec3 dirs[2] = {constrain(v, ideal - x), constrain(v, mean - x)};
     out[0] = x;
-    for (int d = 0; d < kDirections; ++d) {
+    for (int d = 0; d < 2; ++d) {
       double t = 1;
       for (int s = 0; s < kSteps; ++s, t *= 0.5) out[1 + d * kSteps + s] = x + t * dirs[d];
     }
+    const Vec3 g = length * normalized(constrain(v, gradient));
+    double t = 0.5;
+    for (int s = 0; s < kGradientSteps; ++s, t *= 0.5) out[1 + 2 * kSteps + s] = x + t * g;
   }
 
   // One sweep; returns the vertices moved.
@@ -371,6 +399,7 @@ struct Optimizer {
     for (const std::vector<uint32_t>& cls : classes) {
       active.clear();
       for (uint32_t v : cls) {
+        if (!dirty[v]) continue;
         double lo = kInf;
         for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k)
           lo = std::min(lo, sj[incident.items[k] / 8]);
@@ -401,43 +430,68 @@ struct Optimizer {
       parallel_chunks(active.size(), 16, [&](std::size_t b, std::size_t e) {
         for (std::size_t a = b; a < e; ++a) accepted[a] = try_move(active[a], &cand[a * kCandidates]);
       });
-      for (uint8_t f : accepted) f ? ++moved : ++rejected;
+      for (std::size_t a = 0; a < active.size(); ++a) {
+        const uint32_t v = active[a];
+        if (!accepted[a]) {
+          ++rejected;
+          dirty[v] = 0;
+          continue;
+        }
+        ++moved;
+        for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k)
+          for (uint32_t w : j.hexes[incident.items[k] / 8]) dirty[w] = 1;
+      }
     }
     return moved;
   }
 
   bool try_move(uint32_t v, const Vec3* cand) {
     const Vec3 x = j.x[v];
-    const Local now = evaluate(v, x, -kInf, kInf);
-    const double cap = std::max(now.max_ratio, o.max_edge_ratio);
+    uint32_t worst = 0;
+    int point = 0;
+    const Local now = evaluate(v, x, -kInf, kInf, 0, &worst, &point);
+    double now_ratio = 0;
+    for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k)
+      now_ratio = std::max(now_ratio, edge_ratio(corners_of(j.x, j.hexes[incident.items[k] / 8])));
+    const double cap = std::max(now_ratio, o.max_edge_ratio);
+    // Each candidate is compared with the best so far (a higher minimum, or the same minimum
+    // and a higher mean; slot 0, a surface vertex put onto the surface where it is, also when it
+    // keeps the minimum; any other move must gain more than rounding), so the options kept are
+    // ever better; the best of them that keeps every certificate and the edge-ratio cap is taken.
+    struct Option {
+      Local l;
+      int k;
+    };
+    Option options[kCandidates];
+    int n = 0;
     Local best = now;
-    int pick = -1;
     for (int k = 0; k < kCandidates; ++k) {
       const Vec3 y = cand[k];
       if (!is_finite(y) || y == x) continue;
-      const Local l = evaluate(v, y, best.min, cap);
+      const Local l = evaluate(v, y, best.min, kInf, worst);
       if (l.min == -kInf) continue;
-      // Better: a higher minimum, or the same minimum with a higher mean; slot 0 (a surface
-      // vertex put onto the surface where it is) also when it keeps the minimum.
-      const bool better =
-          l.min > best.min || (l.min == best.min && l.sum > best.sum) || (k == 0 && pick < 0 && l.min >= now.min);
-      if (better) {
+      const bool gain = n == 0 ? l.min - now.min > 1e-12 || (l.min >= now.min && l.sum - now.sum > 1e-9 * (now.sum + 1))
+                               : l.min > best.min || (l.min == best.min && l.sum > best.sum);
+      if (gain || (k == 0 && n == 0)) {
+        options[n++] = {l, k};
         best = l;
-        pick = k;
       }
     }
-    if (pick < 0) return false;
-    // Moves that change nothing but the last digits are not worth a sweep.
-    if (pick != 0 && best.min - now.min < 1e-12 && best.sum - now.sum < 1e-9 * (now.sum + 1)) return false;
-    j.x[v] = cand[pick];
-    if (surface && (flags[v] & kOnSurface)) flags[v] |= kPlaced;
-    for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k) {
-      const uint32_t h = incident.items[k] / 8;
-      const HexQuality q = hex_quality(corners_of(j.x, j.hexes[h]));
-      sj[h] = q.scaled_jacobian;
-      certified[h] = q.certified();
+    std::reverse(options, options + n);
+    for (int i = 0; i < n; ++i) {
+      const Vec3 y = cand[options[i].k];
+      if (!keeps_certificates(v, y) || !(evaluate(v, y, -kInf, cap).min > -kInf)) continue;
+      j.x[v] = y;
+      if (surface && (flags[v] & kOnSurface)) flags[v] |= kPlaced;
+      for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k) {
+        const uint32_t h = incident.items[k] / 8;
+        const HexQuality q = hex_quality(corners_of(j.x, j.hexes[h]));
+        sj[h] = q.scaled_jacobian;
+        certified[h] = q.certified();
+      }
+      return true;
     }
-    return true;
+    return false;
   }
 
   struct Summary {
@@ -502,7 +556,7 @@ OptimizeStats optimize(MeshPair& meshes, const SignedDistance* surface, const Op
   const auto classes = opt.colour();
   st.colours = int(classes.size());
   double last_min = before.min, last_mean = st.mean_sj_before;
-  const double ts = now();
+  const double ts = now(), cs = cpu_seconds();
   for (int s = 0; s < options.max_sweeps; ++s) {
     const std::size_t moved = opt.sweep(classes, st.moves_rejected);
     st.moves_accepted += moved;
@@ -512,11 +566,12 @@ OptimizeStats optimize(MeshPair& meshes, const SignedDistance* surface, const Op
     for (double v : opt.sj) lo = std::min(lo, v), sum += v;
     const double mean = sum / double(opt.sj.size());
     st.min_per_sweep.push_back(lo);
-    if (moved == 0 || (lo - last_min < options.tolerance && mean - last_mean < 0.1 * options.tolerance)) break;
+    if (moved == 0 || (lo - last_min < options.tolerance && mean - last_mean < 10 * options.tolerance)) break;
     last_min = lo;
     last_mean = mean;
   }
   st.sweep_seconds = now() - ts;
+  st.sweep_cpu_seconds = cpu_seconds() - cs;
   const Optimizer::Summary after = opt.summarize();
   st.min_sj_after = after.min;
   st.mean_sj_after = after.sum / double(after.count);

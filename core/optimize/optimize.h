@@ -47,7 +47,7 @@ struct OptimizeOptions {
   double feature_angle = 40;   // degrees between boundary quad normals that make a vertex a feature
   double max_edge_ratio = 20;  // a move may not raise a hex's edge ratio past this (or past its own)
   // Stop when a sweep raises the minimum scaled Jacobian by less than this and the mean by less
-  // than a tenth of it.
+  // than ten times it.
   double tolerance = 1e-4;
 };
 
@@ -77,10 +77,13 @@ struct OptimizeStats {
   std::size_t moves_accepted = 0, moves_rejected = 0;     // vertex visits with / without a move
   std::vector<double> min_per_sweep;                      // min scaled Jacobian after each sweep
   double seconds = 0;                                     // everything: setup, sweeps, statistics
-  double sweep_seconds = 0;                               // the sweeps alone
+  double sweep_seconds = 0;                               // the sweeps alone, wall
+  double sweep_cpu_seconds = 0;                           // the same in CPU seconds of all threads (a loaded machine
+                                                          // distorts this far less than the wall time)
   WorstHex worst;
   // Hexes of the pair processed per second per sweep.
   double hexes_per_second() const { return sweep_seconds > 0 ? double(hexes) * sweeps / sweep_seconds : 0; }
+  double hexes_per_cpu_second() const { return sweep_cpu_seconds > 0 ? double(hexes) * sweeps / sweep_cpu_seconds : 0; }
 };
 
 // Optimises the pair in place. `surface` is the solid's field (its zero set is the input

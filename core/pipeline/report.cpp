@@ -158,7 +158,9 @@ json optimize_json(const OptimizeStats& s) {
             {"box_corners", w.box_corners}}},
           {"seconds", s.seconds},
           {"sweep_seconds", s.sweep_seconds},
-          {"hexes_per_second_per_sweep", s.hexes_per_second()}};
+          {"sweep_cpu_seconds", s.sweep_cpu_seconds},
+          {"hexes_per_second_per_sweep", s.hexes_per_second()},
+          {"hexes_per_cpu_second_per_sweep", s.hexes_per_cpu_second()}};
 }
 
 // How the grid's settings were chosen: a target Hausdorff ratio, a hex cap and the settings the
