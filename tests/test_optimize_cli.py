@@ -34,7 +34,10 @@ class Optimize(ScratchTestCase):
             return inside, outside, json.load(f), r
 
     def test_mesh_optimize_raises_quality_and_keeps_the_boundary_on_the_sphere(self):
-        plain_in, plain_out, plain, _ = self.mesh(tag="plain")
+        # --optimize meshes with crossings clamped to [0.02, 0.98] (kOptimizeEps): the figures
+        # before are those of a plain run with that clamp, fidelity is compared with the default.
+        _, _, default, _ = self.mesh("--quiet", tag="default")
+        plain_in, plain_out, plain, _ = self.mesh("--eps", 0.02, tag="plain")
         inside, outside, rep, r = self.mesh("--optimize", tag="opt")
         self.assertIn("optimize: min scaled Jacobian", r.stdout)
         s = rep["optimize"]
@@ -61,12 +64,12 @@ class Optimize(ScratchTestCase):
         ao, bo = meshio.read(plain_out), meshio.read(outside)
         shared = lambda m, o: len({tuple(x) for x in m.points} & {tuple(x) for x in o.points})
         self.assertEqual(shared(b, bo), shared(a, ao))
-        # The fidelity of the optimised mesh is not worse.
-        self.assertGreaterEqual(rep["fidelity"]["iou"], plain["fidelity"]["iou"] - 1e-3)
-        self.assertLessEqual(rep["fidelity"]["hausdorff_ratio"], plain["fidelity"]["hausdorff_ratio"] + 1e-9)
+        # The fidelity of the optimised mesh is not worse than the default mesh's.
+        self.assertGreaterEqual(rep["fidelity"]["iou"], default["fidelity"]["iou"])
+        self.assertLessEqual(rep["fidelity"]["hausdorff_ratio"], default["fidelity"]["hausdorff_ratio"])
 
     def test_optimize_command_equals_mesh_optimize(self):
-        plain_in, plain_out, _, _ = self.mesh("--quiet", tag="plain")
+        plain_in, plain_out, _, _ = self.mesh("--quiet", "--eps", 0.02, tag="plain")
         opt_in, opt_out, _, _ = self.mesh("--quiet", "--optimize", tag="opt")
         out_in, out_out, report = (os.path.join(self.dir, n) for n in ("o.in.vtu", "o.out.vtu", "o.json"))
         r = run("optimize", plain_in, "--outside", plain_out, "--shape", "sphere", "-o", out_in, "--outside-output",

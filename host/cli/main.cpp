@@ -59,9 +59,12 @@ int main(int argc, char** argv) {
                    "values sum above 0 (the paper's baseline)")
       ->check(CLI::IsMember({"ro", "mchex"}))
       ->capture_default_str();
-  mesh->add_option("--eps", mo.options.eps, "--method mchex: clamp edge crossings to [eps, 1 - eps], eps in (0, 0.5)")
-      ->check(CLI::Range(0.0, 0.5))
-      ->capture_default_str();
+  auto* eps = mesh->add_option("--eps", mo.options.eps,
+                               fmt::format("--method mchex: clamp edge crossings to [eps, 1 - eps], eps in (0, 0.5); "
+                                           "with --optimize the default is {}",
+                                           kOptimizeEps))
+                  ->check(CLI::Range(0.0, 0.5))
+                  ->capture_default_str();
   auto* depth = mesh->add_option("--depth", mo.options.depth,
                                  "uniform 3-refinement depth: 3^depth cells per axis (instead of the fitted adaptive "
                                  "grid of --hausdorff)")
@@ -153,6 +156,12 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 10000))
       ->capture_default_str();
 
+  mesh->add_option("--optimize-tolerance", mo.options.optimize_options.tolerance,
+                   "--optimize: stop when a sweep raises the minimum scaled Jacobian by less than this and the mean "
+                   "by less than 10 times it")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
+
   OptimizeCommand oo;
   auto* optimize_cmd = app.add_subcommand(
       "optimize", "move the vertices of a hex mesh (and its outside mesh) to raise the scaled Jacobian, keeping "
@@ -223,6 +232,7 @@ int main(int argc, char** argv) {
       if (depth->count() == 0 && threshold->count() == 0 && hausdorff->count() == 0)
         mo.options.hausdorff = kDefaultHausdorffRatio;
       mo.options.fidelity = !no_fidelity;
+      if (mo.options.optimize && eps->count() == 0) mo.options.eps = kOptimizeEps;
       return run_mesh(mo, quiet);
     }
     if (devices->parsed()) return run_devices(devices_json);
