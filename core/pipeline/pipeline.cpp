@@ -275,6 +275,11 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
     mesh_grid();
   }
   if (run.fidelity) run.fidelity->far_points = run.fidelity->misclassified_points = {};
+  if (o.optimize) {
+    run.optimize =
+        run.clock.run("optimize", [&] { return mchex::optimize(run.meshes, &solid.sdf(), o.optimize_options); });
+    run.fidelity.reset();  // the rounds measured the mesh before the optimiser moved it
+  }
   run.check = run.clock.run("check", [&] { return check_mesh(run.meshes.inside, &run.meshes.outside, &run.cube); });
   if (o.fidelity && !run.fidelity)
     run.fidelity = run.clock.run("fidelity", [&] { return solid.fidelity(run.meshes.inside, run.cube, o.lattice); });

@@ -29,6 +29,7 @@
 #include "core/grid/grid.h"
 #include "core/grid/octree.h"
 #include "core/io/mesh_io.h"
+#include "core/optimize/optimize.h"
 #include "core/pipeline/fit.h"
 #include "core/pipeline/solid.h"
 
@@ -60,6 +61,10 @@ struct MeshOptions {
   // Peak memory allowed, bytes (core/pipeline/estimate.h); 0: 80 % of MemAvailable.
   std::size_t max_memory = 0;
   SolidOptions input;  // repair and sign rule of a surface (core/pipeline/solid.h)
+  // Move vertices after meshing, before the check (core/optimize/optimize.h): boundary vertices
+  // on the input surface, every hex still Bernstein-certified.
+  bool optimize = false;
+  OptimizeOptions optimize_options;
   bool adaptive() const { return threshold > 0 || hausdorff > 0; }
 };
 
@@ -115,11 +120,12 @@ struct MeshRun {
   int threads = 0;    // worker threads the machine offers
   MeshPair meshes;
   MeshCheck check;
-  MchexStats mchex;                   // method mchex (of the last meshing)
-  RemedyStats remedy;                 // adaptive grid, method mchex
-  std::vector<FitRound> fit_rounds;   // hausdorff with fidelity: the measured rounds
-  std::optional<Fidelity> fidelity;   // when asked for
-  StageClock clock{true};             // read, bvh, octree, sdf, classify, mchex | ro, check, fidelity, write
+  MchexStats mchex;                       // method mchex (of the last meshing)
+  RemedyStats remedy;                     // adaptive grid, method mchex
+  std::vector<FitRound> fit_rounds;       // hausdorff with fidelity: the measured rounds
+  std::optional<Fidelity> fidelity;       // when asked for
+  std::optional<OptimizeStats> optimize;  // when asked for
+  StageClock clock{true};  // read, bvh, octree, sdf, classify, mchex | ro, fit-rounds, optimize, check, fidelity, write
   std::size_t peak_memory_bytes = 0;  // of the process, after the last stage
 };
 

@@ -129,6 +129,42 @@ json fidelity_json(const Fidelity& f) {
           {"unresolved_samples", f.unresolved}};
 }
 
+json optimize_json(const OptimizeStats& s) {
+  const WorstHex& w = s.worst;
+  return {{"sweeps", s.sweeps},
+          {"hexes", s.hexes},
+          {"vertices",
+           {{"total", s.vertices},
+            {"free", s.free_vertices},
+            {"surface", s.surface_vertices},
+            {"box", s.box_vertices},
+            {"fixed", s.fixed_vertices},
+            {"features", s.feature_vertices}}},
+          {"colours", s.colours},
+          {"min_scaled_jacobian", {{"before", s.min_sj_before}, {"after", s.min_sj_after}}},
+          {"mean_scaled_jacobian", {{"before", s.mean_sj_before}, {"after", s.mean_sj_after}}},
+          {"max_edge_ratio", {{"before", s.max_edge_ratio_before}, {"after", s.max_edge_ratio_after}}},
+          {"certified", {{"before", s.certified_before}, {"after", s.certified_after}}},
+          {"hexes_below_0_3", {{"before", s.below_0_3_before}, {"after", s.below_0_3_after}}},
+          {"hexes_below_0_3_touching_fixed", s.below_0_3_touching_fixed},
+          {"moves", {{"accepted", s.moves_accepted}, {"rejected", s.moves_rejected}}},
+          {"min_per_sweep", s.min_per_sweep},
+          {"worst",
+           {{"mesh", w.region == kInside ? "inside" : "outside"},
+            {"hex", w.hex},
+            {"centre", {w.centre.x, w.centre.y, w.centre.z}},
+            {"scaled_jacobian", w.scaled_jacobian},
+            {"edge_ratio", w.edge_ratio},
+            {"fixed_corners", w.fixed_corners},
+            {"surface_corners", w.surface_corners},
+            {"box_corners", w.box_corners}}},
+          {"seconds", s.seconds},
+          {"sweep_seconds", s.sweep_seconds},
+          {"sweep_cpu_seconds", s.sweep_cpu_seconds},
+          {"hexes_per_second_per_sweep", s.hexes_per_second()},
+          {"hexes_per_cpu_second_per_sweep", s.hexes_per_cpu_second()}};
+}
+
 // How the grid's settings were chosen: a target Hausdorff ratio, a hex cap and the settings the
 // cap's search built (core/pipeline/fit.h).
 json fit_json(const MeshRun& run) {
@@ -192,6 +228,7 @@ json report_json(const MeshRun& run, const MeshOutputs* outputs) {
       report["remedy"] = {
           {"rounds", run.remedy.rounds}, {"cells", run.remedy.cells}, {"refined_leaves", run.remedy.refined_leaves}};
   }
+  if (run.optimize) report["optimize"] = optimize_json(*run.optimize);
   if (run.fidelity) report["fidelity"] = fidelity_json(*run.fidelity);
   report["times"] = run.clock.to_json();
   report["peak_memory_bytes"] = run.peak_memory_bytes;

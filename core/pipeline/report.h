@@ -13,6 +13,8 @@
 //   outputs   the mesh files (when the caller names them)
 //   cases, mchex   method mchex: cells per MC33 subcase (paper Section 5: 31 subcases), local
 //             refinement and the mesher's own stage times
+//   optimize  with --optimize (core/optimize/optimize.h): scaled Jacobian and edge ratio before
+//             and after, sweeps, moves, the vertices' constraints, the worst hex left
 //   fidelity  when measured: IoU and Hausdorff distance (the paper's Section 6)
 //   times     the stages' wall seconds (core/base/stage_clock.h) and their total
 //   peak_memory_bytes
@@ -37,5 +39,6 @@ nlohmann::json report_json(const MeshRun& run, const MeshOutputs* outputs = null
 
 nlohmann::json input_json(const SolidFacts& input);
 nlohmann::json fidelity_json(const Fidelity& f);
+nlohmann::json optimize_json(const OptimizeStats& s);
 
 }  // namespace mchex

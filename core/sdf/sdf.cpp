@@ -275,6 +275,13 @@ struct SurfaceSdf::Impl {
       std::fill(values.begin(), values.end(), -std::numeric_limits<double>::infinity());
       return;
     }
+    search(points, [&](std::size_t i, Vec3 p, const Query& q) { values[i] = out(p, q); });
+  }
+
+  // Every point's nearest triangle, handed to sink(index, point, query) (each index once, on any
+  // thread). The surface has triangles.
+  template <class Sink>
+  void search(std::span<const Vec3> points, Sink sink) const {
     // The points are searched in Morton order whatever order they come in: consecutive points
     // are then neighbours in all three directions, so a packet is a compact group (its walk
     // shared best), each candidate is a near neighbour's answer, and successive searches touch
@@ -312,7 +319,7 @@ struct SurfaceSdf::Impl {
         Query q[kPacket];
         closest(p, n, candidate, q);
         for (int l = 0; l < n; ++l) {
-          values[order[i + l]] = out(p[l], q[l]);
+          sink(order[i + l], p[l], q[l]);
           seed_x[l / 4][l % 4] = float(q[l].best.point.x);
           seed_y[l / 4][l % 4] = float(q[l].best.point.y);
           seed_z[l / 4][l % 4] = float(q[l].best.point.z);
@@ -346,6 +353,12 @@ void SurfaceSdf::evaluate(std::span<const Vec3> points, std::span<double> values
 
 void SurfaceSdf::distance(std::span<const Vec3> points, std::span<double> values) const {
   impl_->run(points, values, [](Vec3, const Impl::Query& q) { return std::sqrt(q.best.squared_distance); });
+}
+
+void SurfaceSdf::closest_points(std::span<const Vec3> points, std::span<Vec3> closest) const {
+  if (points.size() != closest.size()) throw std::invalid_argument("closest-point batch size mismatch");
+  if (impl_->surface.triangles.empty()) throw std::invalid_argument("closest points on a surface without triangles");
+  impl_->search(points, [&](std::size_t i, Vec3, const Impl::Query& q) { closest[i] = q.best.point; });
 }
 
 std::vector<uint32_t> morton_order(std::span<const Vec3> points) {

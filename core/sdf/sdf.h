@@ -56,6 +56,10 @@ class SurfaceSdf final : public SignedDistance {
   const WindingNumber* winding() const;
   // Unsigned distance to the triangles (used for Hausdorff distances and by evaluate()).
   void distance(std::span<const Vec3> points, std::span<double> values) const;
+  // closest[i] = the point of the triangles nearest to points[i] (the same search as distance();
+  // ties go to the lower triangle index, so the answer is deterministic). Threaded. For the mesh
+  // optimiser (core/optimize/optimize.h), which keeps boundary vertices on the input surface.
+  void closest_points(std::span<const Vec3> points, std::span<Vec3> closest) const;
 
   struct Impl;
 

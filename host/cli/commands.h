@@ -27,6 +27,15 @@ struct CheckCommand {
 };
 int run_check(const CheckCommand& command, bool quiet);
 
+// optimize: move the vertices of a hex mesh (and its outside mesh) to raise the scaled Jacobian,
+// boundary vertices on the input surface, every hex still certified (core/optimize/optimize.h).
+struct OptimizeCommand {
+  std::string mesh, outside, input, shape, output, outside_output, report;
+  OptimizeOptions options;
+  SolidOptions solid;
+};
+int run_optimize(const OptimizeCommand& command, bool quiet);
+
 // devices: the compute backends and devices found (host/backends/registry.h list_devices).
 int run_devices(bool as_json);
 

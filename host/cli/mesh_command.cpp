@@ -67,6 +67,7 @@ void print_summary(const MeshRun& run, const MeshOutputs& outputs) {
     fmt::print("  input: inside by {}; repair: {}\n",
                run.input.sign == SignRule::kWindingNumber ? "winding number" : "pseudonormal",
                run.input.repair ? describe(*run.input.repair) : "skipped (--no-repair)");
+  if (run.optimize) fmt::print("{}", optimize_line(*run.optimize));
   fmt::print("{}", summary(run.check));
   if (run.fidelity) fmt::print("{}", fidelity_line(*run.fidelity));
   fmt::print("  time: {:.2f} s, peak memory {:.0f} MiB\n", run.clock.total(), run.peak_memory_bytes / 1048576.0);

@@ -73,4 +73,12 @@ std::string fidelity_line(const Fidelity& f) {
                      100 * f.hausdorff_ratio);
 }
 
+std::string optimize_line(const OptimizeStats& s) {
+  return fmt::format(
+      "  optimize: min scaled Jacobian {:.4f} -> {:.4f} (mean {:.4f} -> {:.4f}), max edge ratio {:.3g} -> {:.3g}, "
+      "certified {} -> {} of {}, {} sweeps, {:.3g} hexes/s per sweep\n",
+      s.min_sj_before, s.min_sj_after, s.mean_sj_before, s.mean_sj_after, s.max_edge_ratio_before,
+      s.max_edge_ratio_after, s.certified_before, s.certified_after, s.hexes, s.sweeps, s.hexes_per_second());
+}
+
 }  // namespace mchex::cli

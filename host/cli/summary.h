@@ -6,6 +6,7 @@
 
 #include "core/check/fidelity.h"
 #include "core/check/mesh_check.h"
+#include "core/optimize/optimize.h"
 
 namespace mchex::cli {
 
@@ -16,5 +17,7 @@ std::string first_error(const MeshCheck& check);
 std::string summary(const MeshCheck& check, bool detailed = false);
 // IoU and Hausdorff distance, one line.
 std::string fidelity_line(const Fidelity& f);
+// The optimiser's effect (core/optimize/optimize.h): scaled Jacobian before -> after, one line.
+std::string optimize_line(const OptimizeStats& s);
 
 }  // namespace mchex::cli

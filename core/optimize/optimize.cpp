@@ -1,0 +1,609 @@
+#include "core/optimize/optimize.h"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <numeric>
+#include <span>
+#include <vector>
+
+#include "core/base/parallel.h"
+#include "core/base/stage_clock.h"
+#include "core/check/mesh_check.h"
+#include "core/mesh/quality.h"
+
+namespace mchex {
+namespace {
+
+double now() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// Corner index of reference vertex (a, b, c) in VTK order (as core/mesh/quality.cpp).
+constexpr int corner_of(int a, int b, int c) { return 4 * c + (b == 0 ? a : 3 - a); }
+
+// Per corner: its three edge neighbours, three face diagonals and the opposite corner, by
+// flipping one, two or three of its reference bits. The "ideal corner" of a hex at corner i is
+// sum(edge neighbours) - sum(face diagonals) + opposite: exact for a parallelepiped (the affine
+// map's value at i from the other seven), so it is where i would sit if the hex were affine.
+struct CornerTable {
+  std::array<std::array<int, 3>, 8> edge{}, diagonal{};
+  std::array<int, 8> opposite{};
+};
+constexpr CornerTable make_corner_table() {
+  CornerTable t;
+  for (int c = 0; c < 2; ++c)
+    for (int b = 0; b < 2; ++b)
+      for (int a = 0; a < 2; ++a) {
+        const int i = corner_of(a, b, c);
+        t.edge[i] = {corner_of(1 - a, b, c), corner_of(a, 1 - b, c), corner_of(a, b, 1 - c)};
+        t.diagonal[i] = {corner_of(a, 1 - b, 1 - c), corner_of(1 - a, b, 1 - c), corner_of(1 - a, 1 - b, c)};
+        t.opposite[i] = corner_of(1 - a, 1 - b, 1 - c);
+      }
+  return t;
+}
+constexpr CornerTable kCorners = make_corner_table();
+
+// Vertex constraints.
+// kPlaced: a surface vertex that a move has put onto the input surface (the mesher's interface
+// points are only near it: edge crossings of the interpolated field, face and cell centres).
+enum : uint8_t { kOnSurface = 1, kFixed = 2, kPlaced = 4 };
+
+// Steps along the ideal-corner and neighbour-mean directions (full, half, quarter), and along the
+// gradient of the worst scaled Jacobian (in units of the vertex's mean edge length: the worst
+// hexes are thin, so the steps that help them are short).
+constexpr int kSteps = 3, kGradientSteps = 6;
+constexpr int kCandidates = 1 + 2 * kSteps + kGradientSteps;  // slot 0: the current point (projected)
+constexpr std::size_t kMaxValence = 48;                       // vertices in more hexes are left fixed
+
+// The pair as one mesh: inside points first, then the outside points that are not on the
+// interface; hexes of the inside, then of the outside.
+struct Joined {
+  std::vector<Vec3> x;
+  std::vector<Hex> hexes;
+  std::size_t inside_hexes = 0;
+  std::vector<uint32_t> outside_point;  // outside point -> joined vertex
+};
+
+Joined join(const MeshPair& m) {
+  Joined j;
+  j.x = m.inside.points;
+  const std::size_t ni = m.inside.points.size();
+  std::vector<uint32_t> order(ni);
+  std::iota(order.begin(), order.end(), 0u);
+  auto less = [&](uint32_t a, uint32_t b) {
+    const Vec3 &p = j.x[a], &q = j.x[b];
+    if (p.x != q.x) return p.x < q.x;
+    if (p.y != q.y) return p.y < q.y;
+    if (p.z != q.z) return p.z < q.z;
+    return a < b;
+  };
+  parallel_sort(order.begin(), order.end(), less);
+  j.outside_point.resize(m.outside.points.size());
+  for (std::size_t k = 0; k < m.outside.points.size(); ++k) {
+    const Vec3 p = m.outside.points[k];
+    auto it = std::lower_bound(order.begin(), order.end(), p, [&](uint32_t a, const Vec3& q) {
+      const Vec3& s = j.x[a];
+      if (s.x != q.x) return s.x < q.x;
+      if (s.y != q.y) return s.y < q.y;
+      return s.z < q.z;
+    });
+    if (it != order.end() && j.x[*it] == p) {
+      j.outside_point[k] = *it;
+    } else {
+      j.outside_point[k] = uint32_t(j.x.size());
+      j.x.push_back(p);
+    }
+  }
+  j.hexes = m.inside.hexes;
+  j.inside_hexes = m.inside.hexes.size();
+  j.hexes.reserve(j.hexes.size() + m.outside.hexes.size());
+  for (const Hex& h : m.outside.hexes) {
+    Hex g;
+    for (int i = 0; i < 8; ++i) g[i] = j.outside_point[h[i]];
+    j.hexes.push_back(g);
+  }
+  return j;
+}
+
+// Incident hexes per vertex, each list sorted (so that every loop over them has one order).
+KeyGroups vertex_hexes(std::size_t vertices, const std::vector<Hex>& hexes) {
+  KeyGroups g = group_by_key(
+      vertices, [&](auto&& f) { parallel_for(hexes.size() * 8, [&](std::size_t k) { f(uint32_t(k)); }); },
+      [&](uint32_t k) { return hexes[k / 8][k % 8]; });
+  parallel_for(vertices,
+               [&](std::size_t v) { std::sort(g.items.begin() + g.start[v], g.items.begin() + g.start[v + 1]); });
+  return g;  // items are hex * 8 + corner
+}
+
+HexCorners corners_of(const std::vector<Vec3>& x, const Hex& h) {
+  HexCorners c;
+  for (int i = 0; i < 8; ++i) c[i] = x[h[i]];
+  return c;
+}
+
+// Unit normal of a quad from its diagonals (defined also for a nearly degenerate quad), and its
+// size (twice the area of the projected quad).
+Vec3 quad_normal(const std::vector<Vec3>& x, const std::array<uint32_t, 4>& q, double& size) {
+  const Vec3 n = cross(x[q[2]] - x[q[0]], x[q[3]] - x[q[1]]);
+  size = norm(n);
+  return size > 0 ? n / size : Vec3{};
+}
+
+}  // namespace
+
+void project_to_surface(const SignedDistance& surface, std::span<Vec3> points) {
+  if (points.empty()) return;
+  if (const auto* exact = dynamic_cast<const SurfaceSdf*>(&surface)) {
+    std::vector<Vec3> in(points.begin(), points.end());
+    exact->closest_points(in, points);
+    return;
+  }
+  // An analytic field is a distance (|grad f| = 1 near the surface), so p - f grad f is the
+  // closest point; two Newton steps absorb the difference where it is only close to one.
+  const Box b = surface.bounds();
+  const double h = 1e-6 * std::max(b.diagonal(), 1e-300);
+  std::vector<Vec3> probe(points.size() * 7);
+  std::vector<double> f(probe.size());
+  for (int iteration = 0; iteration < 2; ++iteration) {
+    parallel_for(points.size(), [&](std::size_t i) {
+      probe[7 * i] = points[i];
+      for (int a = 0; a < 3; ++a) {
+        Vec3 d{};
+        d[a] = h;
+        probe[7 * i + 1 + 2 * a] = points[i] + d;
+        probe[7 * i + 2 + 2 * a] = points[i] - d;
+      }
+    });
+    surface.evaluate(probe, f);
+    parallel_for(points.size(), [&](std::size_t i) {
+      Vec3 g;
+      for (int a = 0; a < 3; ++a) g[a] = (f[7 * i + 1 + 2 * a] - f[7 * i + 2 + 2 * a]) / (2 * h);
+      const double g2 = dot(g, g);
+      if (g2 > 0 && std::isfinite(f[7 * i])) points[i] -= (f[7 * i] / g2) * g;
+    });
+  }
+}
+
+namespace {
+
+struct Optimizer {
+  Joined& j;
+  const SignedDistance* surface;
+  const OptimizeOptions& o;
+  KeyGroups incident;
+  std::vector<uint8_t> flags;
+  std::vector<uint8_t> locked;  // bit a: coordinate a is held (box planes)
+  std::vector<Vec3> normal;     // surface vertices: the area-weighted boundary normal
+  std::vector<double> sj;       // per hex, the scaled Jacobian (min over the 9 points)
+  std::vector<uint8_t> certified;
+  // A vertex is visited again only once a vertex sharing a hex with it has moved (or it moved
+  // itself): otherwise its candidates and their scores are those it has already refused.
+  std::vector<uint8_t> dirty;
+  Box box;
+
+  Optimizer(Joined& joined, const SignedDistance* s, const OptimizeOptions& opt, const HexMesh& inside, bool pair)
+      : j(joined), surface(s), o(opt) {
+    const std::size_t nv = j.x.size();
+    incident = vertex_hexes(nv, j.hexes);
+    flags.assign(nv, 0);
+    dirty.assign(nv, 1);
+    locked.assign(nv, 0);
+    normal.assign(nv, Vec3{});
+    for (const Vec3& p : j.x) box.extend(p);
+    // Box planes: only where there is an outside mesh (the inside alone has no box).
+    if (pair)
+      parallel_for(nv, [&](std::size_t v) {
+        for (int a = 0; a < 3; ++a)
+          if (j.x[v][a] == box.lo[a] || j.x[v][a] == box.hi[a]) locked[v] |= uint8_t(1u << a);
+        if (locked[v] == 7) flags[v] |= kFixed;
+      });
+    // The inside boundary: the interface (on the surface), its features.
+    const std::vector<std::array<uint32_t, 4>> quads = boundary_quads(inside);
+    KeyGroups at = group_by_key(
+        nv,
+        [&](auto&& f) {
+          for (uint32_t k = 0; k < quads.size() * 4; ++k) f(k);
+        },
+        [&](uint32_t k) { return quads[k / 4][k % 4]; });
+    const double cos_feature = std::cos(o.feature_angle * M_PI / 180);
+    parallel_for(nv, [&](std::size_t v) {
+      const uint32_t b = at.start[v], e = at.start[v + 1];
+      if (b == e) return;
+      std::vector<uint32_t> mine(at.items.begin() + b, at.items.begin() + e);
+      std::sort(mine.begin(), mine.end());
+      flags[v] |= kOnSurface;
+      if (!surface || locked[v]) flags[v] |= kFixed;
+      double largest = 0;
+      std::vector<std::pair<Vec3, double>> n;
+      Vec3 sum{};
+      for (uint32_t k : mine) {
+        double size = 0;
+        const Vec3 u = quad_normal(j.x, quads[k / 4], size);
+        n.emplace_back(u, size);
+        sum += size * u;
+        largest = std::max(largest, size);
+      }
+      normal[v] = normalized(sum);
+      // Quads far smaller than the largest around the vertex (slivers at clamped crossings)
+      // have normals of little meaning: only the others decide a feature.
+      for (std::size_t p = 0; p < n.size(); ++p)
+        for (std::size_t q = p + 1; q < n.size(); ++q)
+          if (n[p].second >= 0.05 * largest && n[q].second >= 0.05 * largest &&
+              dot(n[p].first, n[q].first) < cos_feature)
+            flags[v] |= kFixed;
+    });
+    parallel_for(nv, [&](std::size_t v) {
+      if (incident.start[v + 1] - incident.start[v] > kMaxValence) flags[v] |= kFixed;
+    });
+    sj.resize(j.hexes.size());
+    certified.resize(j.hexes.size());
+    parallel_for(j.hexes.size(), [&](std::size_t h) {
+      const HexQuality q = hex_quality(corners_of(j.x, j.hexes[h]));
+      sj[h] = q.scaled_jacobian;
+      certified[h] = q.certified();
+    });
+  }
+
+  bool movable(std::size_t v) const { return !(flags[v] & kFixed); }
+
+  // Greedy colouring in vertex order: each movable vertex takes the smallest colour that no
+  // movable vertex sharing a hex with it has taken. Sequential, so deterministic.
+  std::vector<std::vector<uint32_t>> colour() const {
+    const std::size_t nv = j.x.size();
+    std::vector<int> c(nv, -1);
+    std::vector<std::vector<uint32_t>> classes;
+    std::vector<int> seen;  // seen[colour] == v: taken by a neighbour of v
+    for (std::size_t v = 0; v < nv; ++v) {
+      if (!movable(v)) continue;
+      for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k) {
+        const Hex& h = j.hexes[incident.items[k] / 8];
+        for (uint32_t w : h)
+          if (c[w] >= 0) seen[c[w]] = int(v);
+      }
+      int pick = 0;
+      while (pick < int(seen.size()) && seen[pick] == int(v)) ++pick;
+      if (pick == int(seen.size())) {
+        seen.push_back(-1);
+        classes.emplace_back();
+      }
+      c[v] = pick;
+      classes[pick].push_back(uint32_t(v));
+    }
+    return classes;
+  }
+
+  struct Local {
+    double min = kInf, sum = 0, max_ratio = 0;
+  };
+
+  // The scaled Jacobians of v's hexes with v at y (the certificate and the edge ratio, given a
+  // finite ratio_cap, are apart: they are asked only of the candidate chosen); stops early
+  // (min = -inf) as soon as a hex falls below `floor` or passes `ratio_cap`.
+  // `first` (an offset into v's incident hexes) is measured first: the worst hex at the current
+  // point, which rejects most candidates that fall below the floor at once. `worst` returns the
+  // offset of the worst hex, `worst_point` its worst of the 9 points.
+  Local evaluate(uint32_t v, Vec3 y, double floor, double ratio_cap, uint32_t first = 0, uint32_t* worst = nullptr,
+                 int* worst_point = nullptr) const {
+    Local l;
+    const uint32_t b = incident.start[v], n = incident.start[v + 1] - b;
+    for (uint32_t i = 0; i < n; ++i) {
+      const uint32_t off = i == 0 ? first : (i <= first ? i - 1 : i);
+      const uint32_t k = b + off;
+      const uint32_t h = incident.items[k] / 8, corner = incident.items[k] % 8;
+      HexCorners c = corners_of(j.x, j.hexes[h]);
+      c[corner] = y;
+      const std::array<double, 9> s = scaled_jacobians(c);
+      const auto lowest = std::min_element(s.begin(), s.end());
+      const double ratio = ratio_cap < kInf ? edge_ratio(c) : 0;
+      if (*lowest < floor || ratio > ratio_cap) {
+        l.min = -kInf;
+        return l;
+      }
+      if (*lowest < l.min) {
+        l.min = *lowest;
+        if (worst) *worst = off, *worst_point = int(lowest - s.begin());
+      }
+      l.sum += *lowest;
+      l.max_ratio = std::max(l.max_ratio, ratio);
+    }
+    return l;
+  }
+
+  // Whether every hex of v that is certified now stays certified with v at y.
+  bool keeps_certificates(uint32_t v, Vec3 y) const {
+    for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k) {
+      const uint32_t h = incident.items[k] / 8, corner = incident.items[k] % 8;
+      if (!certified[h]) continue;
+      HexCorners c = corners_of(j.x, j.hexes[h]);
+      c[corner] = y;
+      if (!bernstein_certified(c)) return false;
+    }
+    return true;
+  }
+
+  // Keeps only the motion a vertex may make: in the plane or along the line of its box face or
+  // edge, or in the tangent plane of the surface (the projection then puts it back on it).
+  Vec3 constrain(uint32_t v, Vec3 d) const {
+    for (int a = 0; a < 3; ++a)
+      if (locked[v] >> a & 1) d[a] = 0;
+    if (flags[v] & kOnSurface) d -= dot(d, normal[v]) * normal[v];
+    return d;
+  }
+
+  // The candidate positions of v (slot 0: where it is), before projection.
+  void candidates(uint32_t v, Vec3* out) const {
+    const Vec3 x = j.x[v];
+    Vec3 ideal{}, mean{};
+    double length = 0;
+    int count = 0;
+    for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k) {
+      const Hex& h = j.hexes[incident.items[k] / 8];
+      const int i = int(incident.items[k] % 8);
+      Vec3 p = j.x[h[kCorners.opposite[i]]];
+      for (int e = 0; e < 3; ++e) {
+        const Vec3 n = j.x[h[kCorners.edge[i][e]]];
+        p += n - j.x[h[kCorners.diagonal[i][e]]];
+        mean += n;
+        length += norm(n - x);
+      }
+      ideal += p;
+      ++count;
+    }
+    ideal = ideal / count;
+    mean = mean / (3.0 * count);
+    length /= 3.0 * count;
+    // Gradient of the worst scaled Jacobian at v (central differences on that one point).
+    uint32_t worst_offset = 0;
+    int worst_point = 0;
+    const Local now = evaluate(v, x, -kInf, kInf, 0, &worst_offset, &worst_point);
+    const std::size_t worst_hex = incident.items[incident.start[v] + worst_offset] / 8;
+    Vec3 gradient{};
+    if (now.min > -kInf) {
+      const Hex& h = j.hexes[worst_hex];
+      const int corner = int(std::find(h.begin(), h.end(), v) - h.begin());
+      HexCorners c = corners_of(j.x, h);
+      const double step = 1e-4 * length;
+      for (int a = 0; a < 3; ++a) {
+        Vec3 d{};
+        d[a] = step;
+        c[corner] = x + d;
+        const double up = scaled_jacobians(c)[worst_point];
+        c[corner] = x - d;
+        const double down = scaled_jacobians(c)[worst_point];
+        gradient[a] = (up - down) / (2 * step);
+      }
+    }
+    const Vec3 dirs[2] = {constrain(v, ideal - x), constrain(v, mean - x)};
+    out[0] = x;
+    for (int d = 0; d < 2; ++d) {
+      double t = 1;
+      for (int s = 0; s < kSteps; ++s, t *= 0.5) out[1 + d * kSteps + s] = x + t * dirs[d];
+    }
+    const Vec3 g = length * normalized(constrain(v, gradient));
+    double t = 0.5;
+    for (int s = 0; s < kGradientSteps; ++s, t *= 0.5) out[1 + 2 * kSteps + s] = x + t * g;
+  }
+
+  // One sweep; returns the vertices moved.
+  std::size_t sweep(const std::vector<std::vector<uint32_t>>& classes, std::size_t& rejected) {
+    std::size_t moved = 0;
+    std::vector<uint32_t> active;
+    std::vector<Vec3> cand;
+    std::vector<uint32_t> on_surface;
+    std::vector<Vec3> to_project;
+    std::vector<uint8_t> accepted;
+    for (const std::vector<uint32_t>& cls : classes) {
+      active.clear();
+      for (uint32_t v : cls) {
+        if (!dirty[v]) continue;
+        double lo = kInf;
+        for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k)
+          lo = std::min(lo, sj[incident.items[k] / 8]);
+        // A surface vertex not yet on the surface is visited until a move puts it there.
+        const bool unplaced = surface && (flags[v] & kOnSurface) && !(flags[v] & kPlaced);
+        if (lo < o.active_below || unplaced) active.push_back(v);
+      }
+      if (active.empty()) continue;
+      cand.resize(active.size() * kCandidates);
+      parallel_chunks(active.size(), 16, [&](std::size_t b, std::size_t e) {
+        for (std::size_t a = b; a < e; ++a) candidates(active[a], &cand[a * kCandidates]);
+      });
+      // Surface vertices' candidates onto the surface, in one batch.
+      if (surface) {
+        on_surface.clear();
+        for (std::size_t a = 0; a < active.size(); ++a)
+          if (flags[active[a]] & kOnSurface) on_surface.push_back(uint32_t(a));
+        if (!on_surface.empty()) {
+          to_project.resize(on_surface.size() * kCandidates);
+          for (std::size_t s = 0; s < on_surface.size(); ++s)
+            std::copy_n(&cand[on_surface[s] * kCandidates], kCandidates, &to_project[s * kCandidates]);
+          project_to_surface(*surface, to_project);
+          for (std::size_t s = 0; s < on_surface.size(); ++s)
+            std::copy_n(&to_project[s * kCandidates], kCandidates, &cand[on_surface[s] * kCandidates]);
+        }
+      }
+      accepted.assign(active.size(), 0);
+      parallel_chunks(active.size(), 16, [&](std::size_t b, std::size_t e) {
+        for (std::size_t a = b; a < e; ++a) accepted[a] = try_move(active[a], &cand[a * kCandidates]);
+      });
+      for (std::size_t a = 0; a < active.size(); ++a) {
+        const uint32_t v = active[a];
+        if (!accepted[a]) {
+          ++rejected;
+          dirty[v] = 0;
+          continue;
+        }
+        ++moved;
+        for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k)
+          for (uint32_t w : j.hexes[incident.items[k] / 8]) dirty[w] = 1;
+      }
+    }
+    return moved;
+  }
+
+  bool try_move(uint32_t v, const Vec3* cand) {
+    const Vec3 x = j.x[v];
+    uint32_t worst = 0;
+    int point = 0;
+    const Local now = evaluate(v, x, -kInf, kInf, 0, &worst, &point);
+    double now_ratio = 0;
+    for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k)
+      now_ratio = std::max(now_ratio, edge_ratio(corners_of(j.x, j.hexes[incident.items[k] / 8])));
+    const double cap = std::max(now_ratio, o.max_edge_ratio);
+    // Each candidate is compared with the best so far (a higher minimum, or the same minimum
+    // and a higher mean; slot 0, a surface vertex put onto the surface where it is, also when it
+    // keeps the minimum; any other move must gain more than rounding), so the options kept are
+    // ever better; the best of them that keeps every certificate and the edge-ratio cap is taken.
+    struct Option {
+      Local l;
+      int k;
+    };
+    Option options[kCandidates];
+    int n = 0;
+    Local best = now;
+    for (int k = 0; k < kCandidates; ++k) {
+      const Vec3 y = cand[k];
+      if (!is_finite(y) || y == x) continue;
+      const Local l = evaluate(v, y, best.min, kInf, worst);
+      if (l.min == -kInf) continue;
+      const bool gain = n == 0 ? l.min - now.min > 1e-12 || (l.min >= now.min && l.sum - now.sum > 1e-9 * (now.sum + 1))
+                               : l.min > best.min || (l.min == best.min && l.sum > best.sum);
+      if (gain || (k == 0 && n == 0)) {
+        options[n++] = {l, k};
+        best = l;
+      }
+    }
+    std::reverse(options, options + n);
+    for (int i = 0; i < n; ++i) {
+      const Vec3 y = cand[options[i].k];
+      if (!keeps_certificates(v, y) || !(evaluate(v, y, -kInf, cap).min > -kInf)) continue;
+      j.x[v] = y;
+      if (surface && (flags[v] & kOnSurface)) flags[v] |= kPlaced;
+      for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k) {
+        const uint32_t h = incident.items[k] / 8;
+        const HexQuality q = hex_quality(corners_of(j.x, j.hexes[h]));
+        sj[h] = q.scaled_jacobian;
+        certified[h] = q.certified();
+      }
+      return true;
+    }
+    return false;
+  }
+
+  struct Summary {
+    double min = kInf, sum = 0, max_ratio = 0;
+    std::size_t certified = 0, below = 0, count = 0, worst = 0;
+    void join(Summary&& r) {
+      if (r.min < min) min = r.min, worst = r.worst;
+      sum += r.sum;
+      max_ratio = std::max(max_ratio, r.max_ratio);
+      certified += r.certified;
+      below += r.below;
+      count += r.count;
+    }
+  };
+
+  Summary summarize() const {
+    return deterministic_reduce(j.hexes.size(), 4096, Summary{}, [&](std::size_t b, std::size_t e, Summary& s) {
+      for (std::size_t h = b; h < e; ++h) {
+        const HexQuality q = hex_quality(corners_of(j.x, j.hexes[h]));
+        if (q.scaled_jacobian < s.min) s.min = q.scaled_jacobian, s.worst = h;
+        s.sum += q.scaled_jacobian;
+        s.max_ratio = std::max(s.max_ratio, q.edge_ratio);
+        s.certified += q.certified();
+        s.below += q.scaled_jacobian < 0.3;
+        ++s.count;
+      }
+    });
+  }
+};
+
+}  // namespace
+
+OptimizeStats optimize(MeshPair& meshes, const SignedDistance* surface, const OptimizeOptions& options) {
+  const double t0 = now();
+  OptimizeStats st;
+  const bool pair = !meshes.outside.hexes.empty();
+  Joined j = join(meshes);
+  st.hexes = j.hexes.size();
+  st.vertices = j.x.size();
+  if (j.hexes.empty()) return st;
+  Optimizer opt(j, surface, options, meshes.inside, pair);
+  for (std::size_t v = 0; v < j.x.size(); ++v) {
+    if (opt.flags[v] & kFixed) {
+      ++st.fixed_vertices;
+      if ((opt.flags[v] & kOnSurface) && surface && !opt.locked[v] &&
+          opt.incident.start[v + 1] - opt.incident.start[v] <= kMaxValence)
+        ++st.feature_vertices;
+    } else if (opt.flags[v] & kOnSurface) {
+      ++st.surface_vertices;
+    } else if (opt.locked[v]) {
+      ++st.box_vertices;
+    } else {
+      ++st.free_vertices;
+    }
+  }
+  const Optimizer::Summary before = opt.summarize();
+  st.min_sj_before = before.min;
+  st.mean_sj_before = before.sum / double(before.count);
+  st.max_edge_ratio_before = before.max_ratio;
+  st.certified_before = before.certified;
+  st.below_0_3_before = before.below;
+  const auto classes = opt.colour();
+  st.colours = int(classes.size());
+  double last_min = before.min, last_mean = st.mean_sj_before;
+  const double ts = now(), cs = cpu_seconds();
+  for (int s = 0; s < options.max_sweeps; ++s) {
+    const std::size_t moved = opt.sweep(classes, st.moves_rejected);
+    st.moves_accepted += moved;
+    ++st.sweeps;
+    // The minimum from the cached per-hex values (exact: each is recomputed when a corner moves).
+    double lo = kInf, sum = 0;
+    for (double v : opt.sj) lo = std::min(lo, v), sum += v;
+    const double mean = sum / double(opt.sj.size());
+    st.min_per_sweep.push_back(lo);
+    if (moved == 0 || (lo - last_min < options.tolerance && mean - last_mean < 10 * options.tolerance)) break;
+    last_min = lo;
+    last_mean = mean;
+  }
+  st.sweep_seconds = now() - ts;
+  st.sweep_cpu_seconds = cpu_seconds() - cs;
+  const Optimizer::Summary after = opt.summarize();
+  st.min_sj_after = after.min;
+  st.mean_sj_after = after.sum / double(after.count);
+  st.max_edge_ratio_after = after.max_ratio;
+  st.certified_after = after.certified;
+  st.below_0_3_after = after.below;
+  for (std::size_t h = 0; h < j.hexes.size(); ++h) {
+    if (opt.sj[h] >= 0.3) continue;
+    bool fixed = false;
+    for (uint32_t v : j.hexes[h]) fixed = fixed || (opt.flags[v] & kFixed);
+    st.below_0_3_touching_fixed += fixed;
+  }
+  // The worst hex and what holds its corners.
+  WorstHex& w = st.worst;
+  const std::size_t h = after.worst;
+  w.region = h < j.inside_hexes ? kInside : kOutside;
+  w.hex = h < j.inside_hexes ? h : h - j.inside_hexes;
+  const HexCorners c = corners_of(j.x, j.hexes[h]);
+  for (const Vec3& p : c) w.centre += p / 8.0;
+  const HexQuality q = hex_quality(c);
+  w.scaled_jacobian = q.scaled_jacobian;
+  w.edge_ratio = q.edge_ratio;
+  for (uint32_t v : j.hexes[h]) {
+    if (opt.flags[v] & kFixed) ++w.fixed_corners;
+    else if (opt.flags[v] & kOnSurface) ++w.surface_corners;
+    else if (opt.locked[v]) ++w.box_corners;
+  }
+  // Back into both meshes: an interface vertex gets the same coordinates in each.
+  std::copy_n(j.x.begin(), meshes.inside.points.size(), meshes.inside.points.begin());
+  for (std::size_t k = 0; k < meshes.outside.points.size(); ++k) meshes.outside.points[k] = j.x[j.outside_point[k]];
+  st.seconds = now() - t0;
+  return st;
+}
+
+}  // namespace mchex

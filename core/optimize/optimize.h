@@ -1,0 +1,106 @@
+// The certified mesh optimiser: moves the vertices of an inside/outside hex mesh pair to raise
+// the minimum and mean scaled Jacobian (and keep the edge ratio down) without ever losing the
+// Bernstein certificate of a hex (docs/optimize.md).
+//
+// Method. The two meshes are optimised as one: their interface points (shared by exact
+// coordinates) become single vertices, so a move of an interface vertex is judged by the inside
+// and the outside hexes it touches at once and written to both meshes. The vertices are coloured
+// so that no two of a colour share a hex (greedy, in vertex order); a sweep visits the colours
+// in turn and, within a colour, moves every vertex whose incident hexes include one below
+// OptimizeOptions::active_below, all in parallel: a vertex's incident hexes hold no other vertex
+// of its colour, so the moves are independent and the result does not depend on the threads.
+// A vertex tries a few candidate positions (the mean of the "ideal corner" of each incident hex,
+// where the corner would be if that hex were a parallelepiped of its other corners; the mean of
+// its edge neighbours; the gradient of the worst scaled Jacobian among its hexes), each at full,
+// half, quarter and eighth step, and takes the one that raises the minimum scaled Jacobian of
+// its incident hexes most (or, at an equal minimum, their mean), among those that keep every
+// incident hex Bernstein-certified (all 27 coefficients of det J positive) and keep the edge
+// ratio of each under OptimizeOptions::max_edge_ratio (or no worse than it was).
+//
+// Constraints. Vertices on the inside mesh's boundary (the interface) stay on the input surface:
+// each candidate is moved in the tangent plane and projected onto the surface (the exact closest
+// point for a triangle surface, Newton steps on the field for an analytic shape); without a
+// surface they are fixed. Feature vertices (where the normals of the boundary quads around a
+// vertex differ by more than OptimizeOptions::feature_angle) are fixed. Vertices on a face of the
+// outer box move in its plane, on an edge of the box along it; box corners are fixed.
+//
+// Guarantees. No hex that was certified loses its certificate; the minimum scaled Jacobian of the
+// pair never falls (each accepted move raises or keeps the minimum of the hexes it changes); the
+// result is the same on any number of threads; the interface stays shared (same coordinates in
+// both meshes); each sweep costs time linear in the hexes.
+#pragma once
+
+#include <cstddef>
+#include <vector>
+
+#include "core/base/geometry.h"
+#include "core/mesh/hex_mesh.h"
+#include "core/sdf/sdf.h"
+
+namespace mchex {
+
+// The crossing clamp (MeshOptions::eps) that `mesh --optimize` uses unless --eps is given. The
+// mesher's default, 1e-3, leaves polyhedra of 1e-3 of a cell around a grid point the surface
+// nearly touches; their hexes can only be fixed by moving that whole cluster at once, which
+// single-vertex moves cannot (docs/optimize.md, "Measured"). At 0.02 the clusters are 20 times
+// larger and the optimiser brings them to the targets, while projecting the boundary onto the
+// surface recovers the fidelity the wider clamp costs.
+inline constexpr double kOptimizeEps = 0.02;
+
+struct OptimizeOptions {
+  int max_sweeps = 30;
+  // A vertex is moved in a sweep when one of its hexes has a scaled Jacobian below this (hexes
+  // above it are left as they are: most of a grid's hexes are cubes).
+  double active_below = 0.8;
+  double feature_angle = 40;   // degrees between boundary quad normals that make a vertex a feature
+  double max_edge_ratio = 20;  // a move may not raise a hex's edge ratio past this (or past its own)
+  // Stop when a sweep raises the minimum scaled Jacobian by less than this and the mean by less
+  // than ten times it.
+  double tolerance = 1e-4;
+};
+
+// The worst hex after optimisation and what holds it.
+struct WorstHex {
+  std::size_t hex = 0;  // index in its mesh
+  int region = 0;       // kInside or kOutside
+  Vec3 centre;
+  double scaled_jacobian = 0;
+  double edge_ratio = 0;
+  int fixed_corners = 0;    // features, box corners, surface vertices without a surface
+  int surface_corners = 0;  // on the input surface (movable along it)
+  int box_corners = 0;      // on a face or edge of the box (movable along it)
+};
+
+struct OptimizeStats {
+  int sweeps = 0;
+  std::size_t hexes = 0, vertices = 0;  // of the pair, interface vertices counted once
+  std::size_t free_vertices = 0, surface_vertices = 0, box_vertices = 0, fixed_vertices = 0;
+  std::size_t feature_vertices = 0;  // among the fixed ones
+  int colours = 0;
+  double min_sj_before = 0, min_sj_after = 0, mean_sj_before = 0, mean_sj_after = 0;
+  double max_edge_ratio_before = 0, max_edge_ratio_after = 0;
+  std::size_t certified_before = 0, certified_after = 0;
+  std::size_t below_0_3_before = 0, below_0_3_after = 0;  // hexes with scaled Jacobian < 0.3
+  std::size_t below_0_3_touching_fixed = 0;               // of those after: with a fixed corner
+  std::size_t moves_accepted = 0, moves_rejected = 0;     // vertex visits with / without a move
+  std::vector<double> min_per_sweep;                      // min scaled Jacobian after each sweep
+  double seconds = 0;                                     // everything: setup, sweeps, statistics
+  double sweep_seconds = 0;                               // the sweeps alone, wall
+  double sweep_cpu_seconds = 0;                           // the same in CPU seconds of all threads (a loaded machine
+                                                          // distorts this far less than the wall time)
+  WorstHex worst;
+  // Hexes of the pair processed per second per sweep.
+  double hexes_per_second() const { return sweep_seconds > 0 ? double(hexes) * sweeps / sweep_seconds : 0; }
+  double hexes_per_cpu_second() const { return sweep_cpu_seconds > 0 ? double(hexes) * sweeps / sweep_cpu_seconds : 0; }
+};
+
+// Optimises the pair in place. `surface` is the solid's field (its zero set is the input
+// surface): a SurfaceSdf gives exact closest points, any other field Newton projection; null
+// fixes the boundary. `meshes.outside` may be empty: then the inside mesh alone is optimised and
+// its boundary kept on the surface.
+OptimizeStats optimize(MeshPair& meshes, const SignedDistance* surface, const OptimizeOptions& options = {});
+
+// Projects points onto the zero set of `surface` (what optimize uses; public for the tests).
+void project_to_surface(const SignedDistance& surface, std::span<Vec3> points);
+
+}  // namespace mchex

@@ -1,0 +1,105 @@
+"""`mchex-gpu mesh --optimize` and `mchex-gpu optimize` as a user runs them: the report's optimize
+section against the checker's figures, meshio as an independent reader of what was written
+(boundary points on the analytic unit sphere, the interface shared), and one-line errors with no
+file left behind. Run by ctest with MCHEX_GPU pointing at the binary."""
+import json
+import os
+import unittest
+
+import meshio
+import numpy as np
+
+from harness import ScratchTestCase, run
+
+
+def boundary_points(cells):
+    """Indices of the points on faces that belong to one hex only (VTK hex faces)."""
+    faces = [(0, 3, 2, 1), (4, 5, 6, 7), (0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6), (3, 0, 4, 7)]
+    count = {}
+    for h in cells:
+        for f in faces:
+            key = tuple(sorted(h[i] for i in f))
+            count[key] = count.get(key, 0) + 1
+    return sorted({v for key, n in count.items() if n == 1 for v in key})
+
+
+class Optimize(ScratchTestCase):
+
+    def mesh(self, *extra, tag="m"):
+        inside, outside, report = (os.path.join(self.dir, tag + n) for n in (".in.vtu", ".out.vtu", ".json"))
+        r = run("mesh", "--shape", "sphere", "--depth", 2, "-o", inside, "--outside", outside, "--report", report,
+                *extra)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        with open(report) as f:
+            return inside, outside, json.load(f), r
+
+    def test_mesh_optimize_raises_quality_and_keeps_the_boundary_on_the_sphere(self):
+        # --optimize meshes with crossings clamped to [0.02, 0.98] (kOptimizeEps): the figures
+        # before are those of a plain run with that clamp, fidelity is compared with the default.
+        _, _, default, _ = self.mesh("--quiet", tag="default")
+        plain_in, plain_out, plain, _ = self.mesh("--eps", 0.02, tag="plain")
+        inside, outside, rep, r = self.mesh("--optimize", tag="opt")
+        self.assertIn("optimize: min scaled Jacobian", r.stdout)
+        s = rep["optimize"]
+        q = rep["check"]["inside"]["quality"], rep["check"]["outside"]["quality"]
+        p = plain["check"]["inside"]["quality"], plain["check"]["outside"]["quality"]
+        # The section's figures are the checker's, before (the plain run) and after.
+        self.assertAlmostEqual(s["min_scaled_jacobian"]["before"], min(x["min_scaled_jacobian"] for x in p), places=12)
+        self.assertAlmostEqual(s["min_scaled_jacobian"]["after"], min(x["min_scaled_jacobian"] for x in q), places=12)
+        self.assertGreater(s["min_scaled_jacobian"]["after"], s["min_scaled_jacobian"]["before"])
+        self.assertGreater(s["mean_scaled_jacobian"]["after"], s["mean_scaled_jacobian"]["before"])
+        for x in q:
+            self.assertEqual(x["certified"], x["count"])
+        self.assertTrue(rep["check"]["ok"])
+        # meshio: every inside boundary point either kept its place or lies on |p| = 1.
+        a, b = meshio.read(plain_in), meshio.read(inside)
+        hexes = b.cells_dict["hexahedron"]
+        self.assertTrue(np.array_equal(hexes, a.cells_dict["hexahedron"]))
+        bp = boundary_points(hexes)
+        moved = np.any(a.points[bp] != b.points[bp], axis=1)
+        self.assertGreater(moved.sum(), 0)
+        radius = np.linalg.norm(b.points[bp][moved], axis=1)
+        self.assertLess(np.abs(radius - 1).max(), 1e-9)
+        # The interface: every outside point that coincided with an inside point still does.
+        ao, bo = meshio.read(plain_out), meshio.read(outside)
+        shared = lambda m, o: len({tuple(x) for x in m.points} & {tuple(x) for x in o.points})
+        self.assertEqual(shared(b, bo), shared(a, ao))
+        # The fidelity of the optimised mesh is not worse than the default mesh's.
+        self.assertGreaterEqual(rep["fidelity"]["iou"], default["fidelity"]["iou"])
+        self.assertLessEqual(rep["fidelity"]["hausdorff_ratio"], default["fidelity"]["hausdorff_ratio"])
+
+    def test_optimize_command_equals_mesh_optimize(self):
+        plain_in, plain_out, _, _ = self.mesh("--quiet", "--eps", 0.02, tag="plain")
+        opt_in, opt_out, _, _ = self.mesh("--quiet", "--optimize", tag="opt")
+        out_in, out_out, report = (os.path.join(self.dir, n) for n in ("o.in.vtu", "o.out.vtu", "o.json"))
+        r = run("optimize", plain_in, "--outside", plain_out, "--shape", "sphere", "-o", out_in, "--outside-output",
+                out_out, "--report", report)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertIn("structure: ok", r.stdout)
+        for mine, theirs in ((out_in, opt_in), (out_out, opt_out)):
+            self.assertTrue(np.array_equal(meshio.read(mine).points, meshio.read(theirs).points))
+        with open(report) as f:
+            rep = json.load(f)
+        self.assertEqual(rep["optimize"]["certified"]["after"], rep["optimize"]["hexes"])
+
+    def assert_one_line_error(self, r, needle):
+        self.assertEqual(r.returncode, 1, r.stderr)
+        self.assertEqual(len(r.stderr.strip().splitlines()), 1, r.stderr)
+        self.assertIn(needle, r.stderr)
+
+    def test_bad_input_is_one_line_and_no_file(self):
+        plain_in, plain_out, _, _ = self.mesh("--quiet", tag="plain")
+        out = os.path.join(self.dir, "o.vtu")
+        self.assert_one_line_error(run("optimize", plain_in, "-o", out), "--input or --shape")
+        self.assert_one_line_error(run("optimize", os.path.join(self.dir, "missing.vtu"), "--shape", "sphere", "-o",
+                                       out), "missing.vtu")
+        self.assert_one_line_error(run("optimize", plain_in, "--shape", "sphere", "-o",
+                                       os.path.join(self.dir, "o.xyz")), "o.xyz")
+        self.assert_one_line_error(run("optimize", plain_in, "--shape", "sphere", "-o", out, "--outside-output",
+                                       os.path.join(self.dir, "x.vtu")), "--outside")
+        self.assertFalse(os.path.exists(out))
+        self.assertEqual(sorted(os.listdir(self.dir)), sorted(["plain.in.vtu", "plain.out.vtu", "plain.json"]))
+
+
+if __name__ == "__main__":
+    unittest.main()
