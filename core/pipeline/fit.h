@@ -40,7 +40,7 @@
 namespace mchex {
 
 // The default target Hausdorff ratio: about the MCHex prototype's HR at its defaults (0.0046 to
-// 0.0066 on the models of ../shared/notes/reference-figures.md); its base grid has error depth 4 on
+// 0.0066 on the public models of perf/curves/prototype.csv); its base grid has error depth 4 on
 // any model (the finest cell is 1.2 x the largest extent / 81, at most 0.0148 x its diagonal).
 inline constexpr double kDefaultHausdorffRatio = 0.005;
 // The base grid's finest cell per unit of H x input diagonal: HR was 0.07 to 0.87 finest cells /
