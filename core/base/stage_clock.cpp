@@ -1,8 +1,11 @@
 #include "core/base/stage_clock.h"
 
+#include "core/base/trace.h"
+
 #include <sys/resource.h>
 #include <time.h>
 
+#include <algorithm>
 #include <condition_variable>
 #include <cstdio>
 #include <mutex>
@@ -43,19 +46,32 @@ bool StageClock::ProgressWatch::stop() {
 
 StageClock::ProgressWatch::~ProgressWatch() { stop(); }
 
-void StageClock::finish(const std::string& name, double seconds, bool announced) {
+void StageClock::finish(const std::string& name, std::chrono::steady_clock::time_point t0,
+                        std::chrono::steady_clock::time_point t1, bool announced) {
+  const double seconds = std::chrono::duration<double>(t1 - t0).count();
   stages_.emplace_back(name, seconds);
+  if (trace::enabled()) {
+    if (t0 > end_) trace::record("other", trace::kStage, end_, t0);
+    trace::record(name, trace::kStage, t0, t1);
+  }
+  end_ = std::max(end_, t1);
   if (announced) std::fprintf(stderr, "mchex-gpu: %s done in %.1f s\n", name.c_str(), seconds);
 }
 
 nlohmann::json StageClock::to_json() const {
+  // A stage that ran more than once (sdf, mchex and fidelity in the remedy and fit rounds) is
+  // their sum, so that the stages and "other" add up to "total".
   nlohmann::json j = nlohmann::json::object();
-  for (const auto& [name, seconds] : stages_) j[name] = seconds;
-  j["total"] = total();
+  for (const auto& [name, seconds] : stages_) j[name] = j.value(name, 0.0) + seconds;
+  const double wall = total();
+  j["other"] = std::max(0.0, wall - stage_seconds());
+  j["total"] = wall;
   return j;
 }
 
-double StageClock::total() const {
+double StageClock::total() const { return std::chrono::duration<double>(end_ - start_).count(); }
+
+double StageClock::stage_seconds() const {
   double t = 0;
   for (const auto& s : stages_) t += s.second;
   return t;

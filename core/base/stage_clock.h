@@ -1,5 +1,10 @@
 // Per-stage wall times and the progress lines of long stages, plus the process facts the JSON
 // report carries (docs/pipeline.md, "The report").
+//
+// The clock's wall time runs from its construction to the end of its last stage. Stages run one
+// after another (never nested), so the time between them (opening a backend, the memory budget's
+// estimate) is the stage "other": the report's stages sum to the wall time (docs/trace.md). With
+// a trace on (core/base/trace.h) each stage and each gap is also an event of the timeline.
 #pragma once
 
 #include <chrono>
@@ -25,12 +30,14 @@ class StageClock {
       ProgressWatch watch;
       ~Done() {
         const bool announced = watch.stop();
-        self->finish(name, std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), announced);
+        self->finish(name, t0, std::chrono::steady_clock::now(), announced);
       }
     } done{this, name, std::chrono::steady_clock::now(), ProgressWatch(quiet_ ? "" : name)};
     return f();
   }
+  // {"STAGE": seconds (summed over its runs), ..., "other": the gaps, "total": the wall time}.
   nlohmann::json to_json() const;
+  // The wall time: the stages and the gaps between them.
   double total() const;
   // Seconds the named stage took (the sum, if it ran more than once; 0 if it never ran).
   double seconds(const std::string& name) const;
@@ -48,8 +55,11 @@ class StageClock {
     struct State;
     std::unique_ptr<State> state_;
   };
-  void finish(const std::string& name, double seconds, bool announced);
+  void finish(const std::string& name, std::chrono::steady_clock::time_point t0,
+              std::chrono::steady_clock::time_point t1, bool announced);
+  double stage_seconds() const;
   bool quiet_;
+  std::chrono::steady_clock::time_point start_ = std::chrono::steady_clock::now(), end_ = start_;
   std::vector<std::pair<std::string, double>> stages_;
 };
 

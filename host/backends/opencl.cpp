@@ -18,6 +18,7 @@
 
 #include "core/base/error.h"
 #include "core/base/parallel.h"
+#include "core/base/trace.h"
 #include "core/device/cell_words.h"
 #include "core/device/device_scene.h"
 #include "core/grid/refinement_error.h"
@@ -286,7 +287,11 @@ struct OpenclBackend::Impl {
     if (ec) fs::remove(tmp, ec);
   }
 
-  void record(const std::string& name, const cl::Event& e) {
+  // The command's device time into the profile; with a trace on, also an event of the timeline
+  // (core/base/trace.h) from t0, taken before the enqueue, to its completion on the host clock:
+  // the device's own clock has another origin, so its time goes into the event's args.
+  void record(const std::string& name, const cl::Event& e, const char* category, trace::Clock::time_point t0,
+              nlohmann::json args) {
     e.wait();
     const double s =
         double(e.getProfilingInfo<CL_PROFILING_COMMAND_END>() - e.getProfilingInfo<CL_PROFILING_COMMAND_START>()) *
@@ -294,21 +299,28 @@ struct OpenclBackend::Impl {
     auto& entry = profile.kernels[name];
     entry.calls++;
     entry.seconds += s;
+    if (trace::enabled()) {
+      args["backend"] = "opencl";
+      args["device_us"] = s * 1e6;
+      trace::record(name, category, t0, trace::Clock::now(), std::move(args));
+    }
   }
 
   template <class T>
   void write(const cl::Buffer& b, const T* data, std::size_t count) {
     if (count == 0) return;
     cl::Event e;
+    const auto t0 = trace::Clock::now();
     queue.enqueueWriteBuffer(b, CL_TRUE, 0, count * sizeof(T), data, nullptr, &e);
-    record("write", e);
+    record("write", e, trace::kUpload, t0, {{"bytes", count * sizeof(T)}});
   }
   template <class T>
   void read(const cl::Buffer& b, T* data, std::size_t count) {
     if (count == 0) return;
     cl::Event e;
+    const auto t0 = trace::Clock::now();
     queue.enqueueReadBuffer(b, CL_TRUE, 0, count * sizeof(T), data, nullptr, &e);
-    record("read", e);
+    record("read", e, trace::kDownload, t0, {{"bytes", count * sizeof(T)}});
   }
   // A fixed work-group size, the global size rounded up to it (the kernels skip the surplus
   // items): PoCL compiles a work-group function per local size, so letting the driver pick one
@@ -316,8 +328,9 @@ struct OpenclBackend::Impl {
   void run(const char* name, cl::Kernel& k, std::size_t global, std::size_t local = 64) {
     cl::Event e;
     global = (global + local - 1) / local * local;
+    const auto t0 = trace::Clock::now();
     queue.enqueueNDRangeKernel(k, cl::NullRange, cl::NDRange(global), cl::NDRange(local), nullptr, &e);
-    record(name, e);
+    record(name, e, trace::kDispatch, t0, {{"work_items", global}, {"local_size", local}});
   }
 
   cl::Kernel& kernel(const std::string& name) {
@@ -337,8 +350,9 @@ struct OpenclBackend::Impl {
   void sync_to_host(const cl::Buffer& b, std::size_t bytes) {
     if (bytes == 0) return;
     cl::Event e;
+    const auto t0 = trace::Clock::now();
     void* p = queue.enqueueMapBuffer(b, CL_TRUE, CL_MAP_READ, 0, bytes, nullptr, &e);
-    record("map", e);
+    record("map", e, trace::kDownload, t0, {{"bytes", bytes}});
     queue.enqueueUnmapMemObject(b, p);
   }
 
@@ -348,7 +362,10 @@ struct OpenclBackend::Impl {
       throw ResourceError(
           fmt::format("opencl backend: a {:.0f} MiB buffer exceeds {}'s largest allocation ({:.0f} MiB)",
                       v.size() * sizeof(T) / 1048576.0, info.name, max_alloc() / 1048576.0));
-    // An empty vector still needs a valid buffer object.
+    // An empty vector still needs a valid buffer object; the copy is made by the buffer's creation.
+    trace::Span span("constant_buffer", trace::kUpload);
+    span.arg("backend", "opencl");
+    span.arg("bytes", v.size() * sizeof(T));
     return cl::Buffer(context, CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, std::max<std::size_t>(1, v.size()) * sizeof(T),
                       const_cast<T*>(v.empty() ? reinterpret_cast<const T*>(&scene_scale) : v.data()));
   }
@@ -675,8 +692,9 @@ void OpenclBackend::device_classify_cells(const HexComplex& complex, std::span<c
       }
       cl_ulong chunk_total = 0;
       cl::Event e;
+      const auto t0 = trace::Clock::now();
       m.queue.enqueueReadBuffer(sums, CL_TRUE, sizeof(cl_ulong) * blocks, sizeof(cl_ulong), &chunk_total, nullptr, &e);
-      m.record("read", e);
+      m.record("read", e, trace::kDownload, t0, {{"bytes", sizeof(cl_ulong)}});
       total = chunk_total;
       first += count;
     }

@@ -14,6 +14,7 @@
 
 #include "core/base/error.h"
 #include "core/base/parallel.h"
+#include "core/base/trace.h"
 #include "core/device/cell_words.h"
 #include "core/device/device_scene.h"
 #include "core/grid/refinement_error.h"
@@ -92,12 +93,15 @@ DeviceInfo device_info(const vk::PhysicalDevice& d) {
   return info;
 }
 
-// Adds the seconds f takes to `total`.
+// Adds the seconds f takes to `total`; with a trace on, f is also an event of the timeline
+// (core/base/trace.h): an upload or download through mapped memory, `bytes` long.
 template <class F>
-void timed(double& total, F&& f) {
+void timed(double& total, const char* category, const char* name, std::size_t bytes, F&& f) {
   const auto start = std::chrono::steady_clock::now();
   f();
-  total += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const auto end = std::chrono::steady_clock::now();
+  total += std::chrono::duration<double>(end - start).count();
+  if (trace::enabled()) trace::record(name, category, start, end, {{"backend", "vulkan"}, {"bytes", bytes}});
 }
 
 template <class T>
@@ -169,7 +173,7 @@ struct VulkanBackend::Impl {
                                       "device '{}' allows {} MiB (use --backend cpu)",
                                       what, bytes >> 20, info.name, limit >> 20));
     vk::Buffer b = device->make_buffer(std::max<std::size_t>(bytes, sizeof(T)));
-    timed(profile.upload, [&] {
+    timed(profile.upload, trace::kUpload, what, bytes, [&] {
       std::memcpy(b.data(), v.data(), v.size() * sizeof(T));
       std::fill(static_cast<T*>(b.data()) + v.size(), static_cast<T*>(b.data()) + padded, T{});
     });
@@ -385,15 +389,17 @@ struct VulkanBackend::Impl {
     const MortonBatch sorted(points);
     for (std::size_t begin = 0; begin < n; begin += chunk) {
       const std::size_t count = std::min(chunk, n - begin);
-      timed(profile.upload, [&] { sorted.gather(begin, count, mapped<float>(in)); });
+      timed(profile.upload, trace::kUpload, "points32", count * 3 * sizeof(float),
+            [&] { sorted.gather(begin, count, mapped<float>(in)); });
       struct {
         std::uint32_t n, per_item, loop_budget;
         float scale;
       } push{static_cast<std::uint32_t>(count), static_cast<std::uint32_t>(per_item), sdf_loop_budget, sc.scale};
       static_assert(sizeof(push) == 16);
-      run(surface_sdf32, {{&sc.nodes}, {&sc.node_slack}, {&sc.slot_corners}, {&sc.slot_slack}, {&in}, {&out}}, &push,
+      run("surface_sdf32", surface_sdf32,
+          {{&sc.nodes}, {&sc.node_slack}, {&sc.slot_corners}, {&sc.slot_slack}, {&in}, {&out}}, &push,
           (count + per_item - 1) / per_item, kGroup);
-      timed(profile.download, [&] {
+      timed(profile.download, trace::kDownload, "records32", count * kFp32RecordWords * sizeof(std::uint32_t), [&] {
         const std::span<std::uint32_t> chunk_records = std::span(records).first(count * kFp32RecordWords);
         std::memcpy(chunk_records.data(), out.data(), chunk_records.size_bytes());
         sc.host->values_from_records(points, sorted.order(), begin, chunk_records, values, fp32_stats);
@@ -401,13 +407,19 @@ struct VulkanBackend::Impl {
     }
   }
 
-  void run(const vk::Pipeline& p, std::initializer_list<vk::BufferRange> buffers, const void* push,
+  void run(const char* name, const vk::Pipeline& p, std::initializer_list<vk::BufferRange> buffers, const void* push,
            std::size_t invocations, std::uint32_t group) {
     const std::size_t groups = (invocations + group - 1) / group;
     const auto start = std::chrono::steady_clock::now();
     device->dispatch(p, std::span<const vk::BufferRange>(buffers.begin(), buffers.size()), push,
                      static_cast<std::uint32_t>(groups));
-    profile.device += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const auto end = std::chrono::steady_clock::now();
+    profile.device += std::chrono::duration<double>(end - start).count();
+    // Host time around the submit and its wait (vk::Device::dispatch): one dispatch per submit.
+    if (trace::enabled())
+      trace::record(
+          name, trace::kDispatch, start, end,
+          {{"backend", "vulkan"}, {"work_items", invocations}, {"workgroups", groups}, {"local_size", group}});
     ++dispatches;
   }
 };
@@ -456,13 +468,14 @@ void VulkanBackend::device_surface_sdf(const TriangleSurface& surface, const Mor
   for (std::size_t begin = 0; begin < n; begin += chunk) {
     const std::size_t count = std::min(chunk, n - begin);
     static_assert(sizeof(Vec3) == 3 * sizeof(double));
-    timed(m.profile.upload, [&] { points.gather(begin, count, mapped<double>(in)); });
+    timed(m.profile.upload, trace::kUpload, "points", count * sizeof(Vec3),
+          [&] { points.gather(begin, count, mapped<double>(in)); });
     struct {
       std::uint32_t n, per_item, loop_budget, pad;
       double scale;
     } push{static_cast<std::uint32_t>(count), static_cast<std::uint32_t>(per_item), m.sdf_loop_budget, 0, scene.scale};
     const bool texel = m.surface_sdf_texel.pipeline != VK_NULL_HANDLE && scene.texel_fits;
-    m.run(texel ? m.surface_sdf_texel : m.surface_sdf,
+    m.run(texel ? "surface_sdf_texel" : "surface_sdf", texel ? m.surface_sdf_texel : m.surface_sdf,
           {{&scene.wide_boxes},
            {&scene.wide_links},
            {&scene.leaf_bounds},
@@ -476,7 +489,8 @@ void VulkanBackend::device_surface_sdf(const TriangleSurface& surface, const Mor
            {&in},
            {&out}},
           &push, (count + per_item - 1) / per_item, kGroup);
-    timed(m.profile.download, [&] { points.scatter(begin, std::span(mapped<const double>(out), count), values); });
+    timed(m.profile.download, trace::kDownload, "values", count * sizeof(double),
+          [&] { points.scatter(begin, std::span(mapped<const double>(out), count), values); });
   }
   if (m.sdf_loop_budget != 0) {
     // Points whose search ran out of the loop budget came back NaN (shaders/surface_sdf.glsl); a
@@ -498,10 +512,12 @@ void VulkanBackend::device_shape_sdf(ShapeKind shape, std::span<const Vec3> poin
   vk::Buffer out = m.device->make_buffer(chunk * sizeof(double));
   for (std::size_t begin = 0; begin < n; begin += chunk) {
     const std::size_t count = std::min(chunk, n - begin);
-    timed(m.profile.upload, [&] { std::memcpy(in.data(), points.data() + begin, count * sizeof(Vec3)); });
+    timed(m.profile.upload, trace::kUpload, "points", count * sizeof(Vec3),
+          [&] { std::memcpy(in.data(), points.data() + begin, count * sizeof(Vec3)); });
     const std::int32_t push[2] = {static_cast<std::int32_t>(count), static_cast<std::int32_t>(shape)};
-    m.run(m.shape_sdf, {{&in}, {&out}}, push, count, kGroup);
-    timed(m.profile.download, [&] { std::memcpy(values.data() + begin, out.data(), count * sizeof(double)); });
+    m.run("shape_sdf", m.shape_sdf, {{&in}, {&out}}, push, count, kGroup);
+    timed(m.profile.download, trace::kDownload, "values", count * sizeof(double),
+          [&] { std::memcpy(values.data() + begin, out.data(), count * sizeof(double)); });
   }
   if (chunk == n) {
     m.resident.emplace(std::move(out));
@@ -520,13 +536,14 @@ void VulkanBackend::device_refinement_error(std::span<const std::array<double, k
   vk::Buffer out = m.device->make_buffer(chunk * sizeof(double));
   for (std::size_t begin = 0; begin < n; begin += chunk) {
     const std::size_t count = std::min(chunk, n - begin);
-    timed(m.profile.upload, [&] {
+    timed(m.profile.upload, trace::kUpload, "lattices", count * (sizeof(lattice[0]) + sizeof(double)), [&] {
       std::memcpy(in.data(), lattice.data() + begin, count * sizeof(lattice[0]));
       std::memcpy(size.data(), sizes.data() + begin, count * sizeof(double));
     });
     const std::uint32_t push = static_cast<std::uint32_t>(count);
-    m.run(m.refinement, {{&in}, {&size}, {&out}}, &push, count, kGroup);
-    timed(m.profile.download, [&] { std::memcpy(errors.data() + begin, out.data(), count * sizeof(double)); });
+    m.run("refinement_error", m.refinement, {{&in}, {&size}, {&out}}, &push, count, kGroup);
+    timed(m.profile.download, trace::kDownload, "errors", count * sizeof(double),
+          [&] { std::memcpy(errors.data() + begin, out.data(), count * sizeof(double)); });
   }
 }
 
@@ -557,7 +574,8 @@ void VulkanBackend::device_classify_cells(const HexComplex& complex, std::span<c
   } else {
     value_buf = m.device->make_buffer((gathered ? 8 * chunk : values.size()) * sizeof(double));
     if (!gathered)
-      timed(m.profile.upload, [&] { std::memcpy(value_buf.data(), values.data(), values.size() * sizeof(double)); });
+      timed(m.profile.upload, trace::kUpload, "values", values.size() * sizeof(double),
+            [&] { std::memcpy(value_buf.data(), values.data(), values.size() * sizeof(double)); });
   }
   vk::Buffer cell_buf = m.device->make_buffer(uniform || gathered ? 4 : chunk * sizeof(CellCorners));
   vk::Buffer code_buf = m.device->make_buffer(want_words ? chunk * 2 * sizeof(std::uint32_t) : 4);
@@ -573,7 +591,8 @@ void VulkanBackend::device_classify_cells(const HexComplex& complex, std::span<c
   std::uint64_t carry = 0;
   for (std::size_t begin = 0; begin < cells; begin += chunk) {
     const std::size_t count = std::min(chunk, cells - begin);
-    timed(m.profile.upload, [&] {
+    const std::size_t cell_bytes = gathered ? 8 * count * sizeof(double) : uniform ? 0 : count * sizeof(CellCorners);
+    timed(m.profile.upload, trace::kUpload, "cells", (count + 3) / 4 * sizeof(std::uint32_t) + cell_bytes, [&] {
       std::memset(subcase_buf.data(), 0, (count + 3) / 4 * sizeof(std::uint32_t));
       if (gathered) {
         double* v = mapped<double>(value_buf);
@@ -589,7 +608,7 @@ void VulkanBackend::device_classify_cells(const HexComplex& complex, std::span<c
     } push{static_cast<std::uint32_t>(count), static_cast<std::uint32_t>(begin),
            gathered ? 0u : options.uniform_cells_per_axis, (gathered ? 1u : 0u) | (want_words ? 2u : 0u),
            options.zero_tolerance};
-    m.run(want_crossings ? m.classify_crossings : m.classify,
+    m.run(want_crossings ? "classify_crossings" : "classify", want_crossings ? m.classify_crossings : m.classify,
           {{values_bound},
            {&cell_buf},
            {&m.configs},
@@ -603,15 +622,18 @@ void VulkanBackend::device_classify_cells(const HexComplex& complex, std::span<c
     // Exclusive prefix sum of the counts (shaders/scan_*.comp), continuing from the chunks before.
     const std::uint32_t n32 = static_cast<std::uint32_t>(count);
     const std::size_t chunk_blocks = (count + kScanBlock - 1) / kScanBlock;
-    m.run(m.scan_blocks, {{&count_buf}, {&offset_buf}, {&total_buf}}, &n32, chunk_blocks * kScanGroup, kScanGroup);
+    m.run("scan_blocks", m.scan_blocks, {{&count_buf}, {&offset_buf}, {&total_buf}}, &n32, chunk_blocks * kScanGroup,
+          kScanGroup);
     struct {
       std::uint32_t blocks, pad;
       std::uint64_t carry;
     } totals_push{static_cast<std::uint32_t>(chunk_blocks), 0, carry};
-    m.run(m.scan_totals, {{&total_buf}}, &totals_push, kScanGroup, kScanGroup);
-    m.run(m.scan_add, {{&offset_buf}, {&total_buf}}, &n32, count, kScanGroup);
+    m.run("scan_totals", m.scan_totals, {{&total_buf}}, &totals_push, kScanGroup, kScanGroup);
+    m.run("scan_add", m.scan_add, {{&offset_buf}, {&total_buf}}, &n32, count, kScanGroup);
 
-    timed(m.profile.download, [&] {
+    const std::size_t out_bytes = count + (want_words ? 2 * count * sizeof(std::uint32_t) : 0) +
+                                  (want_crossings ? 12 * count * sizeof(double) : 0) + count * sizeof(std::uint64_t);
+    timed(m.profile.download, trace::kDownload, "subcases", out_bytes, [&] {
       std::memcpy(out.subcases.data() + begin, subcase_buf.data(), count);
       if (want_words) std::memcpy(out.words.data() + 2 * begin, code_buf.data(), 2 * count * sizeof(std::uint32_t));
       if (want_crossings)

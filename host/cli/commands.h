@@ -13,6 +13,7 @@ namespace mchex::cli {
 // core/pipeline/pipeline.h run_pipeline.
 struct MeshCommand {
   std::string input, shape, inside = "inside.mesh", outside, report, backend = "auto";
+  std::string trace;  // --trace: the Chrome trace-event timeline (core/base/trace.h)
   MeshOptions options;
   MeshWriteOptions write;  // --binary
 };

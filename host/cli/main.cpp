@@ -157,6 +157,9 @@ int main(int argc, char** argv) {
   mesh->add_flag("--no-repair{false}", mo.options.input.repair,
                  "mesh the surface as read: no orientation repair (duplicates, flipped faces, inside-out shells)");
   mesh->add_option("--report", mo.report, "write a JSON report to this file");
+  mesh->add_option("--trace", mo.trace,
+                   "write the stages and every kernel dispatch, upload and download as a Chrome trace-event JSON "
+                   "file (Perfetto, chrome://tracing)");
   bool no_fidelity = false;
   auto* fidelity = mesh->add_flag("--fidelity", mo.options.fidelity,
                                   "measure IoU and Hausdorff ratio against the input (the default)");

@@ -3,11 +3,13 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 #include <stdexcept>
 
 #include <fmt/format.h>
 
 #include "core/base/error.h"
+#include "core/base/trace.h"
 #include "core/io/atomic_file.h"
 #include "core/io/mesh_io.h"
 #include "core/pipeline/report.h"
@@ -80,10 +82,18 @@ int run_mesh(const MeshCommand& o, bool quiet) {
   const fs::path inside_path = o.inside;
   const fs::path outside_path = o.outside.empty() ? default_outside(inside_path) : fs::path(o.outside);
   // Reject bad output names before any work.
-  for (const fs::path& out : {inside_path, outside_path}) {
-    mesh_format(out);
+  auto check_folder = [](const fs::path& out) {
     if (!out.parent_path().empty() && !fs::is_directory(out.parent_path()))
       throw InputError(out.string() + ": the folder " + out.parent_path().string() + " does not exist");
+  };
+  for (const fs::path& out : {inside_path, outside_path}) {
+    mesh_format(out);
+    check_folder(out);
+  }
+  if (!o.trace.empty()) {
+    check_folder(o.trace);
+    if (fs::is_directory(o.trace)) throw InputError(o.trace + ": is a folder, not a file name (--trace)");
+    trace::start();
   }
   if (fs::weakly_canonical(inside_path) == fs::weakly_canonical(outside_path))
     throw InputError("the inside and outside meshes need different file names");
@@ -94,11 +104,20 @@ int run_mesh(const MeshCommand& o, bool quiet) {
   request.options = o.options;
   request.options.quiet = quiet;
   request.open_backend = [&] { return make_backend(o.backend); };
+  // The span every other event of the trace lies in: the run and the meshes' writing.
+  std::optional<trace::Span> whole;
+  if (!o.trace.empty()) whole.emplace("mesh", "run");
   MeshRun run = run_pipeline(request);
   // A mesh that fails its own check is never written: the report (if asked for) says why.
   if (run.check.ok) write_meshes(run, inside_path, outside_path, o.write);
+  whole.reset();
   const MeshOutputs outputs{inside_path.string(), outside_path.string()};
-  if (!o.report.empty()) write_json(o.report, report_json(run, &outputs));
+  const nlohmann::json report = report_json(run, &outputs);
+  if (!o.trace.empty()) {
+    trace::stop();
+    write_json(o.trace, trace::to_json({{"backend", report["backend"]}, {"times", report["times"]}}));
+  }
+  if (!o.report.empty()) write_json(o.report, report);
   if (!quiet) print_summary(run, outputs);
   // A valid mesh of nothing is easy to miss in a summary: the solid had no grid point inside it.
   if (!quiet && run.meshes.inside.hexes.empty()) {
