@@ -1,4 +1,4 @@
-"""The C++ of core/, host/, tests/ and perf/ stays as .clang-format lays it out (clang-format 14,
+"""The C++ of core/, host/, tests/, perf/ and examples/ stays as .clang-format lays it out (clang-format 14,
 Debian's clang-format package): a file that drifts fails here with its name, so the one
 formatting commit stays the only one. kernels/ and shaders/ are OpenCL C and GLSL, not formatted."""
 import pathlib
@@ -11,7 +11,7 @@ CLANG_FORMAT = shutil.which("clang-format-14") or shutil.which("clang-format")
 
 
 def cpp_files():
-    for top in ("core", "host", "tests", "perf"):
+    for top in ("core", "host", "tests", "perf", "examples"):
         for path in sorted((ROOT / top).rglob("*")):
             if path.suffix in (".h", ".cpp") and "data" not in path.relative_to(ROOT).parts:
                 yield path

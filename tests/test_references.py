@@ -1,10 +1,10 @@
 """References stay inside the repository. No file under core/, host/, kernels/, shaders/, tests/,
-perf/ or docs/, and no top-level README, CMakeLists.txt or setup.sh, may name a file that lives
-outside it: the project's design and style pages, the notes/*.md digests or the papers/*.txt
-texts of the shared folder, an absolute /work path, or a relative path that climbs above the
-repository root. Facts the code relies on belong in docs/ (docs/README.md), and papers are cited
-by name and section. Every docs/ page that a file names, and every Markdown link to a .md file,
-must exist.
+perf/, docs/, examples/ or cmake/, and no top-level README, CMakeLists.txt or setup.sh, may name
+a file that lives outside it: the project's design and style pages, the notes/*.md digests or the
+papers/*.txt texts of the shared folder, an absolute /work path, or a relative path that climbs
+above the repository root. Facts the code relies on belong in docs/ (docs/README.md), and papers
+are cited by name and section. Every docs/ page that a file names, and every Markdown link to a
+.md file, must exist.
 
 Checked on the real tree, and on copies of it with one deliberate bad reference of each kind,
 which the check must refuse (as tests/test_layers.py does for the include direction)."""
@@ -18,7 +18,7 @@ import unittest
 HERE = pathlib.Path(__file__).resolve().parent
 ROOT = HERE.parent
 
-SCANNED_FOLDERS = ("core", "host", "kernels", "shaders", "tests", "perf", "docs")
+SCANNED_FOLDERS = ("core", "host", "kernels", "shaders", "tests", "perf", "docs", "examples", "cmake")
 TOP_FILES = ("README.md", "CMakeLists.txt", "setup.sh")
 SKIPPED = ("tests/data",)  # test models and installed packages, not the project's prose
 MAX_BYTES = 1 << 20
