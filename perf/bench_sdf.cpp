@@ -3,7 +3,10 @@
 // (every point against every triangle) on a small model; next to it the generalized winding
 // number's query rate on the same points (core/sdf/winding_number.h: the sign of
 // SignRule::kWindingNumber). Prints a table and one JSON line.
-//   bench_sdf [--grid N] [--segments S] [--model FILE]   (default model: the tessellated torus)
+//   bench_sdf [--grid N] [--segments S] [--model FILE] [--brute-model]
+// (default model: the tessellated torus). --brute-model: the brute-force contrast runs on the
+// model itself and its --grid points (keep both small: the loop costs triangles x points) instead
+// of a 4,608-triangle torus at 28^3 points; perf/study.py uses it for its time-against-triangles plot.
 #include <cstdio>
 #include <cstring>
 #include <string>
@@ -40,10 +43,13 @@ std::vector<Vec3> grid_points(const Box& bounds, int n) {
 int main(int argc, char** argv) {
   int grid = 82, segments = 256;
   std::string model;
-  for (int i = 1; i + 1 < argc; i += 2) {
-    if (!std::strcmp(argv[i], "--model")) model = argv[i + 1];
-    if (!std::strcmp(argv[i], "--grid")) grid = std::stoi(argv[i + 1]);
-    if (!std::strcmp(argv[i], "--segments")) segments = std::stoi(argv[i + 1]);
+  bool brute_on_model = false;
+  for (int i = 1; i < argc; ++i) {
+    const bool has_value = i + 1 < argc;
+    if (!std::strcmp(argv[i], "--brute-model")) brute_on_model = true;
+    else if (has_value && !std::strcmp(argv[i], "--model")) model = argv[++i];
+    else if (has_value && !std::strcmp(argv[i], "--grid")) grid = std::stoi(argv[++i]);
+    else if (has_value && !std::strcmp(argv[i], "--segments")) segments = std::stoi(argv[++i]);
   }
   const int cores = hardware_threads();
 
@@ -88,9 +94,9 @@ int main(int argc, char** argv) {
   }
 
   // Brute force against the BVH on a model small enough for the loop to finish.
-  const TriangleSurface small = tessellate(ShapeKind::kTorus, 48);
+  const TriangleSurface small = brute_on_model ? big : tessellate(ShapeKind::kTorus, 48);
   const SurfaceSdf small_sdf(small);
-  const auto small_pts = grid_points(small_sdf.bounds(), 28);
+  const auto small_pts = brute_on_model ? pts : grid_points(small_sdf.bounds(), 28);
   std::vector<double> a(small_pts.size()), b(small_pts.size());
   double tb = 0, tv = 0;
   {
@@ -120,9 +126,10 @@ int main(int argc, char** argv) {
   std::printf("{\"bench\":\"sdf\",\"model\":\"%s\",\"triangles\":%zu,\"points\":%zu,\"queries_per_s_per_core\":%.0f,"
               "\"queries_per_s_all_cores\":%.0f,\"cores\":%d,\"brute_force_ratio\":%.2f,\"brute_triangles\":%zu,"
               "\"build_s\":%.4f,\"winding_queries_per_s_per_core\":%.0f,\"winding_queries_per_s_all_cores\":%.0f,"
-              "\"winding_build_s\":%.4f,\"winding_signed_queries_per_s_per_core\":%.0f}\n",
+              "\"winding_build_s\":%.4f,\"winding_signed_queries_per_s_per_core\":%.0f,\"brute_points\":%zu,"
+              "\"brute_force_s\":%.4f,\"brute_bvh_s\":%.5f}\n",
               model.empty() ? "torus" : model.c_str(), big.triangles.size(), pts.size(), per_core, pts.size() / tn,
               cores, tb / tv, small.triangles.size(), tbuild, pts.size() / tw1, pts.size() / twn, twbuild,
-              pts.size() / ts1);
+              pts.size() / ts1, small_pts.size(), tb, tv);
   return 0;
 }

@@ -122,14 +122,14 @@ def git_label():
         return "unknown"
 
 
-def mesh_once(exe, model_file, setting_args, o, tmp):
+def mesh_once(exe, model_file, setting_args, o, tmp, backend="cpu", fidelity=True):
     """One `mesh` run: (status, report or None, wall s, max RSS MB)."""
     report = os.path.join(tmp, "report.json")
     for f in ("report.json", "in.mesh", "out.mesh"):
         if os.path.exists(os.path.join(tmp, f)):
             os.remove(os.path.join(tmp, f))
-    cmd = [exe, "mesh", model_file, *setting_args, "--backend", "cpu", "--fidelity", "--lattice", str(o.lattice),
-           "--max-memory", o.max_memory, "--report", report, "-o", os.path.join(tmp, "in.mesh"), "--outside",
+    measure = ["--fidelity", "--lattice", str(o.lattice)] if fidelity else ["--no-fidelity"]
+    cmd = [exe, "mesh", model_file, *setting_args, "--backend", backend, *measure, "--max-memory", o.max_memory, "--report", report, "-o", os.path.join(tmp, "in.mesh"), "--outside",
            os.path.join(tmp, "out.mesh"), "--quiet"]
     if o.threads:
         cmd += ["--threads", str(o.threads)]
