@@ -563,14 +563,12 @@ Octree refine_octree(const SignedDistance& sdf, const Box& cube, const AdaptiveO
     });
     id = {};
     if (!live.empty()) {
-      // AdaptiveOptions::surface_tolerance, at the samples still in refined cells.
-      std::vector<std::array<double, 8>> cell_corners(num_candidates);
-      parallel_for(num_candidates, [&](std::size_t cand) {
-        if (!(active_mask[cand / (n * n * n)] >> (cand % (n * n * n)) & 1)) return;
+      // AdaptiveOptions::surface_tolerance, at the samples still in refined cells. corners[cand]
+      // holds every candidate's corner values but the root's, which only its lattice has.
+      if (root)
         for (int c = 0; c < 8; ++c)
-          cell_corners[cand][c] = lattice[cand][child_lattice_index(3 * (c & 1), 3 * (c >> 1 & 1), 3 * (c >> 2))];
-      });
-      refine_at_surface_samples(cube, level, h, parents, active_mask, cell_corners, options, live, refine);
+          corners[0][c] = lattice[0][child_lattice_index(3 * (c & 1), 3 * (c >> 1 & 1), 3 * (c >> 2))];
+      refine_at_surface_samples(cube, level, h, parents, active_mask, corners, options, live, refine);
     }
     std::vector<std::uint64_t> next;
     std::vector<std::array<double, 8>> next_corners;
@@ -933,9 +931,21 @@ AdaptiveGrid build_adaptive_complex(const Octree& tree) {
   return out;
 }
 
+namespace {
+
+// The key of the level-`level` cell that holds x: a point on a cell boundary goes to the cell
+// above it (by floor), and the cube's far faces to the last cell.
+std::uint64_t key_at(const Box& cube, int level, const Vec3& x) {
+  const double edge = cube.hi.x - cube.lo.x, n = pow3(level);
+  auto index = [&](int a) {
+    return static_cast<std::uint64_t>(std::clamp(std::floor((x[a] - cube.lo[a]) / edge * n), 0.0, n - 1));
+  };
+  return octree_key(index(0), index(1), index(2));
+}
+
+}  // namespace
+
 std::size_t refine_leaves_of_cells(Octree& tree, const AdaptiveGrid& grid, std::span<const std::uint32_t> cells) {
-  const Box& cube = tree.cube();
-  const double edge = cube.hi.x - cube.lo.x;
   std::size_t refined = 0;
   for (std::uint32_t c : cells) {
     // The cell's vertex average lies inside its leaf (the template's hexes tile the leaf); the
@@ -943,12 +953,7 @@ std::size_t refine_leaves_of_cells(Octree& tree, const AdaptiveGrid& grid, std::
     Vec3 centre{0, 0, 0};
     for (std::uint32_t p : grid.complex.cells.at(c)) centre = centre + grid.complex.points[p] / 8.0;
     for (int level = grid.cell_level[c]; level >= std::max(0, grid.cell_level[c] - 1); --level) {
-      const double n = pow3(level);
-      auto index = [&](double x, double lo) {
-        return static_cast<std::uint64_t>(std::clamp(std::floor((x - lo) / edge * n), 0.0, n - 1));
-      };
-      const std::uint64_t key =
-          octree_key(index(centre.x, cube.lo.x), index(centre.y, cube.lo.y), index(centre.z, cube.lo.z));
+      const std::uint64_t key = key_at(tree.cube(), level, centre);
       if (!tree.exists(level, key) || tree.is_refined(level, key)) continue;
       if (level < tree.max_depth() && tree.refine(level, key)) ++refined;
       break;
@@ -960,7 +965,6 @@ std::size_t refine_leaves_of_cells(Octree& tree, const AdaptiveGrid& grid, std::
 
 std::size_t refine_leaves_at_points(Octree& tree, std::span<const Vec3> points, std::size_t min_points) {
   const Box& cube = tree.cube();
-  const double edge = cube.hi.x - cube.lo.x;
   // The leaves first (level, key), then refined in sorted order: the same tree however the points
   // are ordered or repeated.
   std::vector<std::uint64_t> leaves(points.size(), ~std::uint64_t{0});
@@ -969,11 +973,7 @@ std::size_t refine_leaves_at_points(Octree& tree, std::span<const Vec3> points, 
     for (int a = 0; a < 3; ++a)
       if (!(p[a] >= cube.lo[a] && p[a] <= cube.hi[a])) return;
     for (int level = 0; level <= tree.max_depth(); ++level) {
-      const double n = pow3(level);
-      auto index = [&](double x, double lo) {
-        return static_cast<std::uint64_t>(std::clamp(std::floor((x - lo) / edge * n), 0.0, n - 1));
-      };
-      const std::uint64_t key = octree_key(index(p.x, cube.lo.x), index(p.y, cube.lo.y), index(p.z, cube.lo.z));
+      const std::uint64_t key = key_at(cube, level, p);
       if (tree.is_refined(level, key)) continue;
       // Cell indices are below 3^9 < 2^15, so a key is below 2^57 and the level fits above it.
       if (level < tree.max_depth()) leaves[i] = (std::uint64_t(level) << 60) | key;
