@@ -55,9 +55,16 @@ inline constexpr int kFitExtraLevels = 2;
 inline constexpr int kFitRounds = 3;
 // A leaf is refined for the IoU when this many lattice samples in it disagree with the solid.
 inline constexpr std::size_t kFitMisclassifiedPerLeaf = 2;
-// ... while the measured IoU is below this (the MCHex prototype's defaults reach 0.996 to 0.9997 on
-// the models of perf/CURVES.md).
+// ... while the measured IoU is below this at the default H (the MCHex prototype's defaults reach
+// 0.996 to 0.9997 on the models of perf/CURVES.md).
 inline constexpr double kFitIou = 0.998;
+// The IoU the rounds aim at for a target H: the shortfall 1 - IoU scales with H (both are a
+// boundary error in units of the model's size), so a looser H asks a looser IoU. A fixed IoU made
+// a looser H cost more hexes than a tighter one (perf/README.md: the gearwheel at H 0.02 had 2.4 M
+// hexes where H 0.01 had 1.4 M), as coarse base grids were refined leaf by leaf to 0.998.
+inline constexpr double fit_iou(double hausdorff_ratio) {
+  return 1 - (1 - kFitIou) * hausdorff_ratio / kDefaultHausdorffRatio;
+}
 
 // The adaptive settings for target Hausdorff ratio `hausdorff_ratio` (> 0) of a solid with these
 // bounds meshed over `cube`: error depth the smallest D (at most kMaxAdaptiveDepth) with

@@ -256,7 +256,8 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
     // A round that lowered neither the HR nor the IoU's shortfall would repeat itself.
     const bool stalled = !run.fit_rounds.empty() && !(fid.hausdorff_ratio < run.fit_rounds.back().hausdorff_ratio) &&
                          !(fid.iou > run.fit_rounds.back().iou);
-    if ((fid.far_points.empty() && !(fid.iou < kFitIou)) || stalled || round == kFitRounds) break;
+    const double iou_target = fit_iou(o.hausdorff);
+    if ((fid.far_points.empty() && !(fid.iou < iou_target)) || stalled || round == kFitRounds) break;
     FitRound& r = run.fit_rounds.emplace_back();
     r.hausdorff_ratio = run.fidelity->hausdorff_ratio;
     r.iou = run.fidelity->iou;
@@ -264,7 +265,7 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
     r.hexes = run.meshes.inside.hexes.size() + run.meshes.outside.hexes.size();
     r.refined_leaves = run.clock.run("fit-rounds", [&] {
       std::size_t n = refine_leaves_at_points(*tree, run.fidelity->far_points);
-      if (fid.iou < kFitIou)
+      if (fid.iou < iou_target)
         n += refine_leaves_at_points(*tree, run.fidelity->misclassified_points, kFitMisclassifiedPerLeaf);
       if (n) run.adaptive = build_adaptive_complex(*tree);
       return n;
