@@ -299,6 +299,18 @@ def hexes_of(r, axis):
     return int(r["inside_hexes"]) + (int(r["outside_hexes"]) if axis == "all" else 0)
 
 
+def legend_once(fig, axes, used):
+    """Blanks the panels after the first `used` and draws one legend for the figure, each label
+    once (panels share their series)."""
+    for ax in list(axes.flat)[used:]:
+        ax.axis("off")
+    handles = {}
+    for ax in axes.flat:
+        for h, lab in zip(*ax.get_legend_handles_labels()):
+            handles.setdefault(lab, h)
+    fig.legend(handles.values(), handles.keys(), loc="lower right", fontsize=8)
+
+
 def fidelity_figure(plt, names, curves, styles, proto, metric, axis, path):
     """One panel per model: hexes (inside, or inside + outside) against 1 - IoU or HR, a curve per
     series, the prototype's point as a black star."""
@@ -338,13 +350,7 @@ def fidelity_figure(plt, names, curves, styles, proto, metric, axis, path):
         ax.set_xlabel("inside hexes" if axis == "inside" else "all output hexes (inside + outside)", fontsize=8)
         ax.set_ylabel("1 - IoU (lower is better)" if metric == "iou" else "HR (lower is better)", fontsize=8)
         ax.grid(True, which="both", alpha=0.3)
-    for ax in list(axes.flat)[len(names):]:
-        ax.axis("off")
-    handles = {}
-    for ax in axes.flat:
-        for h, lab in zip(*ax.get_legend_handles_labels()):
-            handles.setdefault(lab, h)
-    fig.legend(handles.values(), handles.keys(), loc="lower right", fontsize=8)
+    legend_once(fig, axes, len(names))
     what = "1 - IoU" if metric == "iou" else "HR (Hausdorff / input bounding-box diagonal)"
     note = f"; 1 - IoU under {IOU_FLOOR:g} drawn at {IOU_FLOOR:g}" if metric == "iou" else ""
     fig.suptitle(f"{'inside' if axis == 'inside' else 'all output'} hexes against {what} "

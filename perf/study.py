@@ -163,13 +163,7 @@ def fidelity_figure(plt, names, rows, proto, metric, xaxis, path):
                       fontsize=8)
         ax.set_ylabel("1 - IoU" if metric == "iou" else "HR", fontsize=8)
         ax.grid(True, which="both", alpha=0.3)
-    for ax in list(axes.flat)[len(names):]:
-        ax.axis("off")
-    handles = {}
-    for ax in axes.flat:
-        for h, lab in zip(*ax.get_legend_handles_labels()):
-            handles.setdefault(lab, h)
-    fig.legend(handles.values(), handles.keys(), loc="lower right", fontsize=8)
+    curves.legend_once(fig, axes, len(names))
     fig.suptitle(f"MCHex against RO: {'1 - IoU' if metric == 'iou' else 'HR'} against "
                  f"{'output hexes' if xaxis == 'hexes' else 'time'} (lower is better)", fontsize=11)
     fig.tight_layout()
