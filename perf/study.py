@@ -91,7 +91,7 @@ def write_rows(path, rows, columns, header):
 
 
 def header_lines(o, what):
-    return [f"perf/study.py {what}: mchex-gpu at {curves.git_label()}, "
+    return [f"perf/study.py {what}: mchex-gpu at {o.label}, "
             f"{datetime.datetime.utcnow():%Y-%m-%d %H:%M} UTC, {platform.node() or 'host'} ({os.cpu_count()} cores)"
             + (", --quick" if o.quick else "")]
 
@@ -225,8 +225,9 @@ def quality_plots(o, plt, rows):
     fig, axes = plt.subplots(nrows, cols, figsize=(5.5 * cols, 3.6 * nrows), squeeze=False)
     centres = list(range(len(SJ_EDGES) - 1))
     for ax, name in zip(axes.flat, names):
-        for k, (label, color) in enumerate((("default", "C0"), ("--optimize", "C2"))):
-            h = hists.get((name, label))
+        series = (("default", "C0", "as meshed"), ("--optimize", "C2", "after the optimiser (mesh --optimize)"))
+        for k, (key, color, label) in enumerate(series):
+            h = hists.get((name, key))
             if h:
                 n = max(1, sum(h))
                 ax.bar([c + (k - 0.5) * 0.4 for c in centres], [v / n for v in h], width=0.4, color=color, label=label)
@@ -416,11 +417,13 @@ def write_page(o, parts, figures, meta):
     if "fidelity" in parts:
         rows, path = parts["fidelity"], os.path.join(o.out, "fidelity.csv")
         lines += ["## MCHex against RO", "",
-                  "The paper's comparison (Section 7): on the same grid, RO keeps the cells whose corner values "
-                  "sum above zero and MCHex cuts every cell the surface crosses. Uniform grids (`--depth D`) and the "
-                  "fitted adaptive grid (`--hausdorff H`, the default grid), `--backend cpu`; the star is the MCHex "
-                  "prototype at its defaults (perf/curves/prototype.csv, measured by another checker). Command per "
-                  "point: `mchex-gpu mesh MODEL SETTING --method M --backend cpu --fidelity --lattice "
+                  "The paper's comparison (Section 7): RO keeps the cells whose corner values sum above zero, "
+                  "MCHex cuts every cell the surface crosses. Uniform grids (`--depth D`): both methods mesh the "
+                  "same cells. The fitted adaptive grid (`--hausdorff H`, the default grid): each method gets its "
+                  "own, as a user would, since the measured rounds refine where that method's mesh is far from "
+                  "the input (docs/pipeline.md). `--backend cpu`. The star is the MCHex prototype at its defaults "
+                  "(perf/curves/prototype.csv, measured by another checker). Command per point: `mchex-gpu mesh "
+                  "MODEL SETTING --method M --backend cpu --fidelity --lattice "
                   f"{o.lattice}`.", ""]
         lines += [f"![{os.path.basename(f)}]({rel(f)})" for f in figures["fidelity"]] + [""]
         shown = [dict(r, hexes=(f"{int(r['inside_hexes']):,} + {int(r['outside_hexes']):,}"
@@ -518,6 +521,7 @@ def main():
         listed = subprocess.run([exe, "devices"], capture_output=True, text=True).stdout.split()
         backends = [b for b in o.backends.split(",") if b == "cpu" or b in listed]
         os.makedirs(o.out, exist_ok=True)
+        o.label = curves.git_label()  # as the study starts: the tree the binary was built from
         start = time.monotonic()
         with tempfile.TemporaryDirectory(prefix="study_") as tmp:
             run = Runner(o, tmp)
@@ -527,7 +531,7 @@ def main():
                 parts["quality"] = quality_part(o, run)
             if "scaling" in wanted:
                 parts["scaling"] = scaling_part(o, run, backends)
-        meta = {"command": "bash perf/run_study.sh" + (" --quick" if o.quick else ""), "label": curves.git_label(),
+        meta = {"command": "bash perf/run_study.sh" + (" --quick" if o.quick else ""), "label": o.label,
                 "date": f"{datetime.datetime.utcnow():%Y-%m-%d %H:%M} UTC", "cores": os.cpu_count(),
                 "minutes": (time.monotonic() - start) / 60, "quick": o.quick}
         with open(meta_path, "w") as f:
