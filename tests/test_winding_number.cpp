@@ -387,12 +387,14 @@ TEST(WindingNumber, HolesChangeWOnlyByWhatTheySubtend) {
 }
 
 // Points away from the spheres' surfaces by more than the tessellation's sag, with their number
-// of enclosing balls.
-void expect_shells(const TriangleSurface& s, const std::vector<std::pair<Vec3, double>>& balls, double cavity_sign) {
-  const WindingNumber wn(s);
+// of enclosing balls. Under the parity decision (the multi-region reduction, core/pipeline/regions.h)
+// a point is inside where that number is odd, whichever way the shells face.
+void expect_shells(const TriangleSurface& s, const std::vector<std::pair<Vec3, double>>& balls, double cavity_sign,
+                   WindingNumber::Decision decision = WindingNumber::Decision::kHalf) {
+  const WindingNumber wn(s, decision);
   std::mt19937_64 rng(10);
   std::uniform_real_distribution<double> u(-1.6, 1.6);
-  int counted[3] = {0, 0, 0};
+  int counted[4] = {0, 0, 0, 0};
   for (int k = 0; k < 3000; ++k) {
     const Vec3 p{u(rng), u(rng), u(rng)};
     double w = 0;
@@ -405,10 +407,14 @@ void expect_shells(const TriangleSurface& s, const std::vector<std::pair<Vec3, d
     if (near) continue;
     ++counted[int(std::abs(w))];
     ASSERT_NEAR(winding_number_exact(s, p), w, 1e-9);
-    ASSERT_EQ(wn.inside(p), w > 0.5);
+    const bool odd = std::llabs(std::llround(w)) % 2 == 1;
+    ASSERT_EQ(wn.inside(p), decision == WindingNumber::Decision::kHalf ? w > 0.5 : odd);
   }
   EXPECT_GT(counted[1], 100);
   EXPECT_GT(counted[0] + counted[2], 100);
+  if (balls.size() > 2) {
+    EXPECT_GT(counted[3], 30);
+  }
 }
 
 TEST(WindingNumber, OverlappingShellsCountTwiceInTheirIntersection) {
@@ -419,6 +425,14 @@ TEST(WindingNumber, NestedShellOfTheSameOrientationCountsTwice) {
 }
 TEST(WindingNumber, InwardNestedShellIsACavity) {
   expect_shells(join(sphere({}, 1.2), sphere({}, 0.6, true)), {{{}, 1.2}, {{}, 0.6}}, -1);
+}
+TEST(WindingNumber, ParityIsOddInTheShellsOfOverlapsAndNests) {
+  constexpr auto kParity = WindingNumber::Decision::kParity;
+  expect_shells(join(sphere({-0.4, 0, 0}, 1), sphere({0.4, 0, 0}, 1)), {{{-0.4, 0, 0}, 1}, {{0.4, 0, 0}, 1}}, 1,
+                kParity);
+  expect_shells(join(sphere({}, 1.2), sphere({}, 0.6, true)), {{{}, 1.2}, {{}, 0.6}}, -1, kParity);
+  expect_shells(join(join(sphere({}, 1.5), sphere({0.05, 0, 0}, 1)), sphere({0.1, 0, 0}, 0.5)),
+                {{{}, 1.5}, {{0.05, 0, 0}, 1}, {{0.1, 0, 0}, 0.5}}, 1, kParity);
 }
 
 std::vector<Vec3> grid_points(const Box& box, int n) {

@@ -135,11 +135,12 @@ struct SurfaceSdf::Impl {
   Box box;
   double scale = 0;  // largest coordinate magnitude of the surface
   SignRule sign;
-  std::optional<WindingNumber> winding;  // under SignRule::kWindingNumber
+  std::optional<WindingNumber> winding;  // under SignRule::kWindingNumber and kWindingParity
 
   Impl(const TriangleSurface& s, SignRule rule)
       : surface(s), normals(s), bvh(TriangleBvh::build(s)), tree(s, bvh), box(s.bounds()), sign(rule) {
     if (sign == SignRule::kWindingNumber) winding.emplace(s, bvh);
+    if (sign == SignRule::kWindingParity) winding.emplace(s, bvh, WindingNumber::Decision::kParity);
     if (bvh.leaf_triangles.size() >= (1u << 29)) throw std::length_error("too many triangles for the SDF search tree");
     scale = std::max({std::abs(box.lo.x), std::abs(box.lo.y), std::abs(box.lo.z), std::abs(box.hi.x),
                       std::abs(box.hi.y), std::abs(box.hi.z)});
@@ -346,6 +347,11 @@ void SurfaceSdf::evaluate(std::span<const Vec3> points, std::span<double> values
     });
     return;
   }
+  evaluate_pseudonormal(points, values);
+}
+
+void SurfaceSdf::evaluate_pseudonormal(std::span<const Vec3> points, std::span<double> values) const {
+  const Impl& m = *impl_;
   m.run(points, values, [&m](Vec3 p, const Impl::Query& q) {
     return signed_value(p, q.best, m.normals.of(q.best_triangle, q.best.region, m.surface));
   });

@@ -14,6 +14,10 @@
 // - kWindingNumber: inside where the generalized winding number exceeds 1/2 (Jacobson et al.
 //   2013; core/sdf/winding_number.h), decided exactly however it is approximated. The same as
 //   the pseudonormal on clean closed surfaces, and robust on the others.
+// - kWindingParity: inside where the nearest integer to the winding number is odd. For several
+//   closed shells at once (the regions of core/pipeline/regions.h) this is the symmetric
+//   difference of their solids, whose boundary is every shell: |f| is the distance to the nearest
+//   shell and f changes sign across each of them, whichever way each faces.
 // Either way |f| is the exact closest-point distance and a point on the surface gets 0.
 #pragma once
 
@@ -27,7 +31,11 @@
 
 namespace mchex {
 
-enum class SignRule { kPseudonormal, kWindingNumber };
+enum class SignRule { kPseudonormal, kWindingNumber, kWindingParity };
+// The rule's name in the command line's --sign and the report: pseudonormal, winding, parity.
+constexpr const char* sign_rule_name(SignRule r) {
+  return r == SignRule::kPseudonormal ? "pseudonormal" : r == SignRule::kWindingNumber ? "winding" : "parity";
+}
 
 class WindingNumber;
 
@@ -51,9 +59,13 @@ class SurfaceSdf final : public SignedDistance {
   void evaluate(std::span<const Vec3> points, std::span<double> values) const override;
   Box bounds() const override;
   SignRule sign_rule() const;
-  // The winding number that decides the sign under kWindingNumber (sharing this SDF's BVH), else
-  // null.
+  // The winding number that decides the sign under kWindingNumber or kWindingParity (sharing
+  // this SDF's BVH), else null.
   const WindingNumber* winding() const;
+  // The signed distance by the pseudonormal rule whatever this SDF's own rule: exact for a closed,
+  // consistently oriented surface and cheaper than the winding number near it (core/pipeline/
+  // regions.h labels with it).
+  void evaluate_pseudonormal(std::span<const Vec3> points, std::span<double> values) const;
   // Unsigned distance to the triangles (used for Hausdorff distances and by evaluate()).
   void distance(std::span<const Vec3> points, std::span<double> values) const;
   // closest[i] = the point of the triangles nearest to points[i] (the same search as distance();

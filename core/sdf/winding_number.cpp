@@ -78,12 +78,13 @@ double winding_number_exact(const TriangleSurface& s, Vec3 p) {
   return w;
 }
 
-WindingNumber::WindingNumber(const TriangleSurface& surface) {
+WindingNumber::WindingNumber(const TriangleSurface& surface, Decision decision) : decision_(decision) {
   const TriangleSurface split = split_long_triangles(surface);
   const TriangleSurface& s = split.triangles.empty() ? surface : split;
   build(s, TriangleBvh::build(s));
 }
-WindingNumber::WindingNumber(const TriangleSurface& surface, const TriangleBvh& bvh) {
+WindingNumber::WindingNumber(const TriangleSurface& surface, const TriangleBvh& bvh, Decision decision)
+    : decision_(decision) {
   const TriangleSurface split = split_long_triangles(surface);
   if (split.triangles.empty()) {
     build(surface, bvh);
@@ -200,7 +201,9 @@ double WindingNumber::at(Vec3 p) const {
     // Sums in the list's order, which depends on the point alone.
     double w = exact, bound = 0;
     for (const Far& f : far) w += f.value, bound += f.bound;
-    const double margin = std::abs(w - 0.5) - kRoundingAllowance;
+    // The distance to the threshold that decides: 1/2, or under kParity the nearest half-integer.
+    const double threshold = decision_ == Decision::kHalf ? 0.5 : std::floor(w) + 0.5;
+    const double margin = std::abs(w - threshold) - kRoundingAllowance;
     if (bound < margin || far.empty()) return w;
     // Deeper descent: a round refines every far node whose bound is above an equal share of the
     // margin (were all at most that, their sum would decide), each into its children at the same
@@ -225,7 +228,7 @@ double WindingNumber::at(Vec3 p) const {
       }
     }
     std::swap(far, next);
-    // Within rounding of 1/2 with only bound-free far nodes left (no area: nothing to refine).
+    // Within rounding of the threshold with only bound-free far nodes left (no area: nothing to refine).
     if (!refined) return w;
   }
 }

@@ -37,6 +37,7 @@
 // thread count.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -54,15 +55,24 @@ class WindingNumber {
   // What the exact sums may err by through rounding (the solid angles err by a few ulps each).
   static constexpr double kRoundingAllowance = 1e-9;
 
-  explicit WindingNumber(const TriangleSurface& surface);
+  // What inside() decides. kHalf: w > 1/2 (Jacobson et al.). kParity: the nearest integer to w
+  // is odd, the inside of several closed shells taken together as an arrangement (core/pipeline/
+  // regions.h): crossing any one shell, whichever way it faces, flips the parity, so the parity
+  // field's zero set is every shell at once. at() is then exact enough to lie between the same
+  // two half-integers as the exact value.
+  enum class Decision { kHalf, kParity };
+
+  explicit WindingNumber(const TriangleSurface& surface, Decision decision = Decision::kHalf);
   // Shares a hierarchy that was built for the surface (SurfaceSdf has one), unless the surface
   // has triangles to bisect.
-  WindingNumber(const TriangleSurface& surface, const TriangleBvh& bvh);
+  WindingNumber(const TriangleSurface& surface, const TriangleBvh& bvh, Decision decision = Decision::kHalf);
 
-  // w(p), accurate enough to lie on the same side of 1/2 as the exact value (but within rounding
-  // of 1/2): its error is below its distance from 1/2, not small in itself.
+  // w(p), accurate enough to lie on the same side of 1/2 (kParity: of every half-integer) as the
+  // exact value (but within rounding of it): its error is below that distance, not small in itself.
   double at(Vec3 p) const;
-  bool inside(Vec3 p) const { return at(p) > 0.5; }
+  bool inside(Vec3 p) const { return decides_inside(at(p)); }
+  bool decides_inside(double w) const { return decision_ == Decision::kHalf ? w > 0.5 : std::llround(w) % 2 != 0; }
+  Decision decision() const { return decision_; }
   // Batch at(); threaded, deterministic.
   void at(std::span<const Vec3> points, std::span<double> values) const;
 
@@ -91,6 +101,7 @@ class WindingNumber {
   double descend(uint32_t root, Vec3 p, double beta, Far&& far) const;
 
   std::vector<Node> nodes_;
+  Decision decision_ = Decision::kHalf;
   std::vector<Vec3> corners_;  // three per leaf slot, in the hierarchy's order
 };
 
