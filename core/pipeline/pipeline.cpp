@@ -144,7 +144,8 @@ std::vector<double> grid_values(MeshRun& run, Backend& backend, const Solid& sol
   return v;
 }
 
-MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock clock) {
+MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock clock,
+                   const RegionSet* regions = nullptr) {
   MeshRun run;
   run.options = request.options;
   run.clock = std::move(clock);
@@ -281,6 +282,17 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
         run.clock.run("optimize", [&] { return mchex::optimize(run.meshes, &solid.sdf(), o.optimize_options); });
     run.fidelity.reset();  // the rounds measured the mesh before the optimiser moved it
   }
+  if (regions) {
+    // The fidelity measures the two meshes of the parity field against the shells; labelling
+    // then regroups their hexes by region.
+    if (o.fidelity && !run.fidelity)
+      run.fidelity = run.clock.run("fidelity", [&] { return solid.fidelity(run.meshes.inside, run.cube, o.lattice); });
+    RegionStats& stats = run.regions.emplace();
+    run.meshes = run.clock.run("regions", [&] {
+      const std::vector<Vec3> uniform_points = run.uniform ? run.uniform->vertices() : std::vector<Vec3>{};
+      return label_regions(run.meshes, run.uniform ? uniform_points : run.adaptive->complex.points, *regions, &stats);
+    });
+  }
   run.check = run.clock.run("check", [&] { return check_mesh(run.meshes.inside, &run.meshes.outside, &run.cube); });
   if (o.fidelity && !run.fidelity)
     run.fidelity = run.clock.run("fidelity", [&] { return solid.fidelity(run.meshes.inside, run.cube, o.lattice); });
@@ -292,6 +304,15 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
 
 MeshRun run_pipeline(const MeshRequest& request) {
   StageClock clock(request.options.quiet);
+  if (!request.regions.empty()) {
+    const bool quiet = request.options.quiet;
+    const RegionSet regions(request.regions, clock, quiet, request.options.input, request.region_order);
+    // The parity field of every shell at once (core/pipeline/regions.h); the regions' own
+    // repair already ran, and the combined surface is non-manifold where regions touch.
+    const Solid solid(SolidSource::in_memory(regions.combined(), regions.name()), clock, true,
+                      {false, SignRule::kWindingParity});
+    return mesh_solid(request, solid, std::move(clock), &regions);
+  }
   const Solid solid(request.solid, clock, request.options.quiet, request.options.input);
   return mesh_solid(request, solid, std::move(clock));
 }

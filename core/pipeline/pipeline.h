@@ -31,6 +31,7 @@
 #include "core/io/mesh_io.h"
 #include "core/optimize/optimize.h"
 #include "core/pipeline/fit.h"
+#include "core/pipeline/regions.h"
 #include "core/pipeline/solid.h"
 
 namespace mchex {
@@ -70,6 +71,10 @@ struct MeshOptions {
 
 struct MeshRequest {
   SolidSource solid;
+  // Two or more: the regions of one region-labelled mesh instead of `solid` (core/pipeline/
+  // regions.h), with their priority (1-based input positions, highest first; empty: by volume).
+  std::vector<SolidSource> regions;
+  std::vector<int> region_order;
   MeshOptions options;
   // Where the SDF runs: the caller's backend (host/backends/registry.h make_backend), or one that
   // open_backend makes when the SDF stage starts, so that a bad input or an oversized grid fails
@@ -125,7 +130,9 @@ struct MeshRun {
   std::vector<FitRound> fit_rounds;       // hausdorff with fidelity: the measured rounds
   std::optional<Fidelity> fidelity;       // when asked for
   std::optional<OptimizeStats> optimize;  // when asked for
-  StageClock clock{true};  // read, bvh, octree, sdf, classify, mchex | ro, fit-rounds, optimize, check, fidelity, write
+  std::optional<RegionStats> regions;     // several regions: the labelling (fidelity is of the parity field's mesh)
+  StageClock clock{
+      true};  // read, bvh, octree, sdf, classify, mchex | ro, fit-rounds, optimize, regions, check, fidelity, write
   std::size_t peak_memory_bytes = 0;  // of the process, after the last stage
 };
 

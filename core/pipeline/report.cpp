@@ -102,7 +102,7 @@ json input_json(const SolidFacts& in) {
   if (in.analytic) return {{"shape", in.name}, {"analytic", true}};
   const SurfaceReport& r = in.surface;
   return {{"file", in.name},
-          {"sign", in.sign == SignRule::kWindingNumber ? "winding" : "pseudonormal"},
+          {"sign", sign_rule_name(in.sign)},
           {"repair", in.repair ? repair_json(*in.repair) : json(nullptr)},
           {"triangles", r.triangles},
           {"vertices", r.vertices},
@@ -163,6 +163,22 @@ json optimize_json(const OptimizeStats& s) {
           {"sweep_cpu_seconds", s.sweep_cpu_seconds},
           {"hexes_per_second_per_sweep", s.hexes_per_second()},
           {"hexes_per_cpu_second_per_sweep", s.hexes_per_cpu_second()}};
+}
+
+// Several regions (core/pipeline/regions.h): per region its hexes and volume against the volume
+// its shell encloses, the priority that decided overlaps, and what labelling had to correct.
+json regions_json(const RegionStats& s) {
+  json regions = json::array();
+  for (std::size_t i = 0; i < s.regions.size(); ++i) {
+    const RegionStats::Region& r = s.regions[i];
+    regions.push_back({{"label", i + 1},
+                       {"name", r.name},
+                       {"hexes", r.hexes},
+                       {"volume", r.volume},
+                       {"enclosed_volume", r.enclosed_volume}});
+  }
+  return {{"regions", regions},     {"outside_label", s.regions.size() + 1}, {"outside_hexes", s.outside_hexes},
+          {"priority", s.priority}, {"shared_faces", s.shared_faces},        {"flipped_hexes", s.flipped}};
 }
 
 // How the grid's settings were chosen: a target Hausdorff ratio, a hex cap and the settings the
@@ -229,6 +245,7 @@ json report_json(const MeshRun& run, const MeshOutputs* outputs) {
           {"rounds", run.remedy.rounds}, {"cells", run.remedy.cells}, {"refined_leaves", run.remedy.refined_leaves}};
   }
   if (run.optimize) report["optimize"] = optimize_json(*run.optimize);
+  if (run.regions) report["regions"] = regions_json(*run.regions);
   if (run.fidelity) report["fidelity"] = fidelity_json(*run.fidelity);
   report["times"] = run.clock.to_json();
   report["peak_memory_bytes"] = run.peak_memory_bytes;

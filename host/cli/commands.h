@@ -4,6 +4,7 @@
 
 #include <cstddef>
 #include <string>
+#include <vector>
 
 #include "core/pipeline/pipeline.h"
 
@@ -12,7 +13,10 @@ namespace mchex::cli {
 // mesh: a surface or shape -> inside and outside all-hex meshes (+ JSON report), through
 // core/pipeline/pipeline.h run_pipeline.
 struct MeshCommand {
-  std::string input, shape, inside = "inside.mesh", outside, report, backend = "auto";
+  // One surface, or several: the regions of one region-labelled mesh (core/pipeline/regions.h).
+  std::vector<std::string> inputs;
+  std::vector<int> region_order;  // --region-order: 1-based input positions, highest priority first
+  std::string shape, inside = "inside.mesh", outside, report, backend = "auto";
   std::string trace;  // --trace: the Chrome trace-event timeline (core/base/trace.h)
   MeshOptions options;
   MeshWriteOptions write;  // --binary

@@ -54,7 +54,13 @@ int main(int argc, char** argv) {
 
   MeshCommand mo;
   auto* mesh = app.add_subcommand("mesh", "mesh a surface (STL, OBJ, OFF, PLY) or a built-in shape");
-  mesh->add_option("input", mo.input, "input surface file; without it, --shape (default: torus)");
+  mesh->add_option("input", mo.inputs,
+                   "input surface file; several: one conforming mesh of their regions, each hex labelled by its "
+                   "input's position (docs/regions.md); without any, --shape (default: torus)");
+  mesh->add_option("--region-order", mo.region_order,
+                   "several inputs: which region a point inside several belongs to, as input positions highest "
+                   "priority first (for example 2,1); default: the smaller enclosed volume first")
+      ->delimiter(',');
   mesh->add_option("--shape", mo.shape, "built-in analytic shape: sphere, torus, rounded-box, two-holed");
   mesh->add_option("-o,--output", mo.inside, "inside mesh (.mesh, .meshb, .vtu, .msh, .exo or .inp)")
       ->capture_default_str();

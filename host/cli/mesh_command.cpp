@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "core/base/error.h"
 #include "core/base/trace.h"
@@ -65,10 +66,20 @@ void print_summary(const MeshRun& run, const MeshOutputs& outputs) {
              run.meshes.inside.points.size(), outputs.inside);
   fmt::print("  outside: {:>10} hexes {:>10} vertices -> {}\n", run.meshes.outside.hexes.size(),
              run.meshes.outside.points.size(), outputs.outside);
-  if (!run.input.analytic)
+  if (run.regions)
+    fmt::print("  input: {} regions, cut along every shell by the winding number's parity ({} faces shared), "
+               "overlaps to regions {}\n",
+               run.regions->regions.size(), run.regions->shared_faces, fmt::join(run.regions->priority, " > "));
+  else if (!run.input.analytic)
     fmt::print("  input: inside by {}; repair: {}\n",
                run.input.sign == SignRule::kWindingNumber ? "winding number" : "pseudonormal",
                run.input.repair ? describe(*run.input.repair) : "skipped (--no-repair)");
+  if (run.regions)
+    for (std::size_t i = 0; i < run.regions->regions.size(); ++i) {
+      const RegionStats::Region& r = run.regions->regions[i];
+      fmt::print("  region {}: {:>10} hexes, volume {:.6g} (its shell encloses {:.6g}) <- {}\n", i + 1, r.hexes,
+                 r.volume, r.enclosed_volume, r.name);
+    }
   if (run.optimize) fmt::print("{}", optimize_line(*run.optimize));
   fmt::print("{}", summary(run.check));
   if (run.fidelity) fmt::print("{}", fidelity_line(*run.fidelity));
@@ -78,7 +89,9 @@ void print_summary(const MeshRun& run, const MeshOutputs& outputs) {
 }  // namespace
 
 int run_mesh(const MeshCommand& o, bool quiet) {
-  if (!o.input.empty() && !o.shape.empty()) throw InputError("give either INPUT or --shape, not both");
+  if (!o.inputs.empty() && !o.shape.empty()) throw InputError("give either INPUT or --shape, not both");
+  if (!o.region_order.empty() && o.inputs.size() < 2)
+    throw InputError("--region-order orders the regions of several INPUT surfaces");
   const fs::path inside_path = o.inside;
   const fs::path outside_path = o.outside.empty() ? default_outside(inside_path) : fs::path(o.outside);
   // Reject bad output names before any work.
@@ -99,8 +112,11 @@ int run_mesh(const MeshCommand& o, bool quiet) {
     throw InputError("the inside and outside meshes need different file names");
 
   MeshRequest request;
-  request.solid.path = o.input;
+  if (o.inputs.size() == 1) request.solid.path = o.inputs[0];
   request.solid.shape = o.shape;
+  if (o.inputs.size() > 1)
+    for (const std::string& path : o.inputs) request.regions.push_back(SolidSource::file(path));
+  request.region_order = o.region_order;
   request.options = o.options;
   request.options.quiet = quiet;
   request.open_backend = [&] { return make_backend(o.backend); };

@@ -1,0 +1,307 @@
+#include "core/pipeline/regions.h"
+
+#include <algorithm>
+#include <bit>
+#include <cstring>
+#include <limits>
+#include <numeric>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include "core/base/error.h"
+#include "core/base/parallel.h"
+#include "core/mesh/quality.h"
+#include "core/sdf/sdf.h"
+#include "core/sdf/winding_number.h"
+
+namespace mchex {
+namespace {
+
+// One bit per region in a word: what the labelling carries per hex.
+constexpr std::size_t kMaxRegions = 64;
+
+// Whether each point lies in the solid. A region's surface is closed and (after repair)
+// consistently oriented, where the nearest feature's pseudonormal decides exactly; it costs a
+// quarter of the winding number's time on points near the surface, as most of these are.
+// Under --no-repair the solid's own rule decides.
+std::vector<std::uint8_t> inside_flags(const Solid& solid, std::span<const Vec3> points) {
+  std::vector<std::uint8_t> in(points.size());
+  std::vector<double> v(points.size());
+  const auto& sdf = static_cast<const SurfaceSdf&>(solid.sdf());
+  if (solid.facts().surface.consistently_oriented) sdf.evaluate_pseudonormal(points, v);
+  else sdf.evaluate(points, v);
+  for (std::size_t i = 0; i < v.size(); ++i) in[i] = v[i] > 0;
+  return in;
+}
+
+// The arrangement cell of each point: bit j set where region j (input order) holds it.
+std::vector<std::uint64_t> arrangement_bits(const RegionSet& regions, std::span<const Vec3> points) {
+  std::vector<std::uint64_t> bits(points.size(), 0);
+  for (std::size_t j = 0; j < regions.size(); ++j) {
+    const std::vector<std::uint8_t> in = inside_flags(regions.region(j), points);
+    for (std::size_t i = 0; i < points.size(); ++i) bits[i] |= std::uint64_t{in[i]} << j;
+  }
+  return bits;
+}
+
+int32_t label_of(std::uint64_t bits, const std::vector<int>& priority) {
+  for (int r : priority)
+    if (bits >> r & 1) return r + 1;
+  return 0;
+}
+
+// Points by their exact coordinates (+0 and -0 one point, as weld_vertices has them): an
+// open-addressing table, since millions of node allocations would cost more than the labelling.
+class PointIndex {
+ public:
+  static constexpr uint32_t kNone = std::numeric_limits<uint32_t>::max();
+  explicit PointIndex(std::size_t capacity) {
+    std::size_t size = 16;
+    while (size < 2 * capacity) size *= 2;
+    slots_.assign(size, {{}, kNone});
+    mask_ = size - 1;
+  }
+  // The index stored for p, or `value` stored for it now when p is new.
+  uint32_t find_or_add(Vec3 p, uint32_t value) {
+    const Key k = key_of(p);
+    for (std::size_t i = hash(k) & mask_;; i = (i + 1) & mask_) {
+      if (slots_[i].value == kNone) {
+        slots_[i] = {k, value};
+        return value;
+      }
+      if (slots_[i].key == k) return slots_[i].value;
+    }
+  }
+  uint32_t find(Vec3 p) const {
+    const Key k = key_of(p);
+    for (std::size_t i = hash(k) & mask_;; i = (i + 1) & mask_) {
+      if (slots_[i].value == kNone) return kNone;
+      if (slots_[i].key == k) return slots_[i].value;
+    }
+  }
+
+ private:
+  struct Key {
+    std::uint64_t w[3];
+    bool operator==(const Key&) const = default;
+  };
+  struct Slot {
+    Key key;
+    uint32_t value;
+  };
+  static Key key_of(Vec3 p) {
+    Key k;
+    const double c[3] = {p.x + 0.0, p.y + 0.0, p.z + 0.0};
+    std::memcpy(k.w, c, sizeof c);
+    return k;
+  }
+  // splitmix64's finaliser over the three words: coordinates of a lattice share their low bits.
+  static std::uint64_t mix(std::uint64_t z) {
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+  }
+  static std::size_t hash(const Key& k) { return std::size_t(mix(mix(mix(k.w[0]) ^ k.w[1]) ^ k.w[2])); }
+  std::vector<Slot> slots_;
+  std::size_t mask_ = 0;
+};
+
+}  // namespace
+
+RegionSet::RegionSet(std::span<const SolidSource> sources, StageClock& clock, bool quiet, const SolidOptions& options,
+                     std::span<const int> order) {
+  if (sources.size() < 2) throw InputError("several regions need at least two input surfaces");
+  if (sources.size() > kMaxRegions)
+    throw InputError(fmt::format("at most {} regions, got {}", kMaxRegions, sources.size()));
+  for (const SolidSource& s : sources)
+    if (s.path.empty() && !s.surface) throw InputError("every region is a surface file (a built-in shape is not)");
+  for (const SolidSource& s : sources) {
+    solids_.push_back(std::make_unique<Solid>(s, clock, quiet, options));
+    const SolidFacts& f = solids_.back()->facts();
+    // After repair a closed shell faces outward: its volume is what it encloses.
+    enclosed_.push_back(std::abs(f.surface.volume));
+    if (!(enclosed_.back() > 0) || !f.surface.closed)
+      throw InputError(f.name + ": a region needs a closed surface that encloses a volume (" +
+                       std::to_string(f.surface.boundary_edges) + " boundary edges, volume " +
+                       fmt::format("{:.3g}", f.surface.volume) + ")");
+  }
+  const int k = int(sources.size());
+  if (!order.empty()) {
+    std::vector<int> sorted(order.begin(), order.end());
+    std::sort(sorted.begin(), sorted.end());
+    std::vector<int> expected(k);
+    std::iota(expected.begin(), expected.end(), 1);
+    if (sorted != expected)
+      throw InputError(
+          fmt::format("--region-order must list each of the regions 1..{} once, got {}", k, fmt::join(order, ",")));
+    for (int r : order) priority_.push_back(r - 1);
+  } else {
+    priority_.resize(k);
+    std::iota(priority_.begin(), priority_.end(), 0);
+    std::stable_sort(priority_.begin(), priority_.end(), [&](int a, int b) { return enclosed_[a] < enclosed_[b]; });
+  }
+
+  clock.run("regions", [&] {
+    for (const auto& s : solids_) {
+      const TriangleSurface& t = *s->surface();
+      const auto base = uint32_t(combined_.vertices.size());
+      combined_.vertices.insert(combined_.vertices.end(), t.vertices.begin(), t.vertices.end());
+      for (auto tri : t.triangles) combined_.triangles.push_back({tri[0] + base, tri[1] + base, tri[2] + base});
+    }
+    weld_vertices(combined_);
+    // A face two touching regions share is crossed twice, so the parity does not change across it:
+    // of k equal faces, k mod 2 stay, and the parity field's surface is the shells' union's.
+    // Touching regions are then told apart by their labels alone (docs/regions.md). Faces in order
+    // of their sorted corners.
+    std::vector<uint32_t> order(combined_.triangles.size());
+    std::iota(order.begin(), order.end(), 0u);
+    auto sorted = [&](uint32_t t) {
+      std::array<uint32_t, 3> c = combined_.triangles[t];
+      std::sort(c.begin(), c.end());
+      return c;
+    };
+    std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
+      const auto ca = sorted(a), cb = sorted(b);
+      return ca != cb ? ca < cb : a < b;
+    });
+    std::vector<uint8_t> drop(order.size(), 0);
+    for (std::size_t i = 0, j; i < order.size(); i = j) {
+      for (j = i + 1; j < order.size() && sorted(order[j]) == sorted(order[i]);) ++j;
+      if (j - i < 2) continue;
+      shared_faces_ += (j - i) / 2;
+      for (std::size_t k = i + (j - i) % 2; k < j; ++k) drop[order[k]] = 1;
+    }
+    std::vector<std::array<uint32_t, 3>> kept;
+    kept.reserve(combined_.triangles.size() - 2 * shared_faces_);
+    for (std::size_t t = 0; t < drop.size(); ++t)
+      if (!drop[t]) kept.push_back(combined_.triangles[t]);
+    combined_.triangles = std::move(kept);
+  });
+}
+
+std::string RegionSet::name() const {
+  std::string n;
+  for (const auto& s : solids_) n += (n.empty() ? "" : " + ") + s->facts().name;
+  return n;
+}
+
+void RegionSet::labels(std::span<const Vec3> points, std::span<int32_t> out) const {
+  const std::vector<std::uint64_t> bits = arrangement_bits(*this, points);
+  for (std::size_t i = 0; i < points.size(); ++i) out[i] = label_of(bits[i], priority_);
+}
+
+MeshPair label_regions(const MeshPair& parity, std::span<const Vec3> grid_points, const RegionSet& regions,
+                       RegionStats* stats) {
+  const HexMesh& odd = parity.inside;
+  const HexMesh& even = parity.outside;
+  const std::size_t n_odd = odd.hexes.size(), n = n_odd + even.hexes.size();
+  auto corners = [&](std::size_t h) { return h < n_odd ? odd.corners(h) : even.corners(h - n_odd); };
+
+  // Midpoint subdivision gives each hex exactly one corner of its polyhedron: where that is a grid
+  // point, the hex lies in the grid point's arrangement cell, so the k winding numbers are taken
+  // once per grid point rather than per hex; the others (a crossing, or a local refinement's inner
+  // point, as their corner) take their centroid's.
+  constexpr uint32_t kNone = PointIndex::kNone;
+  PointIndex grid_index(grid_points.size());
+  for (std::size_t i = 0; i < grid_points.size(); ++i) grid_index.find_or_add(grid_points[i], uint32_t(i));
+  auto grid_ids = [&](const HexMesh& m) {
+    std::vector<uint32_t> g(m.points.size());
+    parallel_for(m.points.size(), [&](std::size_t i) { g[i] = grid_index.find(m.points[i]); });
+    return g;
+  };
+  const std::vector<uint32_t> odd_grid = grid_ids(odd), even_grid = grid_ids(even);
+  std::vector<uint32_t> source(n, kNone);  // the grid point a hex takes its cell from
+  parallel_for(n, [&](std::size_t h) {
+    const Hex& hex = h < n_odd ? odd.hexes[h] : even.hexes[h - n_odd];
+    const std::vector<uint32_t>& g = h < n_odd ? odd_grid : even_grid;
+    for (uint32_t v : hex)
+      if (g[v] != kNone) source[h] = g[v];
+  });
+  std::vector<uint8_t> used(grid_points.size(), 0);
+  for (uint32_t g : source)
+    if (g != kNone) used[g] = 1;
+  // The points to measure: the grid points in use, then the centroids of the other hexes.
+  std::vector<Vec3> at;
+  std::vector<uint32_t> slot(grid_points.size(), kNone);
+  for (std::size_t i = 0; i < grid_points.size(); ++i)
+    if (used[i]) slot[i] = uint32_t(at.size()), at.push_back(grid_points[i]);
+  std::vector<uint32_t> hex_slot(n);
+  for (std::size_t h = 0; h < n; ++h) {
+    if (source[h] != kNone) {
+      hex_slot[h] = slot[source[h]];
+      continue;
+    }
+    Vec3 c{0, 0, 0};
+    for (const Vec3& p : corners(h)) c = c + p;
+    hex_slot[h] = uint32_t(at.size());
+    at.push_back((1.0 / 8) * c);
+  }
+  const std::vector<std::uint64_t> measured = arrangement_bits(regions, at);
+  std::vector<std::uint64_t> bits(n);
+  for (std::size_t h = 0; h < n; ++h) bits[h] = measured[hex_slot[h]];
+
+  // A point on the other side of the true shell than MCHex put its hex (a centroid between the
+  // interface and the shell, a grid point the zero rule moved off it): the nearest shell's bit is
+  // the wrong one.
+  std::vector<std::size_t> wrong;
+  for (std::size_t h = 0; h < n; ++h)
+    if ((std::popcount(bits[h]) % 2 == 1) != (h < n_odd)) wrong.push_back(h);
+  if (!wrong.empty()) {
+    std::vector<Vec3> p(wrong.size());
+    for (std::size_t i = 0; i < wrong.size(); ++i) p[i] = at[hex_slot[wrong[i]]];
+    std::vector<double> nearest(wrong.size(), std::numeric_limits<double>::infinity()), d(wrong.size());
+    std::vector<int> which(wrong.size(), 0);
+    for (std::size_t j = 0; j < regions.size(); ++j) {
+      static_cast<const SurfaceSdf&>(regions.region(j).sdf()).distance(p, d);
+      for (std::size_t i = 0; i < wrong.size(); ++i)
+        if (d[i] < nearest[i]) nearest[i] = d[i], which[i] = int(j);
+    }
+    for (std::size_t i = 0; i < wrong.size(); ++i) bits[wrong[i]] ^= std::uint64_t{1} << which[i];
+  }
+
+  // One point set: the odd mesh's points, then the even mesh's that the odd one does not have.
+  std::vector<Vec3> points = odd.points;
+  PointIndex index(odd.points.size() + even.points.size());
+  for (std::size_t i = 0; i < odd.points.size(); ++i) index.find_or_add(odd.points[i], uint32_t(i));
+  std::vector<uint32_t> even_to(even.points.size());
+  for (std::size_t i = 0; i < even.points.size(); ++i) {
+    even_to[i] = index.find_or_add(even.points[i], uint32_t(points.size()));
+    if (even_to[i] == points.size()) points.push_back(even.points[i]);
+  }
+
+  const int32_t outside_label = int32_t(regions.size() + 1);
+  std::vector<Hex> in_hexes, out_hexes;
+  std::vector<int32_t> in_labels;
+  RegionStats s;
+  s.regions.resize(regions.size());
+  for (std::size_t j = 0; j < regions.size(); ++j) {
+    s.regions[j].name = regions.region(j).facts().name;
+    s.regions[j].enclosed_volume = regions.enclosed_volumes()[j];
+  }
+  for (std::size_t h = 0; h < n; ++h) {
+    Hex hex = h < n_odd ? odd.hexes[h] : even.hexes[h - n_odd];
+    if (h >= n_odd)
+      for (uint32_t& v : hex) v = even_to[v];
+    const int32_t label = label_of(bits[h], regions.priority());
+    if (label == 0) {
+      out_hexes.push_back(hex);
+      ++s.outside_hexes;
+      continue;
+    }
+    in_hexes.push_back(hex);
+    in_labels.push_back(label);
+    RegionStats::Region& r = s.regions[label - 1];
+    ++r.hexes;
+    r.volume += hex_volume(corners(h));
+  }
+  MeshPair out{compact_mesh(points, in_hexes, 0), compact_mesh(points, out_hexes, outside_label)};
+  out.inside.region = std::move(in_labels);
+  for (int r : regions.priority()) s.priority.push_back(r + 1);
+  s.shared_faces = regions.shared_faces();
+  s.flipped = wrong.size();
+  if (stats) *stats = std::move(s);
+  return out;
+}
+
+}  // namespace mchex

@@ -1,0 +1,105 @@
+// Several solids in one conforming, region-labelled hex mesh (the multi-region meshing of Awad et
+// al. 2016, reached through MCHex's own cutting): a reduction to one binary MCHex run.
+//
+// The reduction. Take every region's closed shell together as one surface (a face two regions
+// share once: it is one wall between them) and sign its distance field by the parity of the
+// winding number (core/sdf/sdf.h SignRule::kWindingParity). Crossing any one shell changes the
+// winding number by one, whichever way the shell faces, so the parity field changes sign across
+// every shell and nowhere else: its zero set is the union of the shells, and each cell of their
+// arrangement (a region, an overlap, the box outside) lies wholly on one side. MCHex cuts the grid
+// by that field exactly as it cuts one solid, so the two meshes it makes, the odd and the even
+// cells of the arrangement, conform face for face along every shell (core/cutting/mchex_mesher.h);
+// with one region the parity field is the solid's own field and nothing changes.
+//
+// The labels. Every hex then takes the arrangement cell its polyhedron's grid corner (or, when
+// that corner is a crossing, its centroid) lies in: the sign of each
+// region's own field there (its winding number under the default sign rule), one bit per region.
+// Where that point lies between the mesh's piecewise-trilinear interface and the true shell, its
+// bits disagree with the side MCHex put it on (an odd count on the even side or the
+// reverse); the bit of the shell nearest to the point is then flipped, since that is the shell
+// the interface approximates there. The region is the first one in priority order whose bit is
+// set (0: none, the box outside). So a region's hexes meet another's only across the interface
+// (face for face), except within a cell of a junction curve where three or more cells of the
+// arrangement meet: there MCHex's field has a saddle that Marching Cubes resolves one way or the
+// other, and the labels follow the centroids. Cutting junction cells by the facets, which keeps
+// such curves sharp, is the job of Awad's own method (not part of this reduction).
+//
+// Priority (what an overlap belongs to): by default the region of smaller enclosed volume first,
+// so a nested solid keeps its own label and its container becomes the shell around it, and an
+// inclusion that overlaps its matrix keeps the overlap; `order` (the command line's
+// --region-order) lists the regions' 1-based input positions, highest priority first, instead.
+// Labels are input positions: hexes of the i-th input carry region i, the box outside k + 1 (so
+// one region keeps the single-solid labels 1 and 2).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "core/base/stage_clock.h"
+#include "core/mesh/hex_mesh.h"
+#include "core/mesh/surface.h"
+#include "core/pipeline/solid.h"
+
+namespace mchex {
+
+class RegionSet {
+ public:
+  // Loads every source as its own Solid (read, repair, BVH; options as for one solid), checks
+  // `order` (a permutation of 1..k, or empty), and builds the combined surface. InputError for
+  // fewer than two sources, a shape among them, a bad order or a region with no volume.
+  RegionSet(std::span<const SolidSource> sources, StageClock& clock, bool quiet, const SolidOptions& options,
+            std::span<const int> order);
+  RegionSet(const RegionSet&) = delete;
+  RegionSet& operator=(const RegionSet&) = delete;
+
+  std::size_t size() const { return solids_.size(); }
+  const Solid& region(std::size_t i) const { return *solids_[i]; }  // input order
+  // Input positions (0-based), highest priority first.
+  const std::vector<int>& priority() const { return priority_; }
+  // Every shell, vertices welded across shells, a face that two regions share kept once.
+  const TriangleSurface& combined() const { return combined_; }
+  std::size_t shared_faces() const { return shared_faces_; }
+  // "a.stl + b.stl + ..."
+  std::string name() const;
+  // The volume each region's shell encloses (its solid alone, before priority), input order.
+  const std::vector<double>& enclosed_volumes() const { return enclosed_; }
+
+  // The region (1-based input position, 0 for none) of each point, by priority.
+  void labels(std::span<const Vec3> points, std::span<int32_t> out) const;
+
+ private:
+  std::vector<std::unique_ptr<Solid>> solids_;
+  std::vector<int> priority_;
+  std::vector<double> enclosed_;
+  TriangleSurface combined_;
+  std::size_t shared_faces_ = 0;
+};
+
+// What labelling found, for the report (core/pipeline/report.h).
+struct RegionStats {
+  struct Region {
+    std::string name;
+    std::size_t hexes = 0;
+    double volume = 0;           // of its hexes (exact trilinear volumes)
+    double enclosed_volume = 0;  // of its shell alone
+  };
+  std::vector<Region> regions;  // input order
+  std::vector<int> priority;    // 1-based input positions, highest first
+  std::size_t outside_hexes = 0;
+  std::size_t shared_faces = 0;
+  std::size_t flipped = 0;  // hexes whose centroid's bits disagreed with their side (one bit flipped)
+};
+
+// The region-labelled meshes from MCHex's (or RO's) two meshes of the parity field: inside holds
+// every hex of a region (labels 1..k), outside the box's (label k + 1); points shared by the two
+// parity meshes (bit-identical, being the same named points) are merged. Deterministic.
+// grid_points: the points of the grid the two meshes were cut from (their grid points are these,
+// bit for bit).
+MeshPair label_regions(const MeshPair& parity, std::span<const Vec3> grid_points, const RegionSet& regions,
+                       RegionStats* stats);
+
+}  // namespace mchex
