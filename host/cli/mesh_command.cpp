@@ -77,6 +77,17 @@ void print_summary(const MeshRun& run, const MeshOutputs& outputs) {
 
 }  // namespace
 
+MeshRequest mesh_request(const MeshCommand& o, bool quiet) {
+  if (!o.input.empty() && !o.shape.empty()) throw InputError("give either INPUT or --shape, not both");
+  MeshRequest request;
+  request.solid.path = o.input;
+  request.solid.shape = o.shape;
+  request.options = o.options;
+  request.options.quiet = quiet;
+  request.open_backend = [&o] { return make_backend(o.backend); };
+  return request;
+}
+
 int run_mesh(const MeshCommand& o, bool quiet) {
   if (!o.input.empty() && !o.shape.empty()) throw InputError("give either INPUT or --shape, not both");
   const fs::path inside_path = o.inside;
@@ -98,12 +109,7 @@ int run_mesh(const MeshCommand& o, bool quiet) {
   if (fs::weakly_canonical(inside_path) == fs::weakly_canonical(outside_path))
     throw InputError("the inside and outside meshes need different file names");
 
-  MeshRequest request;
-  request.solid.path = o.input;
-  request.solid.shape = o.shape;
-  request.options = o.options;
-  request.options.quiet = quiet;
-  request.open_backend = [&] { return make_backend(o.backend); };
+  MeshRequest request = mesh_request(o, quiet);
   // The span every other event of the trace lies in: the run and the meshes' writing.
   std::optional<trace::Span> whole;
   if (!o.trace.empty()) whole.emplace("mesh", "run");
