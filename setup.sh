@@ -22,6 +22,9 @@ pkgs=(
   # independent readers for the tests (meshio), numpy for perf scripts, matplotlib for the plots
   # of perf/curves.py; netCDF4 for meshio's Exodus reader (tests/test_meshio_formats.py)
   python3 python3-meshio python3-numpy python3-matplotlib python3-netcdf4
+  # the Python module (host/python, docs/python.md): pybind11 binds it to Debian's python3,
+  # python3-dev has Python.h, pytest runs tests/test_python.py
+  pybind11-dev python3-dev python3-pytest
   # Exodus II .exo writer and reader (core/io/exodus.cpp; brings netCDF)
   libexodusii-dev
   # CalculiX: solves our .inp files in tests/test_calculix.py

@@ -15,21 +15,18 @@
 
 namespace mchex::cli {
 
-int run_check(const CheckCommand& o, bool quiet) {
+CheckOutcome check_meshes(const HexMesh& inside, const HexMesh* outside, const CheckCommand& o, bool quiet) {
   if (!o.input.empty() && !o.shape.empty()) throw InputError("give either --input or --shape, not both");
   StageClock clock(true);
-  const HexMesh inside = read_hex_mesh(o.mesh);
-  std::optional<HexMesh> outside;
-  if (!o.outside.empty()) outside = read_hex_mesh(o.outside);
-  const MeshCheck check = check_mesh(inside, outside ? &*outside : nullptr, nullptr);
-  nlohmann::json j = {{"mesh", o.mesh}, {"check", to_json(check)}};
-  if (outside) j["outside"] = o.outside;
-  std::optional<Fidelity> fid;
+  CheckOutcome r;
+  r.check = check_mesh(inside, outside, nullptr);
+  r.json = {{"mesh", o.mesh}, {"check", to_json(r.check)}};
+  if (outside) r.json["outside"] = o.outside;
   if (!o.input.empty() || !o.shape.empty()) {
     SolidSource source;
     source.path = o.input;
     source.shape = o.shape;
-    const Solid solid(source, clock, quiet || o.json, o.solid);
+    const Solid solid(source, clock, quiet, o.solid);
     // The lattice spans both meshes and the solid.
     Box box;
     for (const Vec3& p : inside.points) box.extend(p);
@@ -37,10 +34,22 @@ int run_check(const CheckCommand& o, bool quiet) {
       for (const Vec3& p : outside->points) box.extend(p);
     box.extend(solid.sdf().bounds().lo);
     box.extend(solid.sdf().bounds().hi);
-    fid = solid.fidelity(inside, box, o.lattice);
-    j["input"] = input_json(solid.facts());
-    j["fidelity"] = fidelity_json(*fid);
+    r.fidelity = solid.fidelity(inside, box, o.lattice);
+    r.json["input"] = input_json(solid.facts());
+    r.json["fidelity"] = fidelity_json(*r.fidelity);
   }
+  return r;
+}
+
+int run_check(const CheckCommand& o, bool quiet) {
+  if (!o.input.empty() && !o.shape.empty()) throw InputError("give either --input or --shape, not both");
+  const HexMesh inside = read_hex_mesh(o.mesh);
+  std::optional<HexMesh> outside;
+  if (!o.outside.empty()) outside = read_hex_mesh(o.outside);
+  const CheckOutcome outcome = check_meshes(inside, outside ? &*outside : nullptr, o, quiet || o.json);
+  const MeshCheck& check = outcome.check;
+  const std::optional<Fidelity>& fid = outcome.fidelity;
+  const nlohmann::json& j = outcome.json;
   if (o.json) {
     fmt::print("{}\n", j.dump(2));
   } else if (!quiet) {

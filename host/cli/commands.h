@@ -3,9 +3,14 @@
 #pragma once
 
 #include <cstddef>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
+#include "core/check/mesh_check.h"
+#include "core/mesh/hex_mesh.h"
 #include "core/pipeline/pipeline.h"
 
 namespace mchex::cli {
@@ -22,6 +27,9 @@ struct MeshCommand {
   MeshWriteOptions write;  // --binary
 };
 int run_mesh(const MeshCommand& command, bool quiet);
+// The pipeline's request for a mesh command (its input or shape, options and backend); the command
+// must outlive the request, whose backend it makes. InputError when both input and shape are given.
+MeshRequest mesh_request(const MeshCommand& command, bool quiet);
 
 // check: validate hex meshes (structure, quality, conformity), and their fidelity to a solid.
 struct CheckCommand {
@@ -31,6 +39,14 @@ struct CheckCommand {
   SolidOptions solid;  // how --input becomes a solid, as the mesh run's
 };
 int run_check(const CheckCommand& command, bool quiet);
+// The check of meshes already read (`command.mesh` and `.outside` name them in the JSON), with
+// their fidelity to `command`'s input or shape when it names one: what `check --json` prints.
+struct CheckOutcome {
+  MeshCheck check;
+  std::optional<Fidelity> fidelity;
+  nlohmann::json json;
+};
+CheckOutcome check_meshes(const HexMesh& inside, const HexMesh* outside, const CheckCommand& command, bool quiet);
 
 // optimize: move the vertices of a hex mesh (and its outside mesh) to raise the scaled Jacobian,
 // boundary vertices on the input surface, every hex still certified (core/optimize/optimize.h).
@@ -43,5 +59,7 @@ int run_optimize(const OptimizeCommand& command, bool quiet);
 
 // devices: the compute backends and devices found (host/backends/registry.h list_devices).
 int run_devices(bool as_json);
+// The list as `devices --json` prints it: one object per device.
+nlohmann::json devices_json(const std::vector<DeviceInfo>& list);
 
 }  // namespace mchex::cli

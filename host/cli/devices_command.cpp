@@ -12,24 +12,28 @@
 
 namespace mchex::cli {
 
+nlohmann::json devices_json(const std::vector<DeviceInfo>& list) {
+  nlohmann::json j = nlohmann::json::array();
+  for (const DeviceInfo& d : list)
+    j.push_back({{"backend", d.backend},
+                 {"platform", d.platform},
+                 {"device", d.name},
+                 {"type", d.type},
+                 {"fp64", d.fp64},
+                 {"precision", d.precision},
+                 {"max_buffer_bytes", d.max_buffer_bytes},
+                 {"global_memory_bytes", d.global_memory_bytes},
+                 {"compute_units", d.compute_units ? nlohmann::json(d.compute_units) : nlohmann::json(nullptr)},
+                 {"version", d.version},
+                 {"usable", d.note.empty()},
+                 {"note", d.note}});
+  return j;
+}
+
 int run_devices(bool as_json) {
   const std::vector<DeviceInfo> list = list_devices();
   if (as_json) {
-    nlohmann::json j = nlohmann::json::array();
-    for (const DeviceInfo& d : list)
-      j.push_back({{"backend", d.backend},
-                   {"platform", d.platform},
-                   {"device", d.name},
-                   {"type", d.type},
-                   {"fp64", d.fp64},
-                   {"precision", d.precision},
-                   {"max_buffer_bytes", d.max_buffer_bytes},
-                   {"global_memory_bytes", d.global_memory_bytes},
-                   {"compute_units", d.compute_units ? nlohmann::json(d.compute_units) : nlohmann::json(nullptr)},
-                   {"version", d.version},
-                   {"usable", d.note.empty()},
-                   {"note", d.note}});
-    fmt::print("{}\n", j.dump(2));
+    fmt::print("{}\n", devices_json(list).dump(2));
     return 0;
   }
   fmt::print("{:<8} {:<30} {:<36} {:<5} {:<4} {:<9} {:>5} {:>12} {:>12}\n", "backend", "platform", "device", "type",

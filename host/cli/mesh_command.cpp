@@ -88,10 +88,23 @@ void print_summary(const MeshRun& run, const MeshOutputs& outputs) {
 
 }  // namespace
 
-int run_mesh(const MeshCommand& o, bool quiet) {
+MeshRequest mesh_request(const MeshCommand& o, bool quiet) {
   if (!o.inputs.empty() && !o.shape.empty()) throw InputError("give either INPUT or --shape, not both");
   if (!o.region_order.empty() && o.inputs.size() < 2)
     throw InputError("--region-order orders the regions of several INPUT surfaces");
+  MeshRequest request;
+  if (o.inputs.size() == 1) request.solid.path = o.inputs[0];
+  request.solid.shape = o.shape;
+  if (o.inputs.size() > 1)
+    for (const std::string& path : o.inputs) request.regions.push_back(SolidSource::file(path));
+  request.region_order = o.region_order;
+  request.options = o.options;
+  request.options.quiet = quiet;
+  request.open_backend = [&o] { return make_backend(o.backend); };
+  return request;
+}
+
+int run_mesh(const MeshCommand& o, bool quiet) {
   const fs::path inside_path = o.inside;
   const fs::path outside_path = o.outside.empty() ? default_outside(inside_path) : fs::path(o.outside);
   // Reject bad output names before any work.
@@ -111,15 +124,7 @@ int run_mesh(const MeshCommand& o, bool quiet) {
   if (fs::weakly_canonical(inside_path) == fs::weakly_canonical(outside_path))
     throw InputError("the inside and outside meshes need different file names");
 
-  MeshRequest request;
-  if (o.inputs.size() == 1) request.solid.path = o.inputs[0];
-  request.solid.shape = o.shape;
-  if (o.inputs.size() > 1)
-    for (const std::string& path : o.inputs) request.regions.push_back(SolidSource::file(path));
-  request.region_order = o.region_order;
-  request.options = o.options;
-  request.options.quiet = quiet;
-  request.open_backend = [&] { return make_backend(o.backend); };
+  MeshRequest request = mesh_request(o, quiet);
   // The span every other event of the trace lies in: the run and the meshes' writing.
   std::optional<trace::Span> whole;
   if (!o.trace.empty()) whole.emplace("mesh", "run");
