@@ -25,6 +25,7 @@
 #include "core/base/error.h"
 #include "core/base/parallel.h"
 #include "core/cutting/certify.h"
+#include "core/cutting/repel.h"
 #include "core/grid/grid.h"
 #include "core/grid/octree.h"
 #include "core/io/atomic_file.h"
@@ -41,6 +42,25 @@ using namespace mchex::cli;
 constexpr const char* kBinaryHelp =
     "write .msh as Gmsh 4.1 binary, as gmsh -bin does (.vtu, .meshb and .exo are always binary, .mesh and .inp "
     "always ascii)";
+
+namespace {
+
+// mesh --repel's value: empty (the option alone) is the default delta.
+double parse_repel_delta(const std::string& text) {
+  if (text.empty()) return kDefaultRepelDelta;
+  std::size_t used = 0;
+  double delta = 0;
+  try {
+    delta = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != text.size() || !(delta > 0 && delta <= kMaxRepelDelta))
+    throw InputError(fmt::format("--repel: DELTA must be a number in (0, {}], got '{}'", kMaxRepelDelta, text));
+  return delta;
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   install_signal_cleanup();
@@ -171,6 +191,16 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(8, 1024))
       ->capture_default_str();
 
+  // An option with an optional value: `--repel` alone is the default delta. Parsed here so that
+  // a bad value is the one-line InputError of every other bad input.
+  std::string repel_text;
+  auto* repel = mesh->add_option("--repel", repel_text,
+                                 fmt::format("repel grid points from the surface before cutting (Awad et al. 2016): "
+                                             "every crossing DELTA x its edge from both ends where the rules allow, "
+                                             "DELTA in (0, {}] (default {}; docs/repel.md)",
+                                             kMaxRepelDelta, kDefaultRepelDelta))
+                    ->expected(0, 1)
+                    ->type_name("[DELTA]");
   mesh->add_flag("--optimize", mo.options.optimize,
                  "move vertices after meshing to raise the minimum and mean scaled Jacobian: boundary vertices stay "
                  "on the input surface, every hex stays Bernstein-certified (docs/optimize.md)");
@@ -258,6 +288,7 @@ int main(int argc, char** argv) {
         mo.options.hausdorff = kDefaultHausdorffRatio;
       mo.options.fidelity = !no_fidelity;
       if (mo.options.optimize && eps->count() == 0) mo.options.eps = kOptimizeEps;
+      if (repel->count() > 0) mo.options.repel = parse_repel_delta(repel_text);
       return run_mesh(mo, quiet);
     }
     if (devices->parsed()) return run_devices(devices_json);

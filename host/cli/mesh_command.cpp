@@ -69,6 +69,9 @@ void print_summary(const MeshRun& run, const MeshOutputs& outputs) {
     fmt::print("  input: inside by {}; repair: {}\n",
                run.input.sign == SignRule::kWindingNumber ? "winding number" : "pseudonormal",
                run.input.repair ? describe(*run.input.repair) : "skipped (--no-repair)");
+  if (run.repel)
+    fmt::print("  repel: delta {}, {} points moved, {} pinned, {} restored, {} rounds\n", run.repel->delta,
+               run.repel->moved, run.repel->pinned, run.repel->restored, run.repel->rounds);
   if (run.optimize) fmt::print("{}", optimize_line(*run.optimize));
   fmt::print("{}", summary(run.check));
   if (run.fidelity) fmt::print("{}", fidelity_line(*run.fidelity));
