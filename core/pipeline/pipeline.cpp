@@ -18,9 +18,11 @@
 
 #include "core/base/error.h"
 #include "core/base/parallel.h"
+#include "core/cutting/repel.h"
 #include "core/cutting/ro.h"
 #include "core/grid/hex_complex.h"
 #include "core/io/mesh_io.h"
+#include "core/mesh/quality.h"
 #include "core/pipeline/estimate.h"
 #include "core/sdf/winding_number.h"
 
@@ -191,40 +193,91 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
     bool device_values = true;  // values as the backend wrote them: no sign changed on the host
     const std::vector<double> values =
         run.clock.run("sdf", [&] { return grid_values(run, backend, solid, device_values); });
+    std::optional<HexComplex> uniform_cx;
+    const bool classify_on_device = o.method == "mchex" && run.device.backend != "cpu";
+    if (run.uniform && (classify_on_device || o.repel > 0)) uniform_cx.emplace(uniform_complex(*run.uniform));
+    const HexComplex* grid_cx = run.adaptive ? &run.adaptive->complex : uniform_cx ? &*uniform_cx : nullptr;
+
+    // Grid-point repelling (core/cutting/repel.h): the mesher cuts a copy of the complex whose
+    // points moved, at the SDF values there (the same backend: the same values on any).
+    std::optional<Repelled> repelled;
+    std::optional<HexComplex> moved_cx;
+    if (o.repel > 0) {
+      run.clock.run("repel", [&] {
+        RepelOptions ro;
+        ro.delta = o.repel;
+        repelled = repel(
+            *grid_cx, run.cube, values,
+            [&](std::span<const Vec3> p, std::span<double> v) { backend_sdf(backend, solid, p, v); }, ro);
+        moved_cx.emplace(*grid_cx);
+        moved_cx->points = repelled->points;
+      });
+    }
+    const std::vector<double>& mesh_values = repelled ? repelled->values : values;
 
     // Method mchex on a device backend: MC33 classification and the hex-count prefix sum run on
     // the device too (from the values after the mesher's zero rule), and the mesher checks every
     // cell's subcase and every chunk's hex count against it (core/cutting/mchex_mesher.h
     // DeviceClassification). The cpu backend's classification would be core's own: not repeated.
-    std::optional<HexComplex> uniform_cx;
     std::vector<std::uint8_t> device_subcases;
     std::vector<std::uint64_t> device_offsets;
-    if (o.method == "mchex" && run.device.backend != "cpu") {
-      const HexComplex& cx = run.adaptive ? run.adaptive->complex : uniform_cx.emplace(uniform_complex(*run.uniform));
+    auto classify = [&] {
+      if (!classify_on_device) return;
+      const HexComplex& cx = *grid_cx;  // the device classifies from values and corner ids only
       run.clock.run("classify", [&] {
         // The device applies the zero rule itself, reads the values the SDF left on it, and
         // computes a uniform grid's corner ids (core/device/backend.h ClassifyOptions).
         ClassifyOptions co;
         co.zero_tolerance = zero_tolerance_of(cx);
         co.uniform_cells_per_axis = run.adaptive ? 0 : run.uniform->cells_per_axis();
-        co.values_from_last_sdf = device_values;
+        // Repelled values were not the device's last batch (the moved points were).
+        co.values_from_last_sdf = device_values && !repelled;
         device_subcases.resize(cx.cells.size());
         device_offsets.resize(cx.cells.size() + 1);
-        backend.classify_cells(cx, values, {device_subcases, device_offsets}, co);
+        backend.classify_cells(cx, mesh_values, {device_subcases, device_offsets}, co);
       });
-    }
+    };
     auto run_method = [&](const auto& where) {
-      if (o.method != "mchex") return run.clock.run("ro", [&] { return mesh_remove_outside(where, values); });
+      if (o.method != "mchex") return run.clock.run("ro", [&] { return mesh_remove_outside(where, mesh_values); });
       return run.clock.run("mchex", [&] {
         run.mchex = {};
         if constexpr (std::is_same_v<std::decay_t<decltype(where)>, HexComplex>)
-          return mesh_mchex(where, values, o.eps, &run.mchex, {device_subcases, device_offsets});
-        else return mesh_mchex(where, values, o.eps, &run.mchex);
+          return mesh_mchex(where, mesh_values, o.eps, &run.mchex, {device_subcases, device_offsets});
+        else return mesh_mchex(where, mesh_values, o.eps, &run.mchex);
       });
     };
-    run.meshes = run.adaptive ? run_method(run.adaptive->complex)
-                 : uniform_cx ? run_method(*uniform_cx)
-                              : run_method(*run.uniform);
+    classify();
+    if (!repelled) {
+      run.meshes = run.adaptive ? run_method(run.adaptive->complex)
+                   : uniform_cx ? run_method(*uniform_cx)
+                                : run_method(*run.uniform);
+      run.repel.reset();
+      return;
+    }
+    // A moved cell whose hexes are not all certified gets its grid corners back, and the grid is
+    // meshed again (restore_cells): each round restores at least one moved point, so it ends, at
+    // worst with the unmoved grid. RO's hexes are the cells themselves, checked here the same way.
+    for (;;) {
+      run.meshes = run_method(*moved_cx);
+      std::vector<std::uint32_t> bad;
+      if (o.method == "mchex") {
+        bad = run.mchex.uncertified_cells;
+      } else {
+        std::vector<std::uint8_t> ok(moved_cx->cells.size());
+        parallel_for(ok.size(), [&](std::size_t c) {
+          HexCorners corners;
+          for (int k = 0; k < 8; ++k) corners[k] = moved_cx->points[moved_cx->cells[c][k]];
+          ok[c] = bernstein_certified(corners);
+        });
+        for (std::uint32_t c = 0; c < ok.size(); ++c)
+          if (!ok[c]) bad.push_back(c);
+      }
+      if (bad.empty() || run.clock.run("repel", [&] { return restore_cells(*grid_cx, values, bad, *repelled); }) == 0)
+        break;
+      moved_cx->points = repelled->points;
+      classify();
+    }
+    run.repel = repelled->stats;
   };
   mesh_grid();
   // The remedy for a cut cell that no certificate covers (docs/templates.md, "Certification"):

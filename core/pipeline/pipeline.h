@@ -25,6 +25,7 @@
 #include "core/check/fidelity.h"
 #include "core/check/mesh_check.h"
 #include "core/cutting/mchex_mesher.h"
+#include "core/cutting/repel.h"
 #include "core/device/backend.h"
 #include "core/grid/grid.h"
 #include "core/grid/octree.h"
@@ -56,6 +57,9 @@ struct MeshOptions {
   std::size_t max_hexes = 0;
   double pad = 0.1;   // padding around the solid, as a fraction of its largest extent
   double eps = 1e-3;  // method mchex: crossings clamped to [eps, 1 - eps]
+  // > 0: grid points repelled from the isosurface before cutting (core/cutting/repel.h), every
+  // crossing this fraction of its edge from both ends where the rules allow; 0: off.
+  double repel = 0;
   bool fidelity = false;
   std::size_t lattice = 128;  // fidelity: IoU samples per axis
   bool quiet = false;         // no progress lines, no warning about an open surface
@@ -127,6 +131,7 @@ struct MeshRun {
   MeshCheck check;
   MchexStats mchex;                       // method mchex (of the last meshing)
   RemedyStats remedy;                     // adaptive grid, method mchex
+  std::optional<RepelStats> repel;        // when asked for (of the last meshing)
   std::vector<FitRound> fit_rounds;       // hausdorff with fidelity: the measured rounds
   std::optional<Fidelity> fidelity;       // when asked for
   std::optional<OptimizeStats> optimize;  // when asked for

@@ -80,6 +80,9 @@ void print_summary(const MeshRun& run, const MeshOutputs& outputs) {
       fmt::print("  region {}: {:>10} hexes, volume {:.6g} (its shell encloses {:.6g}) <- {}\n", i + 1, r.hexes,
                  r.volume, r.enclosed_volume, r.name);
     }
+  if (run.repel)
+    fmt::print("  repel: delta {}, {} points moved, {} pinned, {} restored, {} rounds\n", run.repel->delta,
+               run.repel->moved, run.repel->pinned, run.repel->restored, run.repel->rounds);
   if (run.optimize) fmt::print("{}", optimize_line(*run.optimize));
   fmt::print("{}", summary(run.check));
   if (run.fidelity) fmt::print("{}", fidelity_line(*run.fidelity));

@@ -7,6 +7,8 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include "core/base/error.h"
+#include "core/cutting/repel.h"
 #include "core/grid/grid.h"
 #include "core/grid/octree.h"
 #include "core/optimize/optimize.h"
@@ -15,6 +17,25 @@
 #include "host/backends/registry.h"
 
 namespace mchex::cli {
+
+namespace {
+
+// mesh --repel's value: empty (the option alone) is the default delta.
+double parse_repel_delta(const std::string& text) {
+  if (text.empty()) return kDefaultRepelDelta;
+  std::size_t used = 0;
+  double delta = 0;
+  try {
+    delta = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != text.size() || !(delta > 0 && delta <= kMaxRepelDelta))
+    throw InputError(fmt::format("--repel: DELTA must be a number in (0, {}], got '{}'", kMaxRepelDelta, text));
+  return delta;
+}
+
+}  // namespace
 
 const std::map<std::string, SignRule>& sign_rules() {
   static const std::map<std::string, SignRule> rules = {{"winding", SignRule::kWindingNumber},
@@ -139,6 +160,15 @@ MeshCli::MeshCli(CLI::App& app) {
       ->check(CLI::Range(8, 1024))
       ->capture_default_str();
 
+  // An option with an optional value: `--repel` alone is the default delta. Parsed in finish() so
+  // that a bad value is the one-line InputError of every other bad input.
+  repel_ = app.add_option("--repel", repel_text_,
+                          fmt::format("repel grid points from the surface before cutting (Awad et al. 2016): every "
+                                      "crossing DELTA x its edge from both ends where the rules allow, DELTA in (0, "
+                                      "{}] (default {}; docs/repel.md)",
+                                      kMaxRepelDelta, kDefaultRepelDelta))
+               ->expected(0, 1)
+               ->type_name("[DELTA]");
   app.add_flag("--optimize", command.options.optimize,
                "move vertices after meshing to raise the minimum and mean scaled Jacobian: boundary vertices stay "
                "on the input surface, every hex stays Bernstein-certified (docs/optimize.md)");
@@ -159,6 +189,7 @@ void MeshCli::finish() {
     command.options.hausdorff = kDefaultHausdorffRatio;
   command.options.fidelity = !no_fidelity_;
   if (command.options.optimize && eps_->count() == 0) command.options.eps = kOptimizeEps;
+  if (repel_->count() > 0) command.options.repel = parse_repel_delta(repel_text_);
 }
 
 void add_check_options(CLI::App& app, CheckCommand& command) {

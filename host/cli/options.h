@@ -41,7 +41,8 @@ class MeshCli {
   MeshCommand command;
 
  private:
-  CLI::Option *eps_ = nullptr, *depth_ = nullptr, *threshold_ = nullptr, *hausdorff_ = nullptr;
+  CLI::Option *eps_ = nullptr, *depth_ = nullptr, *threshold_ = nullptr, *hausdorff_ = nullptr, *repel_ = nullptr;
+  std::string repel_text_;
   bool no_fidelity_ = false;
 };
 

@@ -1,0 +1,212 @@
+// Grid-point repelling; see repel.h for the rules.
+#include "core/cutting/repel.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include "core/base/error.h"
+#include "core/base/parallel.h"
+#include "core/cutting/mchex_mesher.h"
+#include "core/grid/complex_topology.h"
+
+namespace mchex {
+namespace {
+
+// Rounding leaves a met request a few ulps short; such a crossing counts as met.
+constexpr double kSlack = 1e-9;
+
+// The points' incident edges, as (other point, edge id), by ascending edge id.
+struct Incidence {
+  std::vector<std::uint32_t> begin;  // points + 1
+  std::vector<std::array<std::uint32_t, 2>> items;
+};
+
+Incidence incidence(std::size_t num_points, const ComplexTopology& t) {
+  Incidence inc;
+  inc.begin.assign(num_points + 1, 0);
+  for (const auto& e : t.edge_points) {
+    ++inc.begin[e[0] + 1];
+    ++inc.begin[e[1] + 1];
+  }
+  for (std::size_t p = 0; p < num_points; ++p) inc.begin[p + 1] += inc.begin[p];
+  inc.items.resize(inc.begin.back());
+  std::vector<std::uint32_t> next(inc.begin.begin(), inc.begin.end() - 1);
+  for (std::uint32_t id = 0; id < t.edge_points.size(); ++id) {
+    const auto& e = t.edge_points[id];
+    inc.items[next[e[0]]++] = {e[1], id};
+    inc.items[next[e[1]]++] = {e[0], id};
+  }
+  return inc;
+}
+
+struct Request {
+  Vec3 dir;           // unit, along the edge's grid line, away from the crossing
+  double amount = 0;  // distance that puts the crossing at delta of the edge
+  bool any = false;
+  bool opposed = false;  // another request points the opposite way
+};
+
+struct Repeller {
+  const HexComplex& cx;
+  const Box& cube;
+  const Incidence& inc;
+  double delta, tiny, face_tol;
+  std::vector<Vec3> dir;      // a moved point's direction (zero until it moves)
+  std::vector<double> cap;    // max displacement
+  std::vector<double> moved;  // displacement along dir
+  std::vector<std::uint8_t> stuck;
+
+  // The zero rule's value (mchex_mesher.h): what the mesher's crossings are computed from.
+  double rule(double v) const { return std::abs(v) < tiny ? -tiny : v; }
+
+  Request request(std::uint32_t p, std::span<const Vec3> x, std::span<const double> f) const {
+    Request r;
+    const double fp = rule(f[p]);
+    std::array<Vec3, 64> dirs;  // a complex's points have a handful of edges
+    std::size_t num = 0;
+    for (std::uint32_t k = inc.begin[p]; k < inc.begin[p + 1]; ++k) {
+      const std::uint32_t q = inc.items[k][0];
+      const double fq = rule(f[q]);
+      if ((fp > 0) == (fq > 0)) continue;
+      const double t = fp / (fp - fq);
+      if (!(t < delta - kSlack)) continue;
+      const double amount = (delta - t) * norm(x[q] - x[p]) / (1 - delta);
+      const Vec3 d = normalized(cx.points[p] - cx.points[q]);
+      if (num < dirs.size()) dirs[num++] = d;
+      if (!r.any || amount > r.amount) {  // ties: the lower edge id, met first
+        r.dir = d;
+        r.amount = amount;
+        r.any = true;
+      }
+    }
+    for (std::size_t i = 0; i < num; ++i) r.opposed = r.opposed || dot(dirs[i], r.dir) < -0.5;
+    return r;
+  }
+
+  // Whether moving p along d would take it off a face of the padded cube it lies on.
+  bool leaves_cube_face(std::uint32_t p, Vec3 d) const {
+    const Vec3 o = cx.points[p];
+    for (int i = 0; i < 3; ++i) {
+      const bool on_face = std::abs(o[i] - cube.lo[i]) <= face_tol || std::abs(o[i] - cube.hi[i]) <= face_tol;
+      if (on_face && std::abs(d[i]) > 1e-12) return true;
+    }
+    return false;
+  }
+};
+
+}  // namespace
+
+bool crossing_clear(double t, double delta) { return t >= delta - kSlack && 1 - t >= delta - kSlack; }
+
+Repelled repel(const HexComplex& cx, const Box& cube, std::span<const double> values, const SdfBatch& sdf,
+               const RepelOptions& o) {
+  if (!(o.delta > 0 && o.delta <= kMaxRepelDelta))
+    throw InputError("repel: delta must be in (0, " + std::to_string(kMaxRepelDelta) + "], got " +
+                     std::to_string(o.delta));
+  if (values.size() != cx.points.size())
+    throw InputError("repel: " + std::to_string(values.size()) + " values for " + std::to_string(cx.points.size()) +
+                     " grid points");
+  const std::size_t n = cx.points.size();
+  const ComplexTopology topo = build_topology(cx);
+  const Incidence inc = incidence(n, topo);
+  Repeller r{cx, cube, inc, o.delta, zero_tolerance_of(cx), 1e-9 * std::max(cube.diagonal(), 1e-300), {}, {}, {}, {}};
+  r.dir.assign(n, Vec3{});
+  r.moved.assign(n, 0.0);
+  r.stuck.assign(n, 0);
+  r.cap.assign(n, 0.0);
+  parallel_for(n, [&](std::size_t p) {
+    double shortest = std::numeric_limits<double>::infinity();
+    for (std::uint32_t k = inc.begin[p]; k < inc.begin[p + 1]; ++k)
+      shortest = std::min(shortest, norm(cx.points[inc.items[k][0]] - cx.points[p]));
+    r.cap[p] = std::isfinite(shortest) ? o.max_move * shortest : 0.0;
+  });
+
+  Repelled out;
+  out.points = cx.points;
+  out.values.assign(values.begin(), values.end());
+  out.stats.delta = o.delta;
+  const auto positive = [&](double v) { return r.rule(v) > 0; };
+
+  std::vector<Vec3> candidate(n);
+  std::vector<std::uint8_t> wants(n);
+  for (int round = 0; round < o.max_rounds; ++round) {
+    // Jacobi: every request from the same positions and values; each point writes its own entry.
+    parallel_for(n, [&](std::size_t i) {
+      const auto p = static_cast<std::uint32_t>(i);
+      wants[p] = 0;
+      if (r.stuck[p]) return;
+      const Request q = r.request(p, out.points, out.values);
+      if (!q.any || q.opposed) return;
+      if (r.moved[p] > 0 && dot(q.dir, r.dir[p]) < 1 - 1e-12) return;  // one grid line per point
+      if (r.leaves_cube_face(p, q.dir)) {
+        r.stuck[p] = 1;
+        return;
+      }
+      const double s = std::min(r.moved[p] + q.amount, r.cap[p]);
+      if (!(s > r.moved[p])) {
+        r.stuck[p] = 1;
+        return;
+      }
+      candidate[p] = cx.points[p] + s * q.dir;
+      r.dir[p] = q.dir;  // read by no other point this round
+      wants[p] = 1;
+    });
+    std::vector<std::uint32_t> movers;
+    for (std::uint32_t p = 0; p < n; ++p)
+      if (wants[p]) movers.push_back(p);
+    if (movers.empty()) break;
+    std::vector<Vec3> at(movers.size());
+    std::vector<double> v(movers.size());
+    for (std::size_t i = 0; i < movers.size(); ++i) at[i] = candidate[movers[i]];
+    sdf(at, v);
+    bool any = false;
+    for (std::size_t i = 0; i < movers.size(); ++i) {
+      const std::uint32_t p = movers[i];
+      if (!std::isfinite(v[i]) || positive(v[i]) != positive(values[p])) {
+        r.stuck[p] = 1;  // the move would change the point's sign: it stays
+        if (r.moved[p] == 0) r.dir[p] = Vec3{};
+        continue;
+      }
+      r.moved[p] = norm(at[i] - cx.points[p]);
+      out.points[p] = at[i];
+      out.values[p] = v[i];
+      any = true;
+    }
+    if (!any) break;
+    out.stats.rounds = round + 1;
+  }
+
+  out.state.assign(n, RepelState::kStill);
+  parallel_for(n, [&](std::size_t i) {
+    const auto p = static_cast<std::uint32_t>(i);
+    if (r.request(p, out.points, out.values).any) out.state[p] = RepelState::kPinned;
+    else if (r.moved[p] > 0) out.state[p] = RepelState::kMoved;
+  });
+  for (std::size_t p = 0; p < n; ++p) {
+    out.stats.moved += r.moved[p] > 0;
+    out.stats.pinned += out.state[p] == RepelState::kPinned;
+  }
+  return out;
+}
+
+std::size_t restore_cells(const HexComplex& cx, std::span<const double> unmoved_values,
+                          std::span<const std::uint32_t> cells, Repelled& rep) {
+  std::size_t restored = 0;
+  for (std::uint32_t c : cells)
+    for (std::uint32_t p : cx.cells.at(c)) {
+      const Vec3 o = cx.points[p];
+      if (rep.points[p].x == o.x && rep.points[p].y == o.y && rep.points[p].z == o.z) continue;
+      rep.points[p] = o;
+      rep.values[p] = unmoved_values[p];
+      rep.state[p] = RepelState::kStill;
+      ++restored;
+    }
+  rep.stats.moved -= restored;
+  rep.stats.restored += restored;
+  return restored;
+}
+
+}  // namespace mchex

@@ -1,0 +1,91 @@
+// Grid-point repelling (Awad et al. 2016, Section 2.2, Figure 2): before the cells are cut, a
+// grid point that lies closer than delta to the isosurface along one of its grid edges moves
+// along that edge, away from the crossing, until the crossing is delta from it. Without it a
+// crossing may land arbitrarily close to a corner and the polyhedra get near-zero edges: the
+// smallest scaled Jacobians of the mesh. Awad et al. chose delta = s/4 (s the cube's size); here
+// delta is a fraction of each grid edge's length, so it serves the adaptive grid's transition
+// cells as well as cubes.
+//
+// The rules (docs/repel.md):
+//  - Crossings are the linear ones the mesher uses, t = f_a / (f_a - f_b) on an edge with a sign
+//    change (the zero rule's sign: v >= zero_tolerance is inside). Edge e = (a, b) asks a to
+//    move when t < delta, b when 1 - t < delta, by the distance that puts the crossing at delta
+//    of the edge if the isosurface stays where it is.
+//  - Jacobi rounds (at most max_rounds): every point gathers its requests from the current
+//    positions and values, then all moves are applied at once; each point writes only its own
+//    result, so the outcome does not depend on the thread count.
+//  - A point keeps its largest request (ties: the lowest edge id). It is pinned (stays) when
+//    another request points the opposite way (moving away from one crossing would move it
+//    towards the other), when it already moved along another edge direction (a point moves
+//    along one grid line only), when its move would leave a face of the padded cube it lies on,
+//    or when the move would change its sign (the SDF is evaluated at the new position).
+//  - A point's displacement never exceeds max_move x its shortest incident edge (0.45: its
+//    cells stay close to the boxes they were and their edges never reverse).
+// Points are moved, values re-evaluated; the complex's topology is untouched, so the sign of
+// every point and therefore every edge's cut state stays the same. The moved cells are not boxes:
+// the mesher maps through each cell's actual corners and Bernstein-checks every hex; a moved cell
+// whose hexes are not certified gets its corners back (restore_cells) and is meshed again.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <span>
+#include <vector>
+
+#include "core/base/geometry.h"
+#include "core/grid/hex_complex.h"
+
+namespace mchex {
+
+struct RepelOptions {
+  double delta = 0.25;     // wanted distance of a crossing from each end, a fraction of its edge
+  int max_rounds = 4;      // Jacobi rounds
+  double max_move = 0.45;  // displacement cap, a fraction of the point's shortest incident edge
+};
+
+// The default delta (docs/repel.md measures the choice) and the accepted range (0, kMaxRepelDelta].
+inline constexpr double kDefaultRepelDelta = 0.25;
+inline constexpr double kMaxRepelDelta = 0.45;
+
+// Per point, after repel.
+enum class RepelState : std::uint8_t {
+  kStill = 0,  // never asked to move, or every request met
+  kMoved,      // moved, every request met
+  kPinned,     // a request is still unmet after the last round (moved or not)
+};
+
+struct RepelStats {
+  double delta = 0;
+  std::size_t moved = 0;     // points at a new position
+  std::size_t pinned = 0;    // points with a request still unmet (RepelState::kPinned)
+  std::size_t restored = 0;  // moved points given back their grid position (restore_cells)
+  int rounds = 0;            // rounds that moved a point
+};
+
+// The SDF at a batch of points (the run's backend: every backend gives the same values).
+using SdfBatch = std::function<void(std::span<const Vec3>, std::span<double>)>;
+
+struct Repelled {
+  std::vector<Vec3> points;       // the complex's points, moved
+  std::vector<double> values;     // the SDF at them (re-evaluated where moved)
+  std::vector<RepelState> state;  // per point
+  RepelStats stats;
+};
+
+// cube: the padded cube the complex fills (its face points stay on their faces). values: the
+// SDF at complex.points. Throws InputError for a delta outside (0, kMaxRepelDelta] or a size
+// mismatch.
+Repelled repel(const HexComplex& complex, const Box& cube, std::span<const double> values, const SdfBatch& sdf,
+               const RepelOptions& options = {});
+
+// Whether edge parameter t (from the edge's first point) is at least delta from both ends, with
+// the slack repel allows for rounding.
+bool crossing_clear(double t, double delta);
+
+// The corners of `cells` given back their grid positions and values (unmoved_values: the SDF at
+// complex.points); returns how many of them had moved. stats.moved and stats.restored follow.
+std::size_t restore_cells(const HexComplex& complex, std::span<const double> unmoved_values,
+                          std::span<const std::uint32_t> cells, Repelled& repelled);
+
+}  // namespace mchex

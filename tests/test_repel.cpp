@@ -1,0 +1,194 @@
+// Grid-point repelling (core/cutting/repel.h, Awad et al. 2016 Section 2.2) on uniform grids
+// with analytic SDFs. Asserted against crossings recomputed here from the returned values: every
+// crossing ends at least delta from both of its edge's points, or the near point is reported
+// pinned; no point changes its sign; the returned values are the SDF at the returned points;
+// moves run along one grid line, within the cap, and points on the padded cube's faces stay on
+// them; a plane's one predicted move is exact; the result is the same on 1 thread and on many;
+// restore_cells gives the grid back.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "core/base/error.h"
+#include "core/base/parallel.h"
+#include "core/cutting/mchex_mesher.h"
+#include "core/cutting/repel.h"
+#include "core/grid/complex_topology.h"
+#include "core/grid/grid.h"
+#include "core/grid/hex_complex.h"
+#include "core/sdf/shapes.h"
+
+namespace mchex {
+namespace {
+
+struct Case {
+  HexComplex cx;
+  Box cube;
+  std::vector<double> values;
+  SdfBatch sdf;
+};
+
+Case sphere_case(int depth) {
+  static const ShapeSdf sdf(ShapeKind::kSphere);
+  Case c;
+  c.cube = padded_cube(sdf.bounds(), 0.1);
+  c.cx = uniform_complex(UniformGrid(c.cube, depth));
+  c.values.resize(c.cx.points.size());
+  sdf.evaluate(c.cx.points, c.values);
+  c.sdf = [](std::span<const Vec3> p, std::span<double> v) { sdf.evaluate(p, v); };
+  return c;
+}
+
+// Inside where x < x0: a plane that crosses the x edges only.
+Case plane_case(int depth, double x0) {
+  Case c;
+  c.cube = Box{{-1, -1, -1}, {1, 1, 1}};
+  c.cx = uniform_complex(UniformGrid(c.cube, depth));
+  c.sdf = [x0](std::span<const Vec3> p, std::span<double> v) {
+    for (std::size_t i = 0; i < p.size(); ++i) v[i] = x0 - p[i].x;
+  };
+  c.values.resize(c.cx.points.size());
+  c.sdf(c.cx.points, c.values);
+  return c;
+}
+
+bool inside(const HexComplex& cx, double v) { return v >= zero_tolerance_of(cx); }
+
+void expect_rules_hold(const Case& c, const Repelled& r, double delta) {
+  const double tiny = zero_tolerance_of(c.cx);
+  const double h = c.cx.cell_size.empty() ? 0 : c.cx.cell_size[0];
+  // No sign changes, and the values are the SDF at the points.
+  std::vector<double> fresh(r.points.size());
+  c.sdf(r.points, fresh);
+  std::size_t moved = 0, pinned = 0;
+  for (std::size_t p = 0; p < r.points.size(); ++p) {
+    ASSERT_EQ(inside(c.cx, r.values[p]), inside(c.cx, c.values[p])) << "point " << p << " changed sign";
+    ASSERT_EQ(r.values[p], fresh[p]) << "point " << p;
+    const Vec3 o = c.cx.points[p], d = r.points[p] - o;
+    const int axes = (d.x != 0) + (d.y != 0) + (d.z != 0);
+    ASSERT_LE(axes, 1) << "point " << p << " left its grid lines";
+    ASSERT_LE(norm(d), 0.45 * h * (1 + 1e-12)) << "point " << p;
+    for (int i = 0; i < 3; ++i)
+      if (o[i] == c.cube.lo[i] || o[i] == c.cube.hi[i]) {
+        ASSERT_EQ(r.points[p][i], o[i]) << "point " << p << " left a face";
+      }
+    moved += axes == 1;
+    pinned += r.state[p] == RepelState::kPinned;
+    if (axes == 1) {
+      ASSERT_NE(r.state[p], RepelState::kStill);
+    }
+  }
+  EXPECT_EQ(r.stats.moved, moved);
+  EXPECT_EQ(r.stats.pinned, pinned);
+  // Every crossing delta from both ends, or the near end pinned.
+  const ComplexTopology topo = build_topology(c.cx);
+  std::size_t crossings = 0;
+  for (const auto& e : topo.edge_points) {
+    auto rule = [&](double v) { return std::abs(v) < tiny ? -tiny : v; };
+    const double fa = rule(r.values[e[0]]), fb = rule(r.values[e[1]]);
+    if ((fa > 0) == (fb > 0)) continue;
+    ++crossings;
+    const double t = fa / (fa - fb);
+    if (t < delta - 1e-9) {
+      EXPECT_EQ(r.state[e[0]], RepelState::kPinned) << "edge " << e[0] << "-" << e[1] << " t " << t;
+    }
+    if (1 - t < delta - 1e-9) {
+      EXPECT_EQ(r.state[e[1]], RepelState::kPinned) << "edge " << e[0] << "-" << e[1] << " t " << t;
+    }
+  }
+  EXPECT_GT(crossings, 0u);
+}
+
+TEST(Repel, SphereCrossingsClearOrPinned) {
+  for (double delta : {0.1, 0.25, 0.45}) {
+    const Case c = sphere_case(3);
+    const Repelled r = repel(c.cx, c.cube, c.values, c.sdf, {delta});
+    EXPECT_GT(r.stats.moved, 0u) << delta;
+    EXPECT_GE(r.stats.rounds, 1);
+    EXPECT_LE(r.stats.rounds, 4);
+    expect_rules_hold(c, r, delta);
+  }
+}
+
+// A plane 0.1 h past grid points of column i: t = 0.1 from them, so each moves by
+// (0.25 - 0.1) h / 0.75 = 0.2 h away, and the linear field puts the crossing at exactly 0.25
+// of the longer edge. Nothing else moves; nothing is pinned.
+TEST(Repel, PlaneMoveIsExact) {
+  const int depth = 2;  // 9 cells per axis on [-1, 1]
+  const double h = 2.0 / 9;
+  const double xi = -1 + 4 * h;
+  const Case c = plane_case(depth, xi + 0.1 * h);
+  const Repelled r = repel(c.cx, c.cube, c.values, c.sdf, {0.25});
+  expect_rules_hold(c, r, 0.25);
+  EXPECT_EQ(r.stats.pinned, 0u);
+  EXPECT_EQ(r.stats.rounds, 1);
+  EXPECT_EQ(r.stats.moved, 10u * 10u);
+  for (std::size_t p = 0; p < r.points.size(); ++p) {
+    const Vec3 o = c.cx.points[p];
+    if (std::abs(o.x - xi) < 1e-12) {
+      EXPECT_NEAR(r.points[p].x, xi - 0.2 * h, 1e-12) << p;
+    } else {
+      EXPECT_EQ(r.points[p].x, o.x) << p;
+    }
+    EXPECT_EQ(r.points[p].y, o.y);
+    EXPECT_EQ(r.points[p].z, o.z);
+  }
+}
+
+// A plane 0.1 h inside the cube's face x = -1: those face points would have to leave the cube,
+// so they stay and are pinned.
+TEST(Repel, CubeFacePointsStayOnTheirFace) {
+  const double h = 2.0 / 9;
+  const Case c = plane_case(2, -1 + 0.1 * h);
+  const Repelled r = repel(c.cx, c.cube, c.values, c.sdf, {0.25});
+  expect_rules_hold(c, r, 0.25);
+  EXPECT_EQ(r.stats.moved, 0u);
+  EXPECT_EQ(r.stats.pinned, 10u * 10u);
+}
+
+TEST(Repel, SameOnOneThreadAndMany) {
+  const Case c = sphere_case(4);
+  Repelled one;
+  {
+    ThreadLimit limit(1);
+    one = repel(c.cx, c.cube, c.values, c.sdf);
+  }
+  const Repelled many = repel(c.cx, c.cube, c.values, c.sdf);
+  ASSERT_EQ(one.points.size(), many.points.size());
+  for (std::size_t p = 0; p < one.points.size(); ++p) {
+    ASSERT_EQ(one.points[p].x, many.points[p].x);
+    ASSERT_EQ(one.points[p].y, many.points[p].y);
+    ASSERT_EQ(one.points[p].z, many.points[p].z);
+    ASSERT_EQ(one.values[p], many.values[p]);
+    ASSERT_EQ(one.state[p], many.state[p]);
+  }
+  EXPECT_EQ(one.stats.moved, many.stats.moved);
+  EXPECT_EQ(one.stats.rounds, many.stats.rounds);
+}
+
+TEST(Repel, RestoreCellsGivesTheGridBack) {
+  const Case c = sphere_case(3);
+  Repelled r = repel(c.cx, c.cube, c.values, c.sdf);
+  std::vector<std::uint32_t> all(c.cx.cells.size());
+  for (std::uint32_t i = 0; i < all.size(); ++i) all[i] = i;
+  const std::size_t moved = r.stats.moved;
+  ASSERT_GT(moved, 0u);
+  EXPECT_EQ(restore_cells(c.cx, c.values, all, r), moved);
+  EXPECT_EQ(r.stats.moved, 0u);
+  EXPECT_EQ(r.stats.restored, moved);
+  for (std::size_t p = 0; p < r.points.size(); ++p) {
+    EXPECT_EQ(r.points[p].x, c.cx.points[p].x);
+    EXPECT_EQ(r.values[p], c.values[p]);
+  }
+  EXPECT_EQ(restore_cells(c.cx, c.values, all, r), 0u);
+}
+
+TEST(Repel, RejectsABadDelta) {
+  const Case c = sphere_case(1);
+  for (double delta : {0.0, -0.1, 0.46, std::nan("")})
+    EXPECT_THROW(repel(c.cx, c.cube, c.values, c.sdf, {delta}), InputError) << delta;
+}
+
+}  // namespace
+}  // namespace mchex
