@@ -31,6 +31,11 @@
 // it is made, and the pipeline refines the octree leaf of a cell whose polyhedron is not certified
 // and meshes again (core/grid/octree.h refine_leaves_of_cells), which ends at cubes. One failure
 // decides an entry, so its remaining samples are skipped.
+// Repelled cubes (mesh --repel): the same patterns and samples on cubes whose corners grid-point
+// repelling moved (each corner along one of its three axes, or not, by up to 0.45 of the edge in
+// either direction, drawn with a seed; half of the moved corners at +-0.45), routed and cut as the
+// mesher does (a moved cube is not affine: 11 and 14 are refined). What is not certified there is
+// handed to the run-time restore (core/cutting/repel.h restore_cells), which ends on the cube.
 // Sign patterns: for each subcase, one cell per class of patterns up to rotation and complement
 // (the complement gives the same polyhedra), found by classify() on seeded random corner values
 // (13.5.2, which random values practically never give, from a constructed cell; a class with few
@@ -54,6 +59,10 @@ struct CertifyOptions {
   int random_samples = 8;  // per (type, rotation, pattern): magnitudes uniform in [0.05, 1]
   int mixed_samples = 8;   // each magnitude 1, 1e-6 or random (plus the 256 end cells)
   std::uint64_t seed = 20250917;
+  // Repelled cubes (mesh --repel, core/cutting/repel.h): per sign pattern, this many cubes whose
+  // corners moved along one of their edges' axes by up to kMaxRepelDelta ...
+  int repel_shapes = 48;
+  int repel_values = 12;  // ... each cut at this many of the pattern's sampled values
 };
 
 enum class CertifyRoute : std::uint8_t { kDirect, kLocalRefinement };
@@ -81,6 +90,12 @@ struct CertifyResult {
   std::optional<CertifyFailure> first_failure;
   std::size_t hexes = 0;
   std::size_t not_landed_subcases = 0;  // subcases no sampled cell reached (not certified)
+  // [subcase]: the repelled cubes. Not part of passed(): a repelled cell whose hexes are not
+  // certified gets its grid corners back at run time (restore_cells) and is an unmoved cube,
+  // proven above; these entries say how often that remedy can be needed.
+  std::array<CertifyEntry, kNumSubcases> repelled{};
+  std::size_t repelled_cells = 0;
+  double repelled_seconds = 0;
   double seconds = 0;
   // Whether every sampled cell of (type, subcase) was certified.
   bool proven(int type, int subcase) const;
