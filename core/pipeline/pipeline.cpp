@@ -189,6 +189,7 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
   std::unique_ptr<Backend> opened;
   Backend& backend = request.backend ? *request.backend : *(opened = request.open_backend());
   run.device = backend.device();
+  std::vector<Vec3> repelled_points;  // the grid points the last mesh was cut at, where repel moved them
   auto mesh_grid = [&] {
     bool device_values = true;  // values as the backend wrote them: no sign changed on the host
     const std::vector<double> values =
@@ -252,6 +253,7 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
                    : uniform_cx ? run_method(*uniform_cx)
                                 : run_method(*run.uniform);
       run.repel.reset();
+      repelled_points.clear();
       return;
     }
     // A moved cell whose hexes are not all certified gets its grid corners back, and the grid is
@@ -278,6 +280,7 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
       classify();
     }
     run.repel = repelled->stats;
+    repelled_points = std::move(repelled->points);
   };
   mesh_grid();
   // The remedy for a cut cell that no certificate covers (docs/templates.md, "Certification"):
@@ -342,6 +345,8 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
       run.fidelity = run.clock.run("fidelity", [&] { return solid.fidelity(run.meshes.inside, run.cube, o.lattice); });
     RegionStats& stats = run.regions.emplace();
     run.meshes = run.clock.run("regions", [&] {
+      // The points the cells were cut at: hexes find their grid corner among them.
+      if (!repelled_points.empty()) return label_regions(run.meshes, repelled_points, *regions, &stats);
       const std::vector<Vec3> uniform_points = run.uniform ? run.uniform->vertices() : std::vector<Vec3>{};
       return label_regions(run.meshes, run.uniform ? uniform_points : run.adaptive->complex.points, *regions, &stats);
     });
