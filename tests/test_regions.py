@@ -1,0 +1,188 @@
+"""Several closed surfaces as the regions of one conforming hex mesh (core/pipeline/regions.h,
+docs/regions.md), against references computed here: region volumes against the analytic balls
+and lens (and the shells' own polyhedral volumes), convergence as the cells shrink, the labels
+every writer carries as meshio reads them, region interfaces shared face for face (found by
+brute force over the hexes' faces), --region-order, and bad input.
+
+The shells are tests/models.py's uv spheres and boxes made here, written as binary STL.
+"""
+
+import json
+import math
+import os
+import unittest
+
+import meshio  # Debian's python3-meshio; tests/CMakeLists.txt runs /usr/bin/python3
+import numpy as np
+
+import models
+from harness import ScratchTestCase, run
+
+# The hex faces as corner positions of the .vtu/.mesh corner order (bottom 0-3, top 4-7).
+HEX_FACES = [[0, 1, 2, 3], [4, 5, 6, 7], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]]
+
+
+def box_surface(lo, hi):
+    """An outward box, two triangles per face."""
+    v = np.array([[(lo, hi)[i & 1][0], (lo, hi)[(i >> 1) & 1][1], (lo, hi)[(i >> 2) & 1][2]] for i in range(8)], float)
+    quads = [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)]
+    tris = [t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))]
+    return v, np.array(tris)
+
+
+def lens_volume(r, d):
+    """The intersection of two balls of radius r whose centres are d apart."""
+    return math.pi * (4 * r + d) * (2 * r - d) ** 2 / 12
+
+
+def hex_faces(cells):
+    """Every face of every hex: sorted corner tuple -> list of hexes."""
+    faces = {}
+    for h, hexa in enumerate(cells):
+        for f in HEX_FACES:
+            faces.setdefault(tuple(sorted(hexa[f])), []).append(h)
+    return faces
+
+
+class Regions(ScratchTestCase):
+    def write(self, name, surface):
+        path = os.path.join(self.dir, name)
+        models.write_binary_stl(path, *surface)
+        return path
+
+    def mesh(self, inputs, depth, *extra, out="in.vtu"):
+        out = os.path.join(self.dir, out)
+        report = os.path.join(self.dir, "report.json")
+        r = run("mesh", *inputs, "--depth", depth, "-o", out, "--outside", os.path.join(self.dir, "out.vtu"),
+                "--report", report, "--quiet", *extra)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        with open(report) as f:
+            return out, json.load(f)
+
+    def assert_valid(self, rep):
+        """check passed, every hex certified, and check's per-region quality counts the regions' hexes."""
+        self.assertTrue(rep["check"]["ok"], rep["check"]["errors"])
+        for side in ("inside", "outside"):
+            q = rep["check"][side]["quality"]
+            self.assertEqual(q["certified"], q["count"], side)
+            self.assertEqual(q["count"], rep["check"][side]["hexes"], side)
+        per_region = {r["region"]: r["quality"]["count"] for r in rep["check"]["inside"]["regions"]}
+        self.assertEqual(per_region, {r["label"]: r["hexes"] for r in rep["regions"]["regions"]})
+
+    def test_nested_spheres_converge_to_the_shell_and_the_ball(self):
+        outer = self.write("outer.stl", models.uv_sphere(96, 48, 1.0))
+        inner = self.write("inner.stl", models.uv_sphere(96, 48, 0.5))
+        v_outer = models.signed_volume(*models.uv_sphere(96, 48, 1.0))
+        v_inner = models.signed_volume(*models.uv_sphere(96, 48, 0.5))
+        errors = []
+        for depth in (2, 3):
+            path, rep = self.mesh([outer, inner], depth)
+            self.assert_valid(rep)
+            reg = rep["regions"]
+            # The smaller enclosed volume wins a point inside both: the ball is region 2's.
+            self.assertEqual(reg["priority"], [2, 1])
+            self.assertEqual(reg["outside_label"], 3)
+            volumes = [r["volume"] for r in reg["regions"]]
+            errors.append([abs(volumes[0] - (v_outer - v_inner)) / (v_outer - v_inner),
+                           abs(volumes[1] - v_inner) / v_inner])
+            m = meshio.read(path)
+            labels = m.cell_data["region"][0]
+            self.assertEqual(sorted(set(labels.tolist())), [1, 2])
+            self.assertEqual([int((labels == k).sum()) for k in (1, 2)], [r["hexes"] for r in reg["regions"]])
+            self.assertEqual(len(labels), rep["check"]["inside"]["hexes"])
+            # The ball's hexes meet the shell's face for face: every face of a region-2 hex that no
+            # other region-2 hex has is a face of exactly one region-1 hex (the ball is enclosed).
+            faces = hex_faces(m.cells_dict["hexahedron"])
+            interface = 0
+            for owners in faces.values():
+                kinds = sorted(labels[h] for h in owners)
+                self.assertLessEqual(len(owners), 2)
+                if 2 in kinds and len(owners) == 1:
+                    self.fail("a face of the ball lies on the mesh boundary")
+                interface += kinds == [1, 2]
+            self.assertGreater(interface, 0)
+            # The outside mesh is the box less the outer ball, labelled outside.
+            out = meshio.read(os.path.join(self.dir, "out.vtu"))
+            self.assertEqual(set(out.cell_data["region"][0].tolist()), {3})
+        self.assertLess(errors[1][0], errors[0][0])
+        self.assertLess(errors[1][1], errors[0][1])
+        self.assertLess(max(errors[1]), 0.03)
+
+    def test_overlapping_spheres_give_the_lens_to_the_first_in_order(self):
+        r, d = 0.6, 0.7
+        a = self.write("a.stl", models.uv_sphere(96, 48, r, (-d / 2, 0, 0)))
+        b = self.write("b.stl", models.uv_sphere(96, 48, r, (d / 2, 0, 0)))
+        ball, lens = 4 / 3 * math.pi * r**3, lens_volume(r, d)
+        for order, expected in (("", [ball, ball - lens]), ("2,1", [ball - lens, ball])):
+            extra = ["--region-order", order] if order else []
+            _, rep = self.mesh([a, b], 3, *extra)
+            self.assert_valid(rep)
+            reg = rep["regions"]
+            self.assertEqual(reg["priority"], [2, 1] if order else [1, 2])  # equal volumes: input order
+            for got, want in zip([x["volume"] for x in reg["regions"]], expected):
+                self.assertLess(abs(got - want) / want, 0.03, (order, got, want))
+
+    def test_boxes_sharing_a_face_conform_along_it(self):
+        # The face x = 1 is a grid plane of the padded cube (the cube is centred on the input):
+        # the two regions meet there face for face.
+        b1 = self.write("b1.stl", box_surface((0, 0, 0), (1, 1, 1)))
+        b2 = self.write("b2.stl", box_surface((1, 0, 0), (2, 1, 1)))
+        path, rep = self.mesh([b1, b2], 3)
+        self.assert_valid(rep)
+        reg = rep["regions"]
+        self.assertEqual(reg["shared_faces"], 2)
+        self.assertEqual(reg["regions"][0]["hexes"], reg["regions"][1]["hexes"])
+        m = meshio.read(path)
+        labels, hexes = m.cell_data["region"][0], m.cells_dict["hexahedron"]
+        between = [f for f, owners in hex_faces(hexes).items() if sorted(labels[h] for h in owners) == [1, 2]]
+        self.assertGreater(len(between), 0)
+        for f in between:
+            self.assertTrue(np.allclose(m.points[list(f), 0], 1.0), m.points[list(f)])
+
+    def test_every_format_keeps_the_regions(self):
+        outer = self.write("outer.stl", models.uv_sphere(48, 24, 1.0))
+        inner = self.write("inner.stl", models.uv_sphere(48, 24, 0.5))
+        counts = None
+        for ext in ("vtu", "mesh", "meshb", "msh", "exo", "inp"):
+            path, rep = self.mesh([outer, inner], 2, out="in." + ext)
+            want = [r["hexes"] for r in rep["regions"]["regions"]]
+            counts = counts or want
+            self.assertEqual(want, counts)
+            m = meshio.read(path)
+            if ext == "vtu":
+                got = [int((m.cell_data["region"][0] == k).sum()) for k in (1, 2)]
+            elif ext in ("mesh", "meshb"):
+                got = [int((m.cell_data["medit:ref"][0] == k).sum()) for k in (1, 2)]
+            elif ext == "msh":
+                got = [sum(len(c.data) for c, p in zip(m.cells, m.cell_data["gmsh:physical"]) if (p == k).all())
+                       for k in (1, 2)]
+            elif ext == "exo":  # one element block per region, in label order
+                got = [len(c.data) for c in m.cells]
+            else:  # .inp: an ELSET per region
+                got = [sum(len(x) for x in m.cell_sets["REGION%d" % k]) for k in (1, 2)]
+            self.assertEqual(got, want, ext)
+
+    def test_bad_region_inputs_get_one_line(self):
+        outer = self.write("outer.stl", models.uv_sphere(24, 12, 1.0))
+        inner = self.write("inner.stl", models.uv_sphere(24, 12, 0.5))
+        v, t = models.uv_sphere(24, 12, 0.3, (3, 0, 0))
+        open_shell = self.write("open.stl", (v, t[: len(t) // 2]))
+        out = os.path.join(self.dir, "x.vtu")
+        for args, says in (
+            ([outer, "--region-order", "1"], "--region-order"),
+            ([outer, inner, "--region-order", "1,1"], "--region-order"),
+            ([outer, inner, "--region-order", "1,3"], "--region-order"),
+            ([outer, inner, "--region-order", "2"], "--region-order"),
+            ([outer, open_shell], "open.stl"),
+        ):
+            r = run("mesh", *args, "--depth", 1, "-o", out, "--quiet")
+            self.assertNotEqual(r.returncode, 0, args)
+            lines = r.stderr.strip().splitlines()
+            self.assertEqual(len(lines), 1, r.stderr)
+            self.assertIn(says, lines[0])
+            self.assertFalse(os.path.exists(out))
+            self.assertFalse(os.path.exists(os.path.join(self.dir, "outside.vtu")))
+
+
+if __name__ == "__main__":
+    unittest.main()
