@@ -79,7 +79,7 @@ void expect_sound(const Timed& t) {
   EXPECT_GT(run.peak_memory_bytes, 0u);
   EXPECT_EQ(run.device.backend, "cpu");
 
-  const MeshOutputs outputs{"in.mesh", "out.vtu"};
+  const MeshOutputs outputs{"in.mesh", "out.vtu", {}};
   const nlohmann::json r = report_json(run, &outputs);
   for (const char* key :
        {"input", "method", "backend", "grid", "elements", "check", "outputs", "times", "peak_memory_bytes"})

@@ -162,6 +162,23 @@ class Regions(ScratchTestCase):
                 got = [sum(len(x) for x in m.cell_sets["REGION%d" % k]) for k in (1, 2)]
             self.assertEqual(got, want, ext)
 
+    def test_region_files_hold_each_regions_hexes(self):
+        outer = self.write("outer.stl", models.uv_sphere(48, 24, 1.0))
+        inner = self.write("inner.stl", models.uv_sphere(48, 24, 0.5))
+        path, rep = self.mesh([outer, inner], 2, "--region-files", out="parts.vtu")
+        whole = meshio.read(path)
+        labels, hexes = whole.cell_data["region"][0], whole.cells_dict["hexahedron"]
+        files = rep["outputs"]["regions"]
+        self.assertEqual([os.path.basename(f) for f in files], ["parts.region1.vtu", "parts.region2.vtu"])
+        for k, f in enumerate(files, start=1):
+            part = meshio.read(f)
+            self.assertEqual(set(part.cell_data["region"][0].tolist()), {k})
+            # The same hexes, corner for corner, over renumbered points.
+            got = sorted(tuple(map(tuple, part.points[h])) for h in part.cells_dict["hexahedron"])
+            want = sorted(tuple(map(tuple, whole.points[h])) for h in hexes[labels == k])
+            self.assertEqual(got, want)
+            self.assertEqual(len(part.points), len(np.unique(hexes[labels == k])))
+
     def test_bad_region_inputs_get_one_line(self):
         outer = self.write("outer.stl", models.uv_sphere(24, 12, 1.0))
         inner = self.write("inner.stl", models.uv_sphere(24, 12, 0.5))
@@ -170,6 +187,7 @@ class Regions(ScratchTestCase):
         out = os.path.join(self.dir, "x.vtu")
         for args, says in (
             ([outer, "--region-order", "1"], "--region-order"),
+            ([outer, "--region-files"], "--region-files"),
             ([outer, inner, "--region-order", "1,1"], "--region-order"),
             ([outer, inner, "--region-order", "1,3"], "--region-order"),
             ([outer, inner, "--region-order", "2"], "--region-order"),

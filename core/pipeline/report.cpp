@@ -230,7 +230,10 @@ json report_json(const MeshRun& run, const MeshOutputs* outputs) {
       {"check", to_json(run.check)},
   };
   if (run.options.hausdorff > 0 || run.fit) report["fit"] = fit_json(run);
-  if (outputs) report["outputs"] = {{"inside", outputs->inside}, {"outside", outputs->outside}};
+  if (outputs) {
+    report["outputs"] = {{"inside", outputs->inside}, {"outside", outputs->outside}};
+    if (!outputs->regions.empty()) report["outputs"]["regions"] = outputs->regions;
+  }
   if (run.options.method == "mchex") {
     // Cells per MC33 subcase (paper Section 5: 31 subcases), and the tunnel cells meshed with
     // their partner's topology instead of the paper's local refinement (a known gap).

@@ -21,6 +21,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -33,6 +34,7 @@ namespace mchex {
 // The files a run's meshes went to (or would have, had they passed their check).
 struct MeshOutputs {
   std::string inside, outside;
+  std::vector<std::string> regions;  // --region-files: region i's own mesh, in label order
 };
 
 nlohmann::json report_json(const MeshRun& run, const MeshOutputs* outputs = nullptr);

@@ -79,6 +79,14 @@ void print_summary(const MeshRun& run, const MeshOutputs& outputs) {
       const RegionStats::Region& r = run.regions->regions[i];
       fmt::print("  region {}: {:>10} hexes, volume {:.6g} (its shell encloses {:.6g}) <- {}\n", i + 1, r.hexes,
                  r.volume, r.enclosed_volume, r.name);
+      if (i < outputs.regions.size()) fmt::print("  region {} mesh -> {}\n", i + 1, outputs.regions[i]);
+      // Awad et al.'s per-region measures (their Table 1), from check.
+      for (const RegionQuality& q : run.check.inside.regions)
+        if (q.region == int32_t(i + 1) && q.quality.count > 0)
+          fmt::print("  region {} quality: min scaled Jacobian {:.3g}, dihedral angles {:.4g} to {:.4g} degrees, "
+                     "edge ratio up to {:.3g}\n",
+                     i + 1, q.quality.min_scaled_jacobian, q.quality.min_dihedral_angle, q.quality.max_dihedral_angle,
+                     q.quality.max_edge_ratio);
     }
   if (run.repel)
     fmt::print("  repel: delta {}, {} points moved, {} pinned, {} restored, {} rounds\n", run.repel->delta,
@@ -95,6 +103,8 @@ MeshRequest mesh_request(const MeshCommand& o, bool quiet) {
   if (!o.inputs.empty() && !o.shape.empty()) throw InputError("give either INPUT or --shape, not both");
   if (!o.region_order.empty() && o.inputs.size() < 2)
     throw InputError("--region-order orders the regions of several INPUT surfaces");
+  if (o.region_files && o.inputs.size() < 2)
+    throw InputError("--region-files writes the regions of several INPUT surfaces");
   MeshRequest request;
   if (o.inputs.size() == 1) request.solid.path = o.inputs[0];
   request.solid.shape = o.shape;
@@ -126,16 +136,41 @@ int run_mesh(const MeshCommand& o, bool quiet) {
   }
   if (fs::weakly_canonical(inside_path) == fs::weakly_canonical(outside_path))
     throw InputError("the inside and outside meshes need different file names");
-
   MeshRequest request = mesh_request(o, quiet);
+  // --region-files: STEM.regionI.EXT beside the inside mesh, named before any work.
+  std::vector<fs::path> region_paths;
+  if (o.region_files)
+    for (std::size_t i = 1; i <= o.inputs.size(); ++i) {
+      fs::path p = inside_path;
+      p.replace_filename(
+          fmt::format("{}.region{}{}", inside_path.stem().string(), i, inside_path.extension().string()));
+      if (fs::weakly_canonical(p) == fs::weakly_canonical(outside_path))
+        throw InputError(p.string() + ": a region's file would overwrite the outside mesh");
+      region_paths.push_back(p);
+    }
+
   // The span every other event of the trace lies in: the run and the meshes' writing.
   std::optional<trace::Span> whole;
   if (!o.trace.empty()) whole.emplace("mesh", "run");
   MeshRun run = run_pipeline(request);
   // A mesh that fails its own check is never written: the report (if asked for) says why.
-  if (run.check.ok) write_meshes(run, inside_path, outside_path, o.write);
+  MeshOutputs outputs{inside_path.string(), outside_path.string(), {}};
+  if (run.check.ok) {
+    write_meshes(run, inside_path, outside_path, o.write);
+    // Each region's hexes as a mesh of their own (points renumbered), written within the same
+    // all-or-nothing group as the two meshes.
+    run.clock.run("write", [&] {
+      for (std::size_t i = 0; i < region_paths.size(); ++i) {
+        const HexMesh& in = run.meshes.inside;
+        std::vector<Hex> hexes;
+        for (std::size_t h = 0; h < in.hexes.size(); ++h)
+          if (in.region[h] == int32_t(i + 1)) hexes.push_back(in.hexes[h]);
+        write_hex_mesh(compact_mesh(in.points, hexes, int32_t(i + 1)), region_paths[i], o.write);
+        outputs.regions.push_back(region_paths[i].string());
+      }
+    });
+  }
   whole.reset();
-  const MeshOutputs outputs{inside_path.string(), outside_path.string()};
   const nlohmann::json report = report_json(run, &outputs);
   if (!o.trace.empty()) {
     trace::stop();

@@ -51,6 +51,8 @@ MeshCli::MeshCli(CLI::App& app) {
                  "several inputs: which region a point inside several belongs to, as input positions highest "
                  "priority first (for example 2,1); default: the smaller enclosed volume first")
       ->delimiter(',');
+  app.add_flag("--region-files", command.region_files,
+               "several inputs: also write each region's own mesh beside the inside one, as STEM.regionI.EXT");
   app.add_option("--shape", command.shape, "built-in analytic shape: sphere, torus, rounded-box, two-holed");
   app.add_option("-o,--output", command.inside, "inside mesh (.mesh, .meshb, .vtu, .msh, .exo or .inp)")
       ->capture_default_str();
