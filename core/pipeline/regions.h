@@ -2,17 +2,16 @@
 // al. 2016, reached through MCHex's own cutting): a reduction to one binary MCHex run.
 //
 // The reduction. Take every region's closed shell together as one surface and sign its distance
-// field by the parity of the winding number (core/sdf/sdf.h SignRule::kWindingParity). Crossing any one shell changes the
-// winding number by one, whichever way the shell faces, so the parity field changes sign across
-// every shell and nowhere else: its zero set is the union of the shells, and each cell of their
-// arrangement (a region, an overlap, the box outside) lies wholly on one side. MCHex cuts the grid
-// by that field exactly as it cuts one solid, so the two meshes it makes, the odd and the even
-// cells of the arrangement, conform face for face along every shell (core/cutting/mchex_mesher.h);
-// with one region the parity field is the solid's own field and nothing changes. Touching
-// regions are the exception: a face two shells share is crossed twice, the parity does not change
-// across it, so the combined surface drops both copies (the union's boundary stays) and the
-// labels alone tell the two regions apart there: they meet along grid faces, which are the shared
-// face only where it lies on a grid plane (docs/regions.md).
+// field by the parity of the winding number (core/sdf/sdf.h SignRule::kWindingParity). Crossing any one shell changes
+// the winding number by one, whichever way the shell faces, so the parity field changes sign across every shell and
+// nowhere else: its zero set is the union of the shells, and each cell of their arrangement (a region, an overlap, the
+// box outside) lies wholly on one side. MCHex cuts the grid by that field exactly as it cuts one solid, so the two
+// meshes it makes, the odd and the even cells of the arrangement, conform face for face along every shell
+// (core/cutting/mchex_mesher.h); with one region the parity field is the solid's own field and nothing changes.
+// Touching regions are the exception: a face two shells share is crossed twice, the parity does not change across it,
+// so the combined surface drops both copies (the union's boundary stays) and the labels alone tell the two regions
+// apart there: they meet along grid faces, which are the shared face only where it lies on a grid plane
+// (docs/regions.md).
 //
 // The labels. Every hex then takes the arrangement cell its polyhedron's grid corner (or, when
 // that corner is a crossing, its centroid) lies in: the sign of each
