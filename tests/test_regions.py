@@ -179,6 +179,21 @@ class Regions(ScratchTestCase):
             self.assertEqual(got, want)
             self.assertEqual(len(part.points), len(np.unique(hexes[labels == k])))
 
+    def test_one_file_of_shells_meshes_as_its_files_would(self):
+        # The inner ball first in the file: regions follow the file's order of shells.
+        inner, outer = models.uv_sphere(48, 24, 0.5), models.uv_sphere(48, 24, 1.0)
+        both = self.write("both.stl", models.merge(inner, outer))
+        files = [self.write("inner.stl", inner), self.write("outer.stl", outer)]
+        _, split = self.mesh([both], 2, "--shells-as-regions")
+        _, apart = self.mesh(files, 2)
+        self.assert_valid(split)
+        got, want = split["regions"]["regions"], apart["regions"]["regions"]
+        self.assertEqual([r["name"] for r in got], ["both.stl shell 1", "both.stl shell 2"])
+        self.assertEqual([r["hexes"] for r in got], [r["hexes"] for r in want])
+        for g, w in zip(got, want):
+            self.assertAlmostEqual(g["volume"], w["volume"], delta=1e-12 * w["volume"])
+        self.assertEqual(split["regions"]["priority"], [1, 2])
+
     def test_bad_region_inputs_get_one_line(self):
         outer = self.write("outer.stl", models.uv_sphere(24, 12, 1.0))
         inner = self.write("inner.stl", models.uv_sphere(24, 12, 0.5))
@@ -188,6 +203,8 @@ class Regions(ScratchTestCase):
         for args, says in (
             ([outer, "--region-order", "1"], "--region-order"),
             ([outer, "--region-files"], "--region-files"),
+            ([outer, "--shells-as-regions"], "one shell"),
+            ([outer, inner, "--shells-as-regions"], "--shells-as-regions"),
             ([outer, inner, "--region-order", "1,1"], "--region-order"),
             ([outer, inner, "--region-order", "1,3"], "--region-order"),
             ([outer, inner, "--region-order", "2"], "--region-order"),

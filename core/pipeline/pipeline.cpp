@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <filesystem>
 #include <span>
 #include <stdexcept>
 #include <type_traits>
@@ -22,6 +23,7 @@
 #include "core/cutting/ro.h"
 #include "core/grid/hex_complex.h"
 #include "core/io/mesh_io.h"
+#include "core/io/surface_io.h"
 #include "core/mesh/quality.h"
 #include "core/pipeline/estimate.h"
 #include "core/sdf/winding_number.h"
@@ -362,9 +364,21 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
 
 MeshRun run_pipeline(const MeshRequest& request) {
   StageClock clock(request.options.quiet);
-  if (!request.regions.empty()) {
+  std::vector<TriangleSurface> shells;  // --shells-as-regions: alive while the regions use them
+  std::vector<SolidSource> sources = request.regions;
+  if (request.shells_as_regions) {
+    if (request.solid.path.empty() || !sources.empty())
+      throw InputError("--shells-as-regions splits one INPUT file into its shells");
+    const std::string file = std::filesystem::path(request.solid.path).filename().string();
+    shells = clock.run("read", [&] { return split_shells(read_surface(request.solid.path)); });
+    if (shells.size() < 2)
+      throw InputError(request.solid.path + ": one shell, so one region; --shells-as-regions needs two or more");
+    for (std::size_t i = 0; i < shells.size(); ++i)
+      sources.push_back(SolidSource::in_memory(shells[i], fmt::format("{} shell {}", file, i + 1)));
+  }
+  if (!sources.empty()) {
     const bool quiet = request.options.quiet;
-    const RegionSet regions(request.regions, clock, quiet, request.options.input, request.region_order);
+    const RegionSet regions(sources, clock, quiet, request.options.input, request.region_order);
     // The parity field of every shell at once (core/pipeline/regions.h); the regions' own
     // repair already ran, and the combined surface is non-manifold where regions touch.
     const Solid solid(SolidSource::in_memory(regions.combined(), regions.name()), clock, true,

@@ -79,6 +79,9 @@ struct MeshRequest {
   // regions.h), with their priority (1-based input positions, highest first; empty: by volume).
   std::vector<SolidSource> regions;
   std::vector<int> region_order;
+  // The shells of solid's one file as the regions instead (core/pipeline/regions.h split_shells;
+  // mesh --shells-as-regions), named FILE shell I in file order.
+  bool shells_as_regions = false;
   MeshOptions options;
   // Where the SDF runs: the caller's backend (host/backends/registry.h make_backend), or one that
   // open_backend makes when the SDF stage starts, so that a bad input or an oversized grid fails

@@ -1,6 +1,7 @@
 #include "core/pipeline/regions.h"
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cstring>
 #include <limits>
@@ -302,6 +303,60 @@ MeshPair label_regions(const MeshPair& parity, std::span<const Vec3> grid_points
   s.flipped = wrong.size();
   if (stats) *stats = std::move(s);
   return out;
+}
+
+std::vector<TriangleSurface> split_shells(const TriangleSurface& surface) {
+  const std::size_t n = surface.triangles.size();
+  // Every triangle's three edges as (low vertex, high vertex, triangle), sorted: equal edges run
+  // together.
+  std::vector<std::array<uint32_t, 3>> edges;
+  edges.reserve(3 * n);
+  for (uint32_t t = 0; t < n; ++t)
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t a = surface.triangles[t][k], b = surface.triangles[t][(k + 1) % 3];
+      edges.push_back({std::min(a, b), std::max(a, b), t});
+    }
+  std::sort(edges.begin(), edges.end());
+  std::vector<uint32_t> parent(n);
+  std::iota(parent.begin(), parent.end(), 0u);
+  auto root = [&](uint32_t t) {
+    while (parent[t] != t) t = parent[t] = parent[parent[t]];
+    return t;
+  };
+  for (std::size_t i = 0, j; i < edges.size(); i = j) {
+    for (j = i + 1; j < edges.size() && edges[j][0] == edges[i][0] && edges[j][1] == edges[i][1];) ++j;
+    if (j - i != 2) continue;
+    const uint32_t a = root(edges[i][2]), b = root(edges[i + 1][2]);
+    parent[std::max(a, b)] = std::min(a, b);  // the root is the component's first triangle
+  }
+  // Triangles by shell, shells by first triangle; then each shell's vertices renumbered in
+  // first-use order through one array, reset after each shell (O(V + T) whatever the count).
+  constexpr uint32_t kNone = std::numeric_limits<uint32_t>::max();
+  std::vector<uint32_t> shell_of(n, kNone);
+  std::vector<std::vector<uint32_t>> members;
+  for (uint32_t t = 0; t < n; ++t) {
+    const uint32_t r = root(t);
+    if (shell_of[r] == kNone) shell_of[r] = uint32_t(members.size()), members.emplace_back();
+    members[shell_of[r]].push_back(t);
+  }
+  std::vector<TriangleSurface> shells(members.size());
+  std::vector<uint32_t> local(surface.vertices.size(), kNone);
+  for (std::size_t m = 0; m < members.size(); ++m) {
+    TriangleSurface& s = shells[m];
+    std::vector<uint32_t> used;
+    for (const uint32_t t : members[m]) {
+      std::array<uint32_t, 3> tri{};
+      for (int k = 0; k < 3; ++k) {
+        const uint32_t v = surface.triangles[t][k];
+        if (local[v] == kNone)
+          local[v] = uint32_t(s.vertices.size()), s.vertices.push_back(surface.vertices[v]), used.push_back(v);
+        tri[k] = local[v];
+      }
+      s.triangles.push_back(tri);
+    }
+    for (const uint32_t v : used) local[v] = kNone;
+  }
+  return shells;
 }
 
 }  // namespace mchex

@@ -62,7 +62,7 @@ class RegionSet {
   const Solid& region(std::size_t i) const { return *solids_[i]; }  // input order
   // Input positions (0-based), highest priority first.
   const std::vector<int>& priority() const { return priority_; }
-  // Every shell, vertices welded across shells, a face that two regions share kept once.
+  // Every shell, vertices welded across shells, the faces two regions share dropped (both copies).
   const TriangleSurface& combined() const { return combined_; }
   std::size_t shared_faces() const { return shared_faces_; }
   // "a.stl + b.stl + ..."
@@ -103,5 +103,13 @@ struct RegionStats {
 // bit for bit).
 MeshPair label_regions(const MeshPair& parity, std::span<const Vec3> grid_points, const RegionSet& regions,
                        RegionStats* stats);
+
+// One surface's shells as surfaces of their own, for one file that holds several regions (mesh
+// --shells-as-regions): the components of triangles connected through manifold edges (edges of
+// exactly two triangles), in the order of their first triangle in the file, each with only its
+// own vertices. Shells that touch along an edge or at a vertex stay apart; shells that share a
+// face do not split this way (the face's edges are in four triangles, which cuts it off both
+// shells and leaves them open): such regions are given as files of their own.
+std::vector<TriangleSurface> split_shells(const TriangleSurface& surface);
 
 }  // namespace mchex

@@ -20,8 +20,9 @@ namespace mchex::cli {
 struct MeshCommand {
   // One surface, or several: the regions of one region-labelled mesh (core/pipeline/regions.h).
   std::vector<std::string> inputs;
-  std::vector<int> region_order;  // --region-order: 1-based input positions, highest priority first
-  bool region_files = false;      // --region-files: each region's own mesh beside the inside one
+  std::vector<int> region_order;   // --region-order: 1-based input positions, highest priority first
+  bool region_files = false;       // --region-files: each region's own mesh beside the inside one
+  bool shells_as_regions = false;  // --shells-as-regions: one input's shells are the regions
   std::string shape, inside = "inside.mesh", outside, report, backend = "auto";
   std::string trace;  // --trace: the Chrome trace-event timeline (core/base/trace.h)
   MeshOptions options;

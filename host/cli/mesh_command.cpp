@@ -101,16 +101,20 @@ void print_summary(const MeshRun& run, const MeshOutputs& outputs) {
 
 MeshRequest mesh_request(const MeshCommand& o, bool quiet) {
   if (!o.inputs.empty() && !o.shape.empty()) throw InputError("give either INPUT or --shape, not both");
-  if (!o.region_order.empty() && o.inputs.size() < 2)
-    throw InputError("--region-order orders the regions of several INPUT surfaces");
-  if (o.region_files && o.inputs.size() < 2)
-    throw InputError("--region-files writes the regions of several INPUT surfaces");
+  const bool regions = o.inputs.size() > 1 || o.shells_as_regions;
+  if (o.shells_as_regions && o.inputs.size() != 1)
+    throw InputError("--shells-as-regions splits one INPUT file into its shells");
+  if (!o.region_order.empty() && !regions)
+    throw InputError("--region-order orders the regions of several INPUT surfaces (or --shells-as-regions)");
+  if (o.region_files && !regions)
+    throw InputError("--region-files writes the regions of several INPUT surfaces (or --shells-as-regions)");
   MeshRequest request;
   if (o.inputs.size() == 1) request.solid.path = o.inputs[0];
   request.solid.shape = o.shape;
   if (o.inputs.size() > 1)
     for (const std::string& path : o.inputs) request.regions.push_back(SolidSource::file(path));
   request.region_order = o.region_order;
+  request.shells_as_regions = o.shells_as_regions;
   request.options = o.options;
   request.options.quiet = quiet;
   request.open_backend = [&o] { return make_backend(o.backend); };
@@ -137,18 +141,6 @@ int run_mesh(const MeshCommand& o, bool quiet) {
   if (fs::weakly_canonical(inside_path) == fs::weakly_canonical(outside_path))
     throw InputError("the inside and outside meshes need different file names");
   MeshRequest request = mesh_request(o, quiet);
-  // --region-files: STEM.regionI.EXT beside the inside mesh, named before any work.
-  std::vector<fs::path> region_paths;
-  if (o.region_files)
-    for (std::size_t i = 1; i <= o.inputs.size(); ++i) {
-      fs::path p = inside_path;
-      p.replace_filename(
-          fmt::format("{}.region{}{}", inside_path.stem().string(), i, inside_path.extension().string()));
-      if (fs::weakly_canonical(p) == fs::weakly_canonical(outside_path))
-        throw InputError(p.string() + ": a region's file would overwrite the outside mesh");
-      region_paths.push_back(p);
-    }
-
   // The span every other event of the trace lies in: the run and the meshes' writing.
   std::optional<trace::Span> whole;
   if (!o.trace.empty()) whole.emplace("mesh", "run");
@@ -156,6 +148,18 @@ int run_mesh(const MeshCommand& o, bool quiet) {
   // A mesh that fails its own check is never written: the report (if asked for) says why.
   MeshOutputs outputs{inside_path.string(), outside_path.string(), {}};
   if (run.check.ok) {
+    // --region-files: STEM.regionI.EXT beside the inside mesh (the count is known once the
+    // shells are read).
+    std::vector<fs::path> region_paths;
+    if (o.region_files)
+      for (std::size_t i = 1; i <= run.regions->regions.size(); ++i) {
+        fs::path p = inside_path;
+        p.replace_filename(
+            fmt::format("{}.region{}{}", inside_path.stem().string(), i, inside_path.extension().string()));
+        if (fs::weakly_canonical(p) == fs::weakly_canonical(outside_path))
+          throw InputError(p.string() + ": a region's file would overwrite the outside mesh");
+        region_paths.push_back(p);
+      }
     write_meshes(run, inside_path, outside_path, o.write);
     // Each region's hexes as a mesh of their own (points renumbered), written within the same
     // all-or-nothing group as the two meshes.

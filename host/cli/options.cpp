@@ -48,11 +48,13 @@ MeshCli::MeshCli(CLI::App& app) {
                  "input surface file; several: one conforming mesh of their regions, each hex labelled by its "
                  "input's position (docs/regions.md); without any, --shape (default: torus)");
   app.add_option("--region-order", command.region_order,
-                 "several inputs: which region a point inside several belongs to, as input positions highest "
+                 "several regions: which region a point inside several belongs to, as input positions highest "
                  "priority first (for example 2,1); default: the smaller enclosed volume first")
       ->delimiter(',');
+  app.add_flag("--shells-as-regions", command.shells_as_regions,
+               "one INPUT whose closed shells (connected through their edges) are the regions, in file order");
   app.add_flag("--region-files", command.region_files,
-               "several inputs: also write each region's own mesh beside the inside one, as STEM.regionI.EXT");
+               "several regions: also write each region's own mesh beside the inside one, as STEM.regionI.EXT");
   app.add_option("--shape", command.shape, "built-in analytic shape: sphere, torus, rounded-box, two-holed");
   app.add_option("-o,--output", command.inside, "inside mesh (.mesh, .meshb, .vtu, .msh, .exo or .inp)")
       ->capture_default_str();

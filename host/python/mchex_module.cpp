@@ -201,7 +201,7 @@ py::dict mesh(const std::string& path, const py::object& vertices, const py::obj
   // options need several inputs, which mchex.mesh does not take (docs/python.md).
   parse(app, option_words(app, kwargs,
                           {"--shape", "--output", "--outside", "--binary", "--report", "--trace", "--region-order",
-                           "--region-files"},
+                           "--region-files", "--shells-as-regions"},
                           "mesh"));
   options.finish();
   cli::MeshCommand& command = options.command;
