@@ -174,6 +174,23 @@ std::vector<Sample> samples(const Pattern& p, const CertifyOptions& o, std::mt19
   return out;
 }
 
+// One sample cut as the mesher routes it: whole, or (where local refinement applies) as the 7
+// children (and a second level where the template asks) with virtual values at the inner points,
+// each leaf classified and cut on its own. check(cell corners, class, the parent's crossings).
+template <class Check>
+void route_as_the_mesher(const HexCorners& corners, const Sample& smp, double eps, const Check& check) {
+  const CellClass c = clamped(smp.cls, eps);
+  if (!needs_local_refinement(smp.cls, corners)) {
+    check(corners, c, c.crossing);
+    return;
+  }
+  const LocalRefinement lr = refine_locally(corners, smp.f, smp.cls, 1e-10);
+  for (std::size_t i = 0; i < lr.cells.size(); ++i) {
+    const LocalRefinementLeaf leaf = leaf_cell(lr, i);
+    check(leaf.corners, clamped(classify(leaf.values), eps), c.crossing);
+  }
+}
+
 // A cube whose corners repel moved: each along one axis or not, by up to kMaxRepelDelta of the
 // edge either way (the extremes half the time, where the cells are farthest from the cube).
 HexCorners repelled_cube(std::mt19937_64& rng) {
@@ -223,16 +240,7 @@ void certify_repelled(const std::vector<Pattern>& pats, const CertifyOptions& o,
       for (std::size_t i = 0; i < all.size() && !tr.failed; i += stride) {
         const Sample& smp = all[i];
         ++cells[task];
-        const CellClass c = clamped(smp.cls, o.eps);
-        if (!needs_local_refinement(smp.cls, corners)) {
-          check(corners, c, c.crossing);
-          continue;
-        }
-        const LocalRefinement lr = refine_locally(corners, smp.f, smp.cls, 1e-10);
-        for (std::size_t k = 0; k < lr.cells.size(); ++k) {
-          const LocalRefinementLeaf leaf = leaf_cell(lr, k);
-          check(leaf.corners, clamped(classify(leaf.values), o.eps), c.crossing);
-        }
+        route_as_the_mesher(corners, smp, o.eps, check);
       }
     }
   });
@@ -288,18 +296,7 @@ CertifyResult certify(const CertifyOptions& o) {
         // One failure decides the entry (its cells go to the run-time remedy); the rest of its
         // samples would only count more.
         if (tr.failed) break;
-        const CellClass c = clamped(smp.cls, o.eps);
-        if (!needs_local_refinement(smp.cls, corners)) {  // as the mesher routes it
-          check(corners, c, c.crossing);
-          continue;
-        }
-        // The mesher's route: the 7 children (and a second level where the template asks),
-        // virtual values at the inner points, each leaf classified and cut on its own.
-        const LocalRefinement lr = refine_locally(corners, smp.f, smp.cls, 1e-10);
-        for (std::size_t i = 0; i < lr.cells.size(); ++i) {
-          const LocalRefinementLeaf leaf = leaf_cell(lr, i);
-          check(leaf.corners, clamped(classify(leaf.values), o.eps), c.crossing);
-        }
+        route_as_the_mesher(corners, smp, o.eps, check);
       }
     }
   });
