@@ -174,6 +174,27 @@ std::vector<Sample> samples(const Pattern& p, const CertifyOptions& o, std::mt19
   return out;
 }
 
+// One cell of class c cut as the mesher builds its hexes (in the parametric cube, corners mapped
+// by the cell's map), each hex's certificate counted into tr; the first failure is `where` with
+// its coefficient.
+void cut_and_check(const HexCorners& cell, const CellClass& c, CertifyFailure where, TaskResult& tr) {
+  for (const Polyhedron& poly : cut_cell(kUnitCubeCorners, c)) {
+    const MappedSubdivision ms = subdivide_in_cell(poly, cell);
+    tr.moved_centres += ms.centre_moved;
+    for (const double scaled : ms.hex_min_scaled) {
+      ++tr.hexes;
+      tr.min_coefficient = std::min(tr.min_coefficient, scaled);
+      if (!(scaled > 0)) {
+        ++tr.failed;
+        if (!tr.failure) {
+          where.coefficient = scaled;
+          tr.failure = where;
+        }
+      }
+    }
+  }
+}
+
 // One sample cut as the mesher routes it: whole, or (where local refinement applies) as the 7
 // children (and a second level where the template asks) with virtual values at the inner points,
 // each leaf classified and cut on its own. check(cell corners, class, the parent's crossings).
@@ -221,18 +242,7 @@ void certify_repelled(const std::vector<Pattern>& pats, const CertifyOptions& o,
       const HexCorners corners = repelled_cube(rng);
       TaskResult& tr = results[task];
       auto check = [&](const HexCorners& cell, const CellClass& c, const std::array<double, 12>& s) {
-        for (const Polyhedron& poly : cut_cell(kUnitCubeCorners, c)) {
-          const MappedSubdivision ms = subdivide_in_cell(poly, cell);
-          tr.moved_centres += ms.centre_moved;
-          for (const double scaled : ms.hex_min_scaled) {
-            ++tr.hexes;
-            tr.min_coefficient = std::min(tr.min_coefficient, scaled);
-            if (!(scaled > 0)) {
-              ++tr.failed;
-              if (!tr.failure) tr.failure = CertifyFailure{kProvenForEverySubcase, 0, p.subcase, s, scaled};
-            }
-          }
-        }
+        cut_and_check(cell, c, {kProvenForEverySubcase, 0, p.subcase, s, 0}, tr);
       };
       const std::vector<Sample> all = samples(p, o, rng);
       const std::size_t want = static_cast<std::size_t>(std::max(1, o.repel_values));
@@ -277,20 +287,8 @@ CertifyResult certify(const CertifyOptions& o) {
       const HexCorners corners = transform_hex(types[type].corners, rotation);
       std::mt19937_64 rng(o.seed ^ (0x9E3779B97F4A7C15ULL * (task + 1)));
       TaskResult& tr = results[task];
-      auto check = [&](const std::array<Vec3, 8>& cell, const CellClass& c, const std::array<double, 12>& s) {
-        // As the mesher builds them: in the parametric cube, corners mapped by the cell's map.
-        for (const Polyhedron& poly : cut_cell(kUnitCubeCorners, c)) {
-          const MappedSubdivision ms = subdivide_in_cell(poly, cell);
-          tr.moved_centres += ms.centre_moved;
-          for (const double scaled : ms.hex_min_scaled) {
-            ++tr.hexes;
-            tr.min_coefficient = std::min(tr.min_coefficient, scaled);
-            if (!(scaled > 0)) {
-              ++tr.failed;
-              if (!tr.failure) tr.failure = CertifyFailure{type, rotation, p.subcase, s, scaled};
-            }
-          }
-        }
+      auto check = [&](const HexCorners& cell, const CellClass& c, const std::array<double, 12>& s) {
+        cut_and_check(cell, c, {type, rotation, p.subcase, s, 0}, tr);
       };
       for (const Sample& smp : samples(p, o, rng)) {
         // One failure decides the entry (its cells go to the run-time remedy); the rest of its
