@@ -195,6 +195,15 @@ void cut_and_check(const HexCorners& cell, const CellClass& c, CertifyFailure wh
   }
 }
 
+// One task's hexes counted into its (type, subcase) entry.
+void add_task(CertifyEntry& e, const TaskResult& tr) {
+  e.min_coefficient = e.checked ? std::min(e.min_coefficient, tr.min_coefficient) : tr.min_coefficient;
+  e.checked = true;
+  e.hexes += tr.hexes;
+  e.failed_hexes += tr.failed;
+  e.moved_centres += tr.moved_centres;
+}
+
 // One sample cut as the mesher routes it: whole, or (where local refinement applies) as the 7
 // children (and a second level where the template asks) with virtual values at the inner points,
 // each leaf classified and cut on its own. check(cell corners, class, the parent's crossings).
@@ -257,11 +266,7 @@ void certify_repelled(const std::vector<Pattern>& pats, const CertifyOptions& o,
   for (std::size_t task = 0; task < results.size(); ++task) {
     CertifyEntry& e = r.repelled[static_cast<int>(pats[task / shapes].subcase)];
     const TaskResult& tr = results[task];
-    e.min_coefficient = e.checked ? std::min(e.min_coefficient, tr.min_coefficient) : tr.min_coefficient;
-    e.checked = true;
-    e.hexes += tr.hexes;
-    e.failed_hexes += tr.failed;
-    e.moved_centres += tr.moved_centres;
+    add_task(e, tr);
     r.repelled_cells += cells[task];
   }
   r.repelled_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -303,11 +308,7 @@ CertifyResult certify(const CertifyOptions& o) {
     const int type = static_cast<int>(task % per_pattern / kNumCubeRotations);
     CertifyEntry& e = r.table[type][static_cast<int>(p.subcase)];
     const TaskResult& tr = results[task];
-    e.min_coefficient = e.checked ? std::min(e.min_coefficient, tr.min_coefficient) : tr.min_coefficient;
-    e.checked = true;
-    e.hexes += tr.hexes;
-    e.failed_hexes += tr.failed;
-    e.moved_centres += tr.moved_centres;
+    add_task(e, tr);
     r.hexes += tr.hexes;
     if (tr.failure && !r.first_failure) r.first_failure = tr.failure;
   }
