@@ -187,11 +187,6 @@ std::string RegionSet::name() const {
   return n;
 }
 
-void RegionSet::labels(std::span<const Vec3> points, std::span<int32_t> out) const {
-  const std::vector<std::uint64_t> bits = arrangement_bits(*this, points);
-  for (std::size_t i = 0; i < points.size(); ++i) out[i] = label_of(bits[i], priority_);
-}
-
 MeshPair label_regions(const MeshPair& parity, std::span<const Vec3> grid_points, const RegionSet& regions,
                        RegionStats* stats) {
   const HexMesh& odd = parity.inside;

@@ -70,9 +70,6 @@ class RegionSet {
   // The volume each region's shell encloses (its solid alone, before priority), input order.
   const std::vector<double>& enclosed_volumes() const { return enclosed_; }
 
-  // The region (1-based input position, 0 for none) of each point, by priority.
-  void labels(std::span<const Vec3> points, std::span<int32_t> out) const;
-
  private:
   std::vector<std::unique_ptr<Solid>> solids_;
   std::vector<int> priority_;
