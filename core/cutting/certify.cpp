@@ -7,6 +7,8 @@
 #include <cstring>
 #include <limits>
 #include <random>
+#include <string>
+#include <unordered_set>
 
 #include <fmt/format.h>
 
@@ -80,9 +82,32 @@ std::vector<Pattern> patterns(std::uint64_t seed) {
 
 struct TaskResult {
   std::size_t hexes = 0, failed = 0, moved_centres = 0;
+  std::size_t repeated_cells = 0;  // cells cut before in this task (same corners and class): skipped
   double min_coefficient = std::numeric_limits<double>::infinity();
   std::optional<CertifyFailure> failure;
+  std::unordered_set<std::string> cut;  // cut_key of every cell cut so far in this task
 };
+
+// What a cell's cut and its certificate depend on: the cell's corners and its clamped class (the
+// sign pattern, the face and interior outcomes and the crossings; the regions follow from those).
+// Different sampled values often give the same leaf cells (crossings clamped to eps or 1 - eps,
+// the same corner magnitudes behind a refined cell's inner points), whose hexes are the same.
+std::string cut_key(const HexCorners& cell, const CellClass& c) {
+  std::string key(sizeof(cell) + sizeof(c.crossing) + 8, '\0');
+  char* out = key.data();
+  std::memcpy(out, cell.data(), sizeof(cell));
+  std::memcpy(out + sizeof(cell), c.crossing.data(), sizeof(c.crossing));
+  const std::uint8_t tail[8] = {c.sign_mask,
+                                static_cast<std::uint8_t>(c.subcase),
+                                c.face_joins,
+                                static_cast<std::uint8_t>(c.tunnel),
+                                c.symmetry,
+                                static_cast<std::uint8_t>(c.inverted),
+                                static_cast<std::uint8_t>(c.cut_edges & 0xFF),
+                                static_cast<std::uint8_t>(c.cut_edges >> 8)};
+  std::memcpy(out + sizeof(cell) + sizeof(c.crossing), tail, sizeof(tail));
+  return key;
+}
 
 // The cells of one pattern to cut: corner values with the pattern's signs and magnitudes drawn
 // at random, at the ends (every corner at 1 or at 1e-6, which puts the crossings at the clamp
@@ -178,6 +203,10 @@ std::vector<Sample> samples(const Pattern& p, const CertifyOptions& o, std::mt19
 // by the cell's map), each hex's certificate counted into tr; the first failure is `where` with
 // its coefficient.
 void cut_and_check(const HexCorners& cell, const CellClass& c, CertifyFailure where, TaskResult& tr) {
+  if (!tr.cut.insert(cut_key(cell, c)).second) {
+    ++tr.repeated_cells;
+    return;
+  }
   for (const Polyhedron& poly : cut_cell(kUnitCubeCorners, c)) {
     const MappedSubdivision ms = subdivide_in_cell(poly, cell);
     tr.moved_centres += ms.centre_moved;
@@ -261,6 +290,7 @@ void certify_repelled(const std::vector<Pattern>& pats, const CertifyOptions& o,
         ++cells[task];
         route_as_the_mesher(corners, smp, o.eps, check);
       }
+      tr.cut = {};
     }
   });
   for (std::size_t task = 0; task < results.size(); ++task) {
@@ -283,33 +313,77 @@ CertifyResult certify(const CertifyOptions& o) {
   r.table.assign(types.size(), {});
   const std::vector<Pattern> pats = patterns(o.seed);
   const std::size_t per_pattern = types.size() * kNumCubeRotations;
-  std::vector<TaskResult> results(pats.size() * per_pattern);
-  parallel_chunks(results.size(), 1, [&](std::size_t begin, std::size_t end) {
-    for (std::size_t task = begin; task < end; ++task) {
-      const Pattern& p = pats[task / per_pattern];
-      const int type = static_cast<int>(task % per_pattern / kNumCubeRotations);
-      const int rotation = static_cast<int>(task % kNumCubeRotations);
-      const HexCorners corners = transform_hex(types[type].corners, rotation);
-      std::mt19937_64 rng(o.seed ^ (0x9E3779B97F4A7C15ULL * (task + 1)));
-      TaskResult& tr = results[task];
-      auto check = [&](const HexCorners& cell, const CellClass& c, const std::array<double, 12>& s) {
-        cut_and_check(cell, c, {type, rotation, p.subcase, s, 0}, tr);
-      };
-      for (const Sample& smp : samples(p, o, rng)) {
-        // One failure decides the entry (its cells go to the run-time remedy); the rest of its
-        // samples would only count more.
-        if (tr.failed) break;
-        route_as_the_mesher(corners, smp, o.eps, check);
-      }
+  // Rotations of a type whose moved corners are affine images of an earlier rotation's (the cube's
+  // 24 are one class; the 1200 (type, rotation) pairs form 787 classes) give the same verdict for
+  // the same corner values under plain subdivision: the cut in the parametric cube is the same, and
+  // det J of the image hexes is det A > 0 times the original's. So each class is cut once, on its
+  // first rotation, with the samples drawn for every rotation of the class (the 256 end cells,
+  // the same for all, then cut once). The centre search is not affine invariant (it works in
+  // lengths), so where a class's cut moved a centre each rotation is cut on its own as well.
+  std::vector<std::array<int, kNumCubeRotations>> rep(types.size());
+  for (std::size_t t = 0; t < types.size(); ++t)
+    for (int q = 0; q < kNumCubeRotations; ++q) {
+      rep[t][q] = q;
+      const HexCorners mine = transform_hex(types[t].corners, q);
+      for (int e = 0; e < q && rep[t][q] == q; ++e)
+        if (rep[t][e] == e && affinely_equivalent(transform_hex(types[t].corners, e), mine)) rep[t][q] = e;
     }
-  });
+  std::vector<TaskResult> results(pats.size() * per_pattern);
+  std::vector<char> ran(results.size(), 0);
+  // Cuts task's cell (its type moved by its rotation) at the samples drawn for the rotations `of`.
+  auto run = [&](const std::vector<std::size_t>& tasks, bool whole_class) {
+    parallel_chunks(tasks.size(), 1, [&](std::size_t begin, std::size_t end) {
+      for (std::size_t i = begin; i < end; ++i) {
+        const std::size_t task = tasks[i];
+        const Pattern& p = pats[task / per_pattern];
+        const int type = static_cast<int>(task % per_pattern / kNumCubeRotations);
+        const int rotation = static_cast<int>(task % kNumCubeRotations);
+        const HexCorners corners = transform_hex(types[type].corners, rotation);
+        TaskResult& tr = results[task];
+        auto check = [&](const HexCorners& cell, const CellClass& c, const std::array<double, 12>& s) {
+          cut_and_check(cell, c, {type, rotation, p.subcase, s, 0}, tr);
+        };
+        for (int q = 0; q < kNumCubeRotations && !tr.failed; ++q) {
+          if (whole_class ? rep[type][q] != rotation : q != rotation) continue;
+          const std::size_t drawn = task - static_cast<std::size_t>(rotation) + static_cast<std::size_t>(q);
+          std::mt19937_64 rng(o.seed ^ (0x9E3779B97F4A7C15ULL * (drawn + 1)));
+          for (const Sample& smp : samples(p, o, rng)) {
+            // One failure decides the entry (its cells go to the run-time remedy); the rest of its
+            // samples would only count more.
+            if (tr.failed) break;
+            route_as_the_mesher(corners, smp, o.eps, check);
+          }
+        }
+        tr.cut = {};  // the task's keys are done with; they would hold gigabytes to the end
+        ran[task] = 1;
+      }
+    });
+  };
+  std::vector<std::size_t> first, second;
   for (std::size_t task = 0; task < results.size(); ++task) {
+    const int type = static_cast<int>(task % per_pattern / kNumCubeRotations);
+    const int rotation = static_cast<int>(task % kNumCubeRotations);
+    if (rep[type][rotation] == rotation) first.push_back(task);
+  }
+  run(first, true);
+  for (std::size_t task = 0; task < results.size(); ++task) {
+    const int type = static_cast<int>(task % per_pattern / kNumCubeRotations);
+    const int rotation = static_cast<int>(task % kNumCubeRotations);
+    if (ran[task]) continue;
+    const TaskResult& by = results[task - static_cast<std::size_t>(rotation - rep[type][rotation])];
+    if (by.moved_centres > 0 && !by.failed) second.push_back(task);
+    else ++r.equivalent_tasks;
+  }
+  run(second, false);
+  for (std::size_t task = 0; task < results.size(); ++task) {
+    if (!ran[task]) continue;
     const Pattern& p = pats[task / per_pattern];
     const int type = static_cast<int>(task % per_pattern / kNumCubeRotations);
     CertifyEntry& e = r.table[type][static_cast<int>(p.subcase)];
     const TaskResult& tr = results[task];
     add_task(e, tr);
     r.hexes += tr.hexes;
+    r.repeated_cells += tr.repeated_cells;
     if (tr.failure && !r.first_failure) r.first_failure = tr.failure;
   }
   certify_repelled(pats, o, r);
@@ -416,6 +490,9 @@ std::string certify_report(const CertifyResult& r) {
         left.empty() ? " -" : left);
   }
   const std::size_t left = r.run_time_pairs();
+  out += fmt::format("{} (type, rotation, pattern) cuts decided by an affinely equivalent rotation's; {} cells "
+                     "cut twice in one of them skipped\n",
+                     r.equivalent_tasks, r.repeated_cells);
   out += fmt::format("{} hexes checked in {:.1f} s; {} subcases not checked; {} of {} (type, subcase) pairs proven\n",
                      r.hexes, r.seconds, r.not_landed_subcases, types.size() * kNumSubcases - left,
                      types.size() * kNumSubcases);

@@ -89,6 +89,11 @@ struct CertifyResult {
   std::vector<std::array<CertifyEntry, kNumSubcases>> table;
   std::optional<CertifyFailure> first_failure;
   std::size_t hexes = 0;
+  // (type, rotation, pattern) tasks not cut because an affinely equivalent rotation of the type
+  // was cut with the same samples and plain subdivision certified or failed it alike; and cells
+  // that a task met twice (the same corners and clamped class) and cut once.
+  std::size_t equivalent_tasks = 0;
+  std::size_t repeated_cells = 0;
   std::size_t not_landed_subcases = 0;  // subcases no sampled cell reached (not certified)
   // [subcase]: the repelled cubes. Not part of passed(): a repelled cell whose hexes are not
   // certified gets its grid corners back at run time (restore_cells) and is an unmoved cube,

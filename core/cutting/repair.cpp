@@ -29,6 +29,7 @@ constexpr std::size_t kMaxActive = 8;  // linearized coefficients per LP (with t
 // Every scaled coefficient (beta / mean edge^3) of every hex, hex-major.
 void scaled_coefficients(const std::vector<SubdivisionHex>& hexes, std::vector<double>& out) {
   out.clear();
+  out.reserve(27 * hexes.size());
   for (const SubdivisionHex& h : hexes) {
     const double l = mean_edge_length(h.corners);
     const double scale = 1.0 / (l * l * l);

@@ -1,6 +1,8 @@
 // Midpoint subdivision (paper Definition 4.3); see subdivide.h.
 #include "core/cutting/subdivide.h"
 
+#include <algorithm>
+#include <array>
 #include <stdexcept>
 #include <string>
 
@@ -13,7 +15,10 @@ std::vector<SubdivisionHex> midpoint_subdivide(const Polyhedron& p) {
   struct Incidence {
     std::uint32_t face, prev, next;
   };
-  std::vector<std::vector<Incidence>> around(nv);
+  // Three incidences per vertex at most (a fourth makes the vertex fail below): one flat array,
+  // not a vector per vertex (this runs for every polyhedron the mesher and certify cut).
+  std::vector<std::array<Incidence, 3>> around(nv);
+  std::vector<std::uint8_t> degree(nv, 0);
   std::vector<Vec3> centroid(p.faces.size());
   for (std::uint32_t f = 0; f < p.faces.size(); ++f) {
     const auto& face = p.faces[f];
@@ -22,7 +27,10 @@ std::vector<SubdivisionHex> midpoint_subdivide(const Polyhedron& p) {
     Vec3 sum{};
     for (std::size_t i = 0; i < m; ++i) {
       sum += p.points[face[i]];
-      around.at(face[i]).push_back({f, face[(i + m - 1) % m], face[(i + 1) % m]});
+      const std::uint32_t v = face[i];
+      if (v >= nv) throw std::invalid_argument("midpoint_subdivide: a face vertex out of range");
+      if (degree[v] < 3) around[v][degree[v]] = {f, face[(i + m - 1) % m], face[(i + 1) % m]};
+      degree[v] = static_cast<std::uint8_t>(std::min(degree[v] + 1, 4));
     }
     centroid[f] = sum / static_cast<double>(m);
   }
@@ -46,7 +54,7 @@ std::vector<SubdivisionHex> midpoint_subdivide(const Polyhedron& p) {
   hexes.reserve(nv);
   for (std::uint32_t v = 0; v < nv; ++v) {
     const auto& inc = around[v];
-    if (inc.size() != 3) fail(v);
+    if (degree[v] != 3) fail(v);
     // Face F = inc[0] runs a -> v -> b. Around v the faces seen from outside alternate their
     // shared edges: the face where a is the NEXT vertex holds edges (v, c) and (v, a), and the
     // face where b is the PREVIOUS vertex holds edges (v, b) and (v, c).
