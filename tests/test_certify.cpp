@@ -9,7 +9,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <random>
+#include <string>
 
+#include "core/base/error.h"
 #include "core/cutting/certify.h"
 #include "core/cutting/local_refinement.h"
 #include "core/cutting/mc33.h"
@@ -181,6 +184,75 @@ TEST(certify, LocalRefinementCommutesWithAffineMaps) {
     }
   }
   EXPECT_GT(checked, 0);
+}
+
+// certify cuts each class of affinely equivalent rotations of a type once (certify.cpp). The
+// claim it rests on, checked directly on every such pair: for the same corner values the cut in
+// the parametric cube is the same (direct subcases here), and every Bernstein coefficient of every plainly subdivided
+// hex in the second cell is det A times the first's, so plain subdivision certifies both or neither.
+TEST(certify, AffinelyEquivalentRotationsScaleEveryCoefficientByDetA) {
+  const auto types = cell_types();
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  auto det3 = [](const HexCorners& c) { return dot(c[1] - c[0], cross(c[3] - c[0], c[4] - c[0])); };
+  int pairs = 0;
+  for (std::size_t t = 0; t < types.size(); ++t)
+    for (int q = 1; q < kNumCubeRotations; ++q) {
+      const HexCorners b = transform_hex(types[t].corners, q);
+      int e = 0;
+      while (e < q && !affinely_equivalent(transform_hex(types[t].corners, e), b)) ++e;
+      if (e == q) continue;
+      const HexCorners a = transform_hex(types[t].corners, e);
+      const double det_a = det3(b) / det3(a);
+      ASSERT_GT(det_a, 0);
+      ++pairs;
+      for (int draw = 0; draw < 8; ++draw) {
+        std::array<double, 8> f;
+        for (double& x : f) x = u(rng);
+        CellClass c = classify(f);
+        // Refined subcases: their leaves are cut directly, and refine_locally commutes with affine
+        // maps (LocalRefinementCommutesWithAffineMaps).
+        if (needs_local_refinement(c)) continue;
+        clamp_crossings(c, 1e-3);
+        for (const Polyhedron& poly : cut_cell(kUnitCubeCorners, c))
+          for (const SubdivisionHex& h : midpoint_subdivide(poly)) {
+            HexCorners ha, hb;
+            for (int k = 0; k < 8; ++k) {
+              ha[k] = trilinear_map(a, h.corners[k]);
+              hb[k] = trilinear_map(b, h.corners[k]);
+            }
+            const auto ba = bernstein_jacobian(ha), bb = bernstein_jacobian(hb);
+            double scale = 0;
+            for (double x : ba) scale = std::max(scale, std::abs(x));
+            for (std::size_t k = 0; k < ba.size(); ++k)
+              ASSERT_NEAR(bb[k], det_a * ba[k], 1e-9 * det_a * scale)
+                  << types[t].name << " rotations " << e << " and " << q << " coefficient " << k;
+          }
+      }
+    }
+  // 1200 (type, rotation) pairs form 787 classes.
+  EXPECT_EQ(pairs, 1200 - 787);
+}
+
+TEST(certify, OneTypeAndTheCube) {
+  CertifyOptions o;
+  o.types = {"concave-corner-4"};
+  const CertifyResult r = certify(o);
+  const int chosen = type_index("concave-corner-4");
+  for (std::size_t t = 0; t < r.table.size(); ++t) {
+    const bool want = static_cast<int>(t) == chosen || static_cast<int>(t) == kProvenForEverySubcase;
+    EXPECT_EQ(r.selected[t] != 0, want) << cell_types()[t].name;
+    for (int s = 0; s < kNumSubcases; ++s) EXPECT_EQ(r.table[t][s].checked, want);
+  }
+  EXPECT_TRUE(r.passed());
+  EXPECT_NE(certify_report(r).find("2 cell types (of 50)"), std::string::npos);
+  o.types = {"no-such-type"};
+  try {
+    certify(o);
+    ADD_FAILURE() << "no error for an unknown type";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("unknown cell type 'no-such-type'"), std::string::npos);
+  }
 }
 
 TEST(certify, RejectsBadEps) {

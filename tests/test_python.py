@@ -6,7 +6,7 @@ trip through meshio's own reader; the GIL is released while the pipeline runs; t
 from an install prefix with a clean PYTHONPATH.
 
 Run by ctest with pytest (PYTHONPATH=build/python, MCHEX_GPU the CLI of the same build); the
-certificate's run (5 minutes) is the separate ctest entry test_python_certify."""
+certificate is run for one transition type (test_certify runs every type)."""
 import json
 import os
 import pathlib
@@ -278,23 +278,36 @@ def test_certify_bad_eps_is_the_clis_line():
     assert str(e.value) == cli_error("certify", "--eps", "0")
 
 
+def test_certify_unknown_type_is_the_clis_line():
+    with pytest.raises(mchex.InputError) as e:
+        mchex.certify(types=["no-such-type"])
+    assert str(e.value) == cli_error("certify", "--type", "no-such-type")
+
+
 def test_certify_summary_is_the_clis_table():
-    got = mchex.certify()
+    # One transition type with subcases left to the run-time remedy (face-1), and the single type,
+    # which is always certified: a few seconds, where every type takes minutes (test_certify runs
+    # them all).
+    got = mchex.certify(types="face-1")
+    assert [t["type"] for t in got["types"]] == ["single", "face-1"]
     # Passed: every subcase reached and the cube type proven for all; a failure of another type is
     # left to the run-time remedy, and is then one of that type's subcases left to it.
     assert got["passed"] is True
     types = {t["type"]: t for t in got["types"]}
+    assert types["single"]["left_to_remedy"] == [] and types["face-1"]["left_to_remedy"] != []
     if got["first_failure"] is not None:
         f = got["first_failure"]
         assert f["type"] != "single" and f["subcase"] in types[f["type"]]["left_to_remedy"]
-    # The per-type summary against the table the CLI prints (certify_report).
-    rows = {line.split()[0]: line.split() for line in got["text"].splitlines()[3:3 + len(got["types"])]}
+    # The per-type summary against the table the CLI prints for the same run (deterministic: the
+    # same seed and samples), row for row.
+    printed = cli("certify", "--type", "face-1").stdout.splitlines()
+    assert got["text"].splitlines()[:5] == printed[:5]
+    rows = {line.split()[0]: line.split() for line in printed[3:5]}
     for t in got["types"]:
         row = rows[t["type"]]
         assert int(row[1]) == t["hexes"]
         assert row[2] == f"{len(t['proven_subcases'])}/32"
         assert (row[5:] if row[5] != "-" else []) == t["left_to_remedy"]
-    assert got["types"][0]["type"] == "single" and got["types"][0]["left_to_remedy"] == []
 
 
 @pytest.mark.skipif(not BUILD, reason="needs MCHEX_BUILD_DIR (set by ctest)")

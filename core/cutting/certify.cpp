@@ -311,6 +311,18 @@ CertifyResult certify(const CertifyOptions& o) {
   CertifyResult r;
   r.options = o;
   r.table.assign(types.size(), {});
+  r.selected.assign(types.size(), o.types.empty());
+  r.selected[kProvenForEverySubcase] = 1;
+  for (const std::string& name : o.types) {
+    std::size_t t = 0;
+    while (t < types.size() && types[t].name != name) ++t;
+    if (t == types.size()) {
+      std::string known;
+      for (const CellType& ct : types) known += fmt::format("{}{}", known.empty() ? "" : ", ", ct.name);
+      throw InputError(fmt::format("unknown cell type '{}' (the types: {})", name, known));
+    }
+    r.selected[t] = 1;
+  }
   const std::vector<Pattern> pats = patterns(o.seed);
   const std::size_t per_pattern = types.size() * kNumCubeRotations;
   // Rotations of a type whose moved corners are affine images of an earlier rotation's (the cube's
@@ -363,13 +375,13 @@ CertifyResult certify(const CertifyOptions& o) {
   for (std::size_t task = 0; task < results.size(); ++task) {
     const int type = static_cast<int>(task % per_pattern / kNumCubeRotations);
     const int rotation = static_cast<int>(task % kNumCubeRotations);
-    if (rep[type][rotation] == rotation) first.push_back(task);
+    if (r.selected[type] && rep[type][rotation] == rotation) first.push_back(task);
   }
   run(first, true);
   for (std::size_t task = 0; task < results.size(); ++task) {
     const int type = static_cast<int>(task % per_pattern / kNumCubeRotations);
     const int rotation = static_cast<int>(task % kNumCubeRotations);
-    if (ran[task]) continue;
+    if (ran[task] || !r.selected[type]) continue;
     const TaskResult& by = results[task - static_cast<std::size_t>(rotation - rep[type][rotation])];
     if (by.moved_centres > 0 && !by.failed) second.push_back(task);
     else ++r.equivalent_tasks;
@@ -418,16 +430,19 @@ std::size_t CertifyResult::run_time_pairs() const {
 
 std::string certify_report(const CertifyResult& r) {
   const auto types = cell_types();
+  const auto chosen = static_cast<std::size_t>(std::count(r.selected.begin(), r.selected.end(), 1));
   std::string out =
-      fmt::format("certify: {} cell types x {} rotations x {} subcases, crossings in [{}, {}]; the 27 Bernstein "
+      fmt::format("certify: {} cell types{} x {} rotations x {} subcases, crossings in [{}, {}]; the 27 Bernstein "
                   "coefficients of det J of every hex must be > 0\n",
-                  types.size(), kNumCubeRotations, kNumSubcases - 1, r.options.eps, 1 - r.options.eps);
+                  chosen, chosen == types.size() ? "" : fmt::format(" (of {})", types.size()), kNumCubeRotations,
+                  kNumSubcases - 1, r.options.eps, 1 - r.options.eps);
   out += "(local-refinement subcases through refine_locally on each type: its children are covered too)\n";
   // Per type: how many subcases are proven, the least coefficient over them, and the subcases left
   // to the run-time remedy.
   out += fmt::format("{:<18} {:>10} {:>7} {:>9} {:>7}  {}\n", "type", "hexes", "proven", "min coef", "moved",
                      "left to the run-time remedy");
   for (std::size_t t = 0; t < types.size(); ++t) {
+    if (!r.selected.at(t)) continue;
     std::size_t hexes = 0, moved = 0;
     int proven = 0;
     double least = std::numeric_limits<double>::infinity();
@@ -494,8 +509,7 @@ std::string certify_report(const CertifyResult& r) {
                      "cut twice in one of them skipped\n",
                      r.equivalent_tasks, r.repeated_cells);
   out += fmt::format("{} hexes checked in {:.1f} s; {} subcases not checked; {} of {} (type, subcase) pairs proven\n",
-                     r.hexes, r.seconds, r.not_landed_subcases, types.size() * kNumSubcases - left,
-                     types.size() * kNumSubcases);
+                     r.hexes, r.seconds, r.not_landed_subcases, chosen * kNumSubcases - left, chosen * kNumSubcases);
   if (r.passed())
     out += left == 0 ? "certify: PASSED\n"
                      : fmt::format("certify: PASSED: the {} type proven for every subcase; {} transition-type pairs "

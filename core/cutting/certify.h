@@ -59,6 +59,9 @@ struct CertifyOptions {
   int random_samples = 8;  // per (type, rotation, pattern): magnitudes uniform in [0.05, 1]
   int mixed_samples = 8;   // each magnitude 1, 1e-6 or random (plus the 256 end cells)
   std::uint64_t seed = 20250917;
+  // Names of the cell types to certify (core/grid/cell_types.h); empty: every type. The single
+  // type, which the verdict and the run-time remedy rest on, is always certified.
+  std::vector<std::string> types;
   // Repelled cubes (mesh --repel, core/cutting/repel.h): per sign pattern, this many cubes whose
   // corners moved along one of their edges' axes by up to kMaxRepelDelta ...
   int repel_shapes = 48;
@@ -85,8 +88,9 @@ struct CertifyFailure {
 
 struct CertifyResult {
   CertifyOptions options;
-  // [type][subcase]
+  // [type][subcase]; the rows of types not selected (options.types) stay unchecked
   std::vector<std::array<CertifyEntry, kNumSubcases>> table;
+  std::vector<char> selected;  // [type]: certified in this run
   std::optional<CertifyFailure> first_failure;
   std::size_t hexes = 0;
   // (type, rotation, pattern) tasks not cut because an affinely equivalent rotation of the type
@@ -114,7 +118,7 @@ struct CertifyResult {
 // The type the remedy ends on (core/grid/cell_types.h: the single hex, an affine cube).
 inline constexpr int kProvenForEverySubcase = 0;
 
-// Throws InputError for eps outside (0, 0.5).
+// Throws InputError for eps outside (0, 0.5) or an unknown type name.
 CertifyResult certify(const CertifyOptions& options = {});
 
 // The summary table (subcase rows, type columns), the first failure and the verdict.

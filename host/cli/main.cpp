@@ -74,6 +74,10 @@ int main(int argc, char** argv) {
   certify_cmd->add_option("--eps", certify_options.eps, "crossings clamped to [eps, 1 - eps], as mesh --eps")
       ->check(CLI::Range(0.0, 0.5))
       ->capture_default_str();
+  certify_cmd
+      ->add_option("--type", certify_options.types,
+                   "certify only this cell type (repeatable; the single type is always certified)")
+      ->type_name("NAME");
 
   std::string convert_in, convert_out;
   MeshWriteOptions convert_write;

@@ -289,9 +289,10 @@ void write_meshes(const py::tuple& inside, const py::object& outside, const std:
 }
 
 // The certificate's summary per cell type, as `mchex-gpu certify` prints it (certify_report).
-py::dict certify_summary(double eps) {
+py::dict certify_summary(double eps, std::vector<std::string> type_names) {
   CertifyOptions options;
   options.eps = eps;
+  options.types = std::move(type_names);
   std::optional<CertifyResult> r;
   {
     py::gil_scoped_release release;
@@ -300,6 +301,7 @@ py::dict certify_summary(double eps) {
   const auto types = cell_types();
   py::list per_type;
   for (std::size_t t = 0; t < types.size(); ++t) {
+    if (!r->selected[t]) continue;
     std::size_t hexes = 0, moved = 0, checked = 0;
     py::list proven, left;
     double least = std::numeric_limits<double>::infinity();
@@ -363,7 +365,7 @@ PYBIND11_MODULE(_mchex, m) {
   m.def("check", &check, py::arg("inside"), py::arg("outside"), py::arg("input"), py::arg("options"), py::arg("quiet"));
   m.def("write", &write_meshes, py::arg("inside"), py::arg("outside"), py::arg("inside_path"), py::arg("outside_path"),
         py::arg("binary"));
-  m.def("certify", &certify_summary, py::arg("eps"));
+  m.def("certify", &certify_summary, py::arg("eps"), py::arg("types"));
   m.def("devices", [] {
     std::string text;
     {
