@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "core/base/error.h"
+#include "core/base/parallel.h"
 #include "core/check/fidelity.h"
 #include "core/cutting/mchex_mesher.h"
 #include "core/cutting/ro.h"
@@ -143,6 +144,32 @@ TEST(Pipeline, ShapeOnAUniformGridIsTheMesherCalledDirectly) {
   EXPECT_EQ(t.run.fidelity->iou, f.iou);
   EXPECT_EQ(t.run.fidelity->hausdorff, f.hausdorff);
   EXPECT_EQ(t.run.fidelity->lattice, 128u);
+}
+
+// The fidelity measures do not depend on the thread count, the count of unresolved samples
+// included. A hex skips samples another hex already covered, so counting failed inversions as they
+// happened depended on which of two hexes came first: CI once saw 590 against 589 for the same
+// files (tests/test_python.py). That order cannot be forced here; the runs below check that the
+// count (uncovered samples where an inversion failed) is the same on one thread and on many.
+TEST(Pipeline, FidelityIsTheSameOnOneThreadAndMany) {
+  const ShapeSdf sdf(ShapeKind::kSphere);
+  const UniformGrid grid(padded_cube(sdf.bounds(), 0.1), 3);
+  const MeshPair m = mesh_mchex(grid, values_at(sdf, grid), 1e-3);
+  const Box& cube = grid.box();
+  const double spacing = cube.diagonal() / 400;
+  const auto samples = sample_surface(sdf, padded_cube(sdf.bounds(), 0.05), spacing);
+  const Fidelity many = measure_fidelity(m.inside, sdf, samples, cube, 128, spacing);
+  EXPECT_GT(many.unresolved, 0u);  // the clamped crossings' thin hexes: some inversions fail
+  for (int run = 0; run < 3; ++run) {
+    const Fidelity again = measure_fidelity(m.inside, sdf, samples, cube, 128, spacing);
+    EXPECT_EQ(again.unresolved, many.unresolved);
+    EXPECT_EQ(again.iou, many.iou);
+  }
+  ThreadLimit one(1);
+  const Fidelity single = measure_fidelity(m.inside, sdf, samples, cube, 128, spacing);
+  EXPECT_EQ(single.unresolved, many.unresolved);
+  EXPECT_EQ(single.iou, many.iou);
+  EXPECT_EQ(single.hausdorff, many.hausdorff);
 }
 
 TEST(Pipeline, NoSourceMeansTheDefaultShape) {

@@ -172,10 +172,13 @@ Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, st
   else solid.evaluate(points, f);
   points = {};
 
-  // The mesh on the lattice: each hex marks the samples it contains.
+  // The mesh on the lattice: each hex marks the samples it contains (bit 0), and the samples in its
+  // box where inverting its map failed (bit 1). A sample counts as unresolved when no hex contains
+  // it and one failed there: a hex skips samples already covered, so counting failures as they
+  // happen would depend on the threads' order, and this does not.
+  constexpr std::uint8_t kCovered = 1, kFailed = 2;
   std::unique_ptr<std::atomic<uint8_t>[]> covered(new std::atomic<uint8_t>[count]);
   for (std::size_t s = 0; s < count; ++s) covered[s].store(0, std::memory_order_relaxed);
-  std::atomic<std::size_t> unresolved{0};
   auto index_range = [&](double a, double b, double o, double d) {
     const double ia = std::ceil((a - o) / d - 0.5), ib = std::floor((b - o) / d - 0.5);
     return std::pair<std::size_t, std::size_t>(std::size_t(std::max(0.0, ia)),
@@ -193,18 +196,20 @@ Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, st
       for (std::size_t j = j0; j <= j1 && j < lattice; ++j)
         for (std::size_t i = i0; i <= i1 && i < lattice; ++i) {
           const std::size_t s = i + lattice * (j + lattice * k);
-          if (covered[s].load(std::memory_order_relaxed)) continue;
+          if (covered[s].load(std::memory_order_relaxed) & kCovered) continue;
           bool in = false;
           if (!invert_trilinear(x, sample(i, j, k), &in)) {
-            unresolved.fetch_add(1, std::memory_order_relaxed);
+            covered[s].fetch_or(kFailed, std::memory_order_relaxed);
             continue;
           }
-          if (in) covered[s].store(1, std::memory_order_relaxed);
+          if (in) covered[s].fetch_or(kCovered, std::memory_order_relaxed);
         }
   });
   std::size_t both = 0, either = 0, mesh_n = 0, solid_n = 0;
   for (std::size_t s = 0; s < count; ++s) {
-    const bool m = covered[s].load(std::memory_order_relaxed) != 0, v = f[s] > 0;
+    const std::uint8_t c = covered[s].load(std::memory_order_relaxed);
+    const bool m = (c & kCovered) != 0, v = f[s] > 0;
+    fid.unresolved += c == kFailed;
     both += m && v;
     either += m || v;
     mesh_n += m;
@@ -212,13 +217,12 @@ Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, st
   }
   if (far_tolerance > 0)
     for (std::size_t s = 0; s < count; ++s)
-      if ((covered[s].load(std::memory_order_relaxed) != 0) != (f[s] > 0))
+      if (((covered[s].load(std::memory_order_relaxed) & kCovered) != 0) != (f[s] > 0))
         fid.misclassified_points.push_back(sample(s % lattice, (s / lattice) % lattice, s / (lattice * lattice)));
   const double cell_volume = step.x * step.y * step.z;
   fid.iou = either ? double(both) / double(either) : 1.0;
   fid.mesh_volume = mesh_n * cell_volume;
   fid.solid_volume = solid_n * cell_volume;
-  fid.unresolved = unresolved.load();
 
   // Hausdorff, mesh side: bilinear samples on every boundary quad, measured by the distance to
   // the surface. A quad's corners are boundary vertices that several quads share: each is

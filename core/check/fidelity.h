@@ -27,7 +27,7 @@ struct Fidelity {
   double hausdorff = 0;
   double hausdorff_ratio = 0;  // hausdorff / input bounding-box diagonal
   std::size_t lattice = 0;     // samples per axis
-  std::size_t unresolved = 0;  // samples where the inverse map did not converge
+  std::size_t unresolved = 0;  // samples no hex contains where a hex's inverse map did not converge
   // With far_tolerance > 0: the samples of either side farther than it from the other side
   // (mesh-boundary samples first, then input-surface samples), where a finer grid is wanted.
   std::vector<Vec3> far_points;
