@@ -7,7 +7,7 @@
 # By default (what CI runs at every stop) it builds the readers alone (core/io and what it links)
 # and runs a bounded libFuzzer pass over every reader: surfaces (STL, OBJ, OFF, PLY) and hex meshes
 # (.mesh, .vtu, .msh ascii and binary, .meshb, .inp, .exo), seeded from the test models. Readers
-# take untrusted bytes, so they are where memory errors matter most; this costs about 5 minutes.
+# take untrusted bytes, so they are where memory errors matter most; this costs about 3 minutes.
 #
 # With --full it builds everything and also runs the whole test suite instrumented, less the scale
 # runs named in `scale` below (they repeat code the rest covers on inputs large enough to take
