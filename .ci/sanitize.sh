@@ -36,19 +36,19 @@ cmake -S . -B build-cpu -G Ninja -DMCHEX_WITH_OPENCL=OFF -DMCHEX_WITH_VULKAN=OFF
 if [ "$full" -eq 0 ]; then
   cmake --build build-cpu --target fuzz_read_surface fuzz_read_mesh
 else
-cmake --build build-cpu
-# Exhaustive enumerations (every cell type x rotation x subcase, every template, every cell
-# topology, flood fills of the trilinear interpolant) and depth-4 / 50k-triangle end-to-end runs
-# (test_sign: depth-4 meshes of constructed surfaces, over 10 minutes instrumented; the winding
-# number and the repair it drives run instrumented in test_winding_number and test_orientation).
-scale='certify\.TheCubeIsProvenForEverySubcaseAndTheRestIsReported|local_refinement\.EveryCellCertifiesWithItsTopology'
-scale+='|local_refinement\.TemplateSearchFindsTheBuiltInTable|mc33\.RegionsAgreeWithFloodFill'
-scale+='|MchexShapes\.ConformingClosedAndCounted/.*depth4|Mchex\.FitsTheTorusBetterThanRemoveOutside'
-scale+='|^test_end_to_end$|^test_adaptive_cli$|^test_sign$'
-# And the checks that run no code of the build (the sources' formatting and references, the
-# study's page redrawn from its CSVs): the first build ran them on the same files.
-scale+='|^test_format$|^test_references$|^test_study$'
-ctest --test-dir build-cpu --output-on-failure -j2 -E "$scale"
+  cmake --build build-cpu
+  # Exhaustive enumerations (every cell type x rotation x subcase, every template, every cell
+  # topology, flood fills of the trilinear interpolant) and depth-4 / 50k-triangle end-to-end runs
+  # (test_sign: depth-4 meshes of constructed surfaces, over 10 minutes instrumented; the winding
+  # number and the repair it drives run instrumented in test_winding_number and test_orientation).
+  scale='certify\.TheCubeIsProvenForEverySubcaseAndTheRestIsReported|local_refinement\.EveryCellCertifiesWithItsTopology'
+  scale+='|local_refinement\.TemplateSearchFindsTheBuiltInTable|mc33\.RegionsAgreeWithFloodFill'
+  scale+='|MchexShapes\.ConformingClosedAndCounted/.*depth4|Mchex\.FitsTheTorusBetterThanRemoveOutside'
+  scale+='|^test_end_to_end$|^test_adaptive_cli$|^test_sign$'
+  # And the checks that run no code of the build (the sources' formatting and references, the
+  # study's page redrawn from its CSVs): the first build ran them on the same files.
+  scale+='|^test_format$|^test_references$|^test_study$'
+  ctest --test-dir build-cpu --output-on-failure -j2 -E "$scale"
 fi
 
 # Seeds: the first byte of each picks the extension (the targets' rule), the rest is a real file.

@@ -342,14 +342,17 @@ CertifyResult certify(const CertifyOptions& o) {
     }
   std::vector<TaskResult> results(pats.size() * per_pattern);
   std::vector<char> ran(results.size(), 0);
-  // Cuts task's cell (its type moved by its rotation) at the samples drawn for the rotations `of`.
+  // A task is (pattern, type, rotation), rotation fastest.
+  auto type_of = [&](std::size_t task) { return static_cast<int>(task % per_pattern / kNumCubeRotations); };
+  auto rotation_of = [](std::size_t task) { return static_cast<int>(task % kNumCubeRotations); };
+  // Cuts each task's cell (its type moved by its rotation) at the samples drawn for every rotation
+  // of its class (whole_class) or for its own rotation alone.
   auto run = [&](const std::vector<std::size_t>& tasks, bool whole_class) {
     parallel_chunks(tasks.size(), 1, [&](std::size_t begin, std::size_t end) {
       for (std::size_t i = begin; i < end; ++i) {
         const std::size_t task = tasks[i];
         const Pattern& p = pats[task / per_pattern];
-        const int type = static_cast<int>(task % per_pattern / kNumCubeRotations);
-        const int rotation = static_cast<int>(task % kNumCubeRotations);
+        const int type = type_of(task), rotation = rotation_of(task);
         const HexCorners corners = transform_hex(types[type].corners, rotation);
         TaskResult& tr = results[task];
         auto check = [&](const HexCorners& cell, const CellClass& c, const std::array<double, 12>& s) {
@@ -373,14 +376,12 @@ CertifyResult certify(const CertifyOptions& o) {
   };
   std::vector<std::size_t> first, second;
   for (std::size_t task = 0; task < results.size(); ++task) {
-    const int type = static_cast<int>(task % per_pattern / kNumCubeRotations);
-    const int rotation = static_cast<int>(task % kNumCubeRotations);
+    const int type = type_of(task), rotation = rotation_of(task);
     if (r.selected[type] && rep[type][rotation] == rotation) first.push_back(task);
   }
   run(first, true);
   for (std::size_t task = 0; task < results.size(); ++task) {
-    const int type = static_cast<int>(task % per_pattern / kNumCubeRotations);
-    const int rotation = static_cast<int>(task % kNumCubeRotations);
+    const int type = type_of(task), rotation = rotation_of(task);
     if (ran[task] || !r.selected[type]) continue;
     const TaskResult& by = results[task - static_cast<std::size_t>(rotation - rep[type][rotation])];
     if (by.moved_centres > 0 && !by.failed) second.push_back(task);
@@ -390,8 +391,7 @@ CertifyResult certify(const CertifyOptions& o) {
   for (std::size_t task = 0; task < results.size(); ++task) {
     if (!ran[task]) continue;
     const Pattern& p = pats[task / per_pattern];
-    const int type = static_cast<int>(task % per_pattern / kNumCubeRotations);
-    CertifyEntry& e = r.table[type][static_cast<int>(p.subcase)];
+    CertifyEntry& e = r.table[type_of(task)][static_cast<int>(p.subcase)];
     const TaskResult& tr = results[task];
     add_task(e, tr);
     r.hexes += tr.hexes;

@@ -26,9 +26,9 @@ std::vector<SubdivisionHex> midpoint_subdivide(const Polyhedron& p) {
     if (m < 3) throw std::invalid_argument("midpoint_subdivide: a face with fewer than 3 vertices");
     Vec3 sum{};
     for (std::size_t i = 0; i < m; ++i) {
-      sum += p.points[face[i]];
       const std::uint32_t v = face[i];
       if (v >= nv) throw std::invalid_argument("midpoint_subdivide: a face vertex out of range");
+      sum += p.points[v];
       if (degree[v] < 3) around[v][degree[v]] = {f, face[(i + m - 1) % m], face[(i + 1) % m]};
       degree[v] = static_cast<std::uint8_t>(std::min(degree[v] + 1, 4));
     }
