@@ -1,7 +1,10 @@
 // Local refinement of one cell (paper Section 5, Figure 7); see local_refinement.h.
 #include "core/cutting/local_refinement.h"
 
+#include <algorithm>
 #include <bit>
+#include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -162,6 +165,52 @@ SignPlan subcase_plan(Subcase s) {
   return plan(info.positive_mask, info.face_joins, s, 0, false, kTable, 0);
 }
 
+// The inner points' virtual values of one level (local_refinement.h). Signs: the template's,
+// on the representative (inner point i of this cell is the representative's g.corner[i]; an
+// inverted map swaps inside and outside). Magnitudes: the cell's trilinear interpolant where its
+// sign agrees, else the interpolant of the magnitudes (the field's local scale); then each is
+// moved into the range that puts the crossing on every cut inner edge (to its corner, and along
+// the inner cell's edges) at least kInnerCrossingMargin from both ends: |v| / |w| in
+// [r, 1 / r], r = margin / (1 - margin), for a neighbour w of the other sign. The corners are
+// fixed; the inner points are settled in order, a few sweeps over the 8. Where the ranges of a
+// point do not meet, the geometric middle of the two bounds. Only magnitudes change, so every
+// child's subcase (decided by signs alone) and the cell's faces stay as they were.
+std::array<double, 8> virtual_values(const std::array<double, 8>& f, std::uint8_t signs, const CubeSymmetry& g,
+                                     bool inverted, double zero_tolerance) {
+  constexpr int kSweeps = 4;
+  constexpr double r = kInnerCrossingMargin / (1 - kInnerCrossingMargin);
+  std::array<bool, 8> positive_at{};
+  std::array<double, 8> m{};
+  for (int i = 0; i < 8; ++i) {
+    positive_at[i] = ((signs >> g.corner[i] & 1) != 0) != inverted;
+    const auto w = trilinear_weights(inner_parameter(i));
+    double v = 0, scale = 0;
+    for (int k = 0; k < 8; ++k) {
+      v += w[k] * f[k];
+      scale += w[k] * std::abs(f[k]);
+    }
+    m[i] = std::max((v > 0) == positive_at[i] ? std::abs(v) : scale, zero_tolerance);
+  }
+  for (int sweep = 0; sweep < kSweeps; ++sweep)
+    for (int i = 0; i < 8; ++i) {
+      double lo = zero_tolerance, hi = std::numeric_limits<double>::infinity();
+      auto keep_clear_of = [&](double magnitude, bool other_positive) {
+        if (other_positive == positive_at[i]) return;
+        lo = std::max(lo, r * magnitude);
+        hi = std::min(hi, magnitude / r);
+      };
+      keep_clear_of(std::abs(f[i]), f[i] > 0);
+      for (const auto& e : kCubeEdges) {
+        if (e[0] == i) keep_clear_of(m[e[1]], positive_at[e[1]]);
+        if (e[1] == i) keep_clear_of(m[e[0]], positive_at[e[0]]);
+      }
+      m[i] = lo <= hi ? std::clamp(m[i], lo, hi) : std::max(std::sqrt(lo * hi), zero_tolerance);
+    }
+  std::array<double, 8> out{};
+  for (int i = 0; i < 8; ++i) out[i] = positive_at[i] ? m[i] : -m[i];
+  return out;
+}
+
 void refine_into(const std::array<std::uint32_t, 8>& cell, const CellClass& c, const LocalRefinementTable& table,
                  double zero_tolerance, int depth, LocalRefinement& out) {
   if (depth >= kMaxLevels)
@@ -178,17 +227,11 @@ void refine_into(const std::array<std::uint32_t, 8>& cell, const CellClass& c, c
   const CubeSymmetry& g = kCubeSymmetries[c.symmetry];
   std::array<std::uint32_t, 16> id{};
   for (int i = 0; i < 8; ++i) id[i] = cell[i];
+  const auto v = virtual_values(f, tpl.signs(depth), g, c.inverted, zero_tolerance);
   for (int i = 0; i < 8; ++i) {
-    // Template signs live on the representative: inner point i of this cell is the
-    // representative's inner point g.corner[i]; an inverted map swaps inside and outside.
-    const bool positive = ((tpl.signs(depth) >> g.corner[i] & 1) != 0) != c.inverted;
-    const auto w = trilinear_weights(inner_parameter(i));
-    double v = 0;
-    for (int k = 0; k < 8; ++k) v += w[k] * f[k];
-    if ((v > 0) != positive || !(std::abs(v) >= zero_tolerance)) v = positive ? zero_tolerance : -zero_tolerance;
     id[8 + i] = static_cast<std::uint32_t>(out.points.size());
     out.points.push_back(pts[8 + i]);
-    out.values.push_back(v);
+    out.values.push_back(v[i]);
   }
   out.levels = std::max(out.levels, depth + 1);
   for (const LocalRefinementChild& child : local_refinement_child_points()) {
