@@ -4,7 +4,7 @@
 // pinned; no point changes its sign; the returned values are the SDF at the returned points;
 // moves run along one grid line, within the cap, and points on the padded cube's faces stay on
 // them; a plane's one predicted move is exact; the result is the same on 1 thread and on many;
-// restore_cells gives the grid back.
+// restore_cells gives the grid back, relax_cells halves moves first.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -145,6 +145,44 @@ TEST(Repel, CubeFacePointsStayOnTheirFace) {
   expect_rules_hold(c, r, 0.25);
   EXPECT_EQ(r.stats.moved, 0u);
   EXPECT_EQ(r.stats.pinned, 10u * 10u);
+}
+
+// relax_cells halves a moved corner's move kMaxRelaxHalvings times (the SDF re-evaluated there),
+// then gives the grid position back; points outside the cells are untouched.
+TEST(Repel, RelaxCellsHalvesThenRestores) {
+  const double h = 2.0 / 9;
+  const double xi = -1 + 4 * h;
+  const Case c = plane_case(2, xi + 0.1 * h);
+  Repelled r = repel(c.cx, c.cube, c.values, c.sdf, {0.25});
+  ASSERT_EQ(r.stats.moved, 100u);
+  // One cell with corners on column i (x = xi), and every cell for the second half.
+  std::uint32_t cell = 0;
+  while (std::abs(c.cx.points[c.cx.cells[cell][1]].x - xi) > 1e-12) ++cell;
+  const std::vector<std::uint32_t> one = {cell};
+  std::vector<std::uint32_t> corners;
+  for (std::uint32_t p : c.cx.cells[cell])
+    if (std::abs(c.cx.points[p].x - xi) < 1e-12) corners.push_back(p);
+  ASSERT_EQ(corners.size(), 4u);
+  double expected = 0.2 * h;
+  for (int k = 0; k < kMaxRelaxHalvings; ++k) {
+    EXPECT_EQ(relax_cells(c.cx, c.values, one, c.sdf, r), 4u);
+    expected /= 2;
+    for (std::uint32_t p : corners) {
+      EXPECT_NEAR(c.cx.points[p].x - r.points[p].x, expected, 1e-12);
+      EXPECT_EQ(r.values[p], xi + 0.1 * h - r.points[p].x);
+      EXPECT_EQ(r.state[p], RepelState::kMoved);
+    }
+  }
+  EXPECT_EQ(r.stats.relaxed, 4u * kMaxRelaxHalvings);
+  EXPECT_EQ(relax_cells(c.cx, c.values, one, c.sdf, r), 4u);
+  for (std::uint32_t p : corners) {
+    EXPECT_EQ(r.points[p].x, c.cx.points[p].x);
+    EXPECT_EQ(r.values[p], c.values[p]);
+    EXPECT_EQ(r.state[p], RepelState::kStill);
+  }
+  EXPECT_EQ(r.stats.restored, 4u);
+  EXPECT_EQ(r.stats.moved, 96u);
+  EXPECT_EQ(relax_cells(c.cx, c.values, one, c.sdf, r), 0u);
 }
 
 TEST(Repel, SameOnOneThreadAndMany) {

@@ -40,8 +40,8 @@
 // that keeps each crossing on an edge inside the cell at least kInnerCrossingMargin from both
 // ends (local_refinement.cpp, virtual_values). The paper's "minimal magnitude" (here
 // +-zero_tolerance) put those crossings at the clamp, eps from an inner point, and its polyhedra
-// had edges of eps x the cell: on repelled cells the worst hexes of a mesh (npm bunny --repel,
-// min scaled Jacobian 0.002 -> 0.045), and `certify` proved 1409 of 1600 (type, subcase)
+// had edges of eps x the cell: on repelled cells the worst hexes of a mesh (npm bunny --repel
+// --no-fidelity, min scaled Jacobian 0.002 -> 0.045), and `certify` proved 1409 of 1600 (type, subcase)
 // pairs against 1535 with the margin (docs/templates.md). Only magnitudes are chosen, so the
 // children's subcases, decided by signs alone, are the template's. A second level treats the
 // refined child's 8 values the same way.

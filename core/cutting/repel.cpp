@@ -179,6 +179,7 @@ Repelled repel(const HexComplex& cx, const Box& cube, std::span<const double> va
     out.stats.rounds = round + 1;
   }
 
+  out.halvings.assign(n, 0);
   out.state.assign(n, RepelState::kStill);
   parallel_for(n, [&](std::size_t i) {
     const auto p = static_cast<std::uint32_t>(i);
@@ -207,6 +208,54 @@ std::size_t restore_cells(const HexComplex& cx, std::span<const double> unmoved_
   rep.stats.moved -= restored;
   rep.stats.restored += restored;
   return restored;
+}
+
+std::size_t relax_cells(const HexComplex& cx, std::span<const double> unmoved_values,
+                        std::span<const std::uint32_t> cells, const SdfBatch& sdf, Repelled& rep) {
+  if (rep.halvings.size() != cx.points.size()) rep.halvings.assign(cx.points.size(), 0);
+  // The moved corners, each once, in ascending order (the result does not depend on the cells'
+  // order or on repeats).
+  std::vector<std::uint32_t> moved;
+  for (std::uint32_t c : cells)
+    for (std::uint32_t p : cx.cells.at(c)) {
+      const Vec3 o = cx.points[p];
+      if (!(rep.points[p].x == o.x && rep.points[p].y == o.y && rep.points[p].z == o.z)) moved.push_back(p);
+    }
+  std::sort(moved.begin(), moved.end());
+  moved.erase(std::unique(moved.begin(), moved.end()), moved.end());
+  const double tiny = zero_tolerance_of(cx);
+  const auto positive = [&](double v) { return (std::abs(v) < tiny ? -tiny : v) > 0; };
+  std::vector<std::uint32_t> halve;
+  std::vector<Vec3> at;
+  auto give_back = [&](std::uint32_t p) {
+    rep.points[p] = cx.points[p];
+    rep.values[p] = unmoved_values[p];
+    rep.state[p] = RepelState::kStill;
+    rep.stats.moved -= 1;
+    rep.stats.restored += 1;
+  };
+  for (std::uint32_t p : moved) {
+    if (rep.halvings[p] >= kMaxRelaxHalvings) {
+      give_back(p);
+      continue;
+    }
+    halve.push_back(p);
+    at.push_back(cx.points[p] + 0.5 * (rep.points[p] - cx.points[p]));
+  }
+  std::vector<double> v(at.size());
+  if (!at.empty()) sdf(at, v);
+  for (std::size_t i = 0; i < halve.size(); ++i) {
+    const std::uint32_t p = halve[i];
+    if (!std::isfinite(v[i]) || positive(v[i]) != positive(unmoved_values[p])) {
+      give_back(p);
+      continue;
+    }
+    rep.points[p] = at[i];
+    rep.values[p] = v[i];
+    rep.halvings[p] += 1;
+    rep.stats.relaxed += 1;
+  }
+  return moved.size();
 }
 
 }  // namespace mchex

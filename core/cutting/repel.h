@@ -59,7 +59,8 @@ struct RepelStats {
   double delta = 0;
   std::size_t moved = 0;     // points at a new position
   std::size_t pinned = 0;    // points with a request still unmet (RepelState::kPinned)
-  std::size_t restored = 0;  // moved points given back their grid position (restore_cells)
+  std::size_t restored = 0;  // moved points given back their grid position (restore_cells, relax_cells)
+  std::size_t relaxed = 0;   // moves halved by relax_cells (a point may count once per halving)
   int rounds = 0;            // rounds that moved a point
 };
 
@@ -67,9 +68,10 @@ struct RepelStats {
 using SdfBatch = std::function<void(std::span<const Vec3>, std::span<double>)>;
 
 struct Repelled {
-  std::vector<Vec3> points;       // the complex's points, moved
-  std::vector<double> values;     // the SDF at them (re-evaluated where moved)
-  std::vector<RepelState> state;  // per point
+  std::vector<Vec3> points;            // the complex's points, moved
+  std::vector<double> values;          // the SDF at them (re-evaluated where moved)
+  std::vector<RepelState> state;       // per point
+  std::vector<std::uint8_t> halvings;  // per point: how often relax_cells halved its move
   RepelStats stats;
 };
 
@@ -87,5 +89,19 @@ bool crossing_clear(double t, double delta);
 // complex.points); returns how many of them had moved. stats.moved and stats.restored follow.
 std::size_t restore_cells(const HexComplex& complex, std::span<const double> unmoved_values,
                           std::span<const std::uint32_t> cells, Repelled& repelled);
+
+// How often relax_cells halves a point's move before it gives the point its grid position back.
+inline constexpr int kMaxRelaxHalvings = 2;
+
+// The gentler remedy for cells whose moved shape left a hex uncertified: each moved corner of
+// `cells` goes halfway back to its grid position (the SDF evaluated there) while it has been
+// halved fewer than kMaxRelaxHalvings times and the half-way value keeps the point's sign; else
+// it gets its grid position and value back, as restore_cells. A half move keeps most of what
+// repelling bought (a crossing at DELTA / 2 instead of eps from the corner), where a full
+// restore puts the crossing back at the clamp. Returns how many points changed; each call changes
+// every moved corner of `cells`, so repeated calls end at the grid. Deterministic: every point
+// depends only on its own state.
+std::size_t relax_cells(const HexComplex& complex, std::span<const double> unmoved_values,
+                        std::span<const std::uint32_t> cells, const SdfBatch& sdf, Repelled& repelled);
 
 }  // namespace mchex

@@ -258,9 +258,10 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
       repelled_points.clear();
       return;
     }
-    // A moved cell whose hexes are not all certified gets its grid corners back, and the grid is
-    // meshed again (restore_cells): each round restores at least one moved point, so it ends, at
-    // worst with the unmoved grid. RO's hexes are the cells themselves, checked here the same way.
+    // A moved cell whose hexes are not all certified has its corners' moves halved, then given
+    // back (relax_cells), and the grid is meshed again: each round halves or restores at least
+    // one moved point, so it ends, at worst with the unmoved grid. RO's hexes are the cells themselves, checked here
+    // the same way.
     for (;;) {
       run.meshes = run_method(*moved_cx);
       std::vector<std::uint32_t> bad;
@@ -276,7 +277,11 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
         for (std::uint32_t c = 0; c < ok.size(); ++c)
           if (!ok[c]) bad.push_back(c);
       }
-      if (bad.empty() || run.clock.run("repel", [&] { return restore_cells(*grid_cx, values, bad, *repelled); }) == 0)
+      if (bad.empty() || run.clock.run("repel", [&] {
+            return relax_cells(
+                *grid_cx, values, bad,
+                [&](std::span<const Vec3> p, std::span<double> v) { backend_sdf(backend, solid, p, v); }, *repelled);
+          }) == 0)
         break;
       moved_cx->points = repelled->points;
       classify();

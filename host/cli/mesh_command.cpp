@@ -89,8 +89,9 @@ void print_summary(const MeshRun& run, const MeshOutputs& outputs) {
                      q.quality.max_edge_ratio);
     }
   if (run.repel)
-    fmt::print("  repel: delta {}, {} points moved, {} pinned, {} restored, {} rounds\n", run.repel->delta,
-               run.repel->moved, run.repel->pinned, run.repel->restored, run.repel->rounds);
+    fmt::print("  repel: delta {}, {} points moved, {} pinned, {} moves halved, {} restored, {} rounds\n",
+               run.repel->delta, run.repel->moved, run.repel->pinned, run.repel->relaxed, run.repel->restored,
+               run.repel->rounds);
   if (run.optimize) fmt::print("{}", optimize_line(*run.optimize));
   fmt::print("{}", summary(run.check));
   if (run.fidelity) fmt::print("{}", fidelity_line(*run.fidelity));
