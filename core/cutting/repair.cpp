@@ -63,14 +63,26 @@ bool solve4(std::array<std::array<double, 5>, 4> m, std::array<double, 4>& x) {
   return true;
 }
 
+// rows: the linearized coefficients, then the 6 box sides (+x, -x, +y, -y, +z, -z), as the
+// search builds them. A 4-subset with no coefficient row (t's column is zero) or with both sides
+// of one axis (two opposite rows) is singular, and solve4 would say so after the elimination:
+// those subsets are skipped before it, which leaves the result as it was.
 bool solve_lp(const std::vector<LpRow>& rows, std::array<double, 4>& best) {
   const std::size_t n = rows.size();
+  const std::size_t first_side = n - 6;
+  // Bit a set: the row is a side of axis a; 8: a coefficient row.
+  auto kind = [&](std::size_t r) { return r < first_side ? 8u : 1u << ((r - first_side) / 2); };
   bool found = false;
   const double tol = 1e-12;
   for (std::size_t i = 0; i < n; ++i)
-    for (std::size_t j = i + 1; j < n; ++j)
-      for (std::size_t k = j + 1; k < n; ++k)
+    for (std::size_t j = i + 1; j < n; ++j) {
+      if (kind(i) == kind(j) && kind(i) != 8u) continue;
+      for (std::size_t k = j + 1; k < n; ++k) {
+        const unsigned ijk = kind(i) | kind(j);
+        if ((ijk & kind(k) & 7u) != 0) continue;
         for (std::size_t l = k + 1; l < n; ++l) {
+          const unsigned all = ijk | kind(k);
+          if ((all & kind(l) & 7u) != 0 || ((all | kind(l)) & 8u) == 0) continue;
           std::array<std::array<double, 5>, 4> m{};
           const std::array<std::size_t, 4> pick = {i, j, k, l};
           for (int r = 0; r < 4; ++r) {
@@ -92,6 +104,8 @@ bool solve_lp(const std::vector<LpRow>& rows, std::array<double, 4>& best) {
           best = x;
           found = true;
         }
+      }
+    }
   return found;
 }
 
@@ -157,7 +171,9 @@ MappedSubdivision subdivide_in_cell(const Polyhedron& parametric, const HexCorne
       upper = std::min(upper, value[k] + reach);
       lower[k] = {value[k] - reach, k};
     }
-    std::sort(lower.begin(), lower.end());
+    // Only the lowest kMaxActive can be taken: ordered as a full sort would (pairs order totally).
+    const std::size_t take = std::min(lower.size(), kMaxActive);
+    std::partial_sort(lower.begin(), lower.begin() + static_cast<std::ptrdiff_t>(take), lower.end());
     std::vector<LpRow> rows;
     for (std::size_t i = 0; i < lower.size() && rows.size() < kMaxActive && lower[i].first <= upper; ++i) {
       const std::size_t k = lower[i].second;
