@@ -150,7 +150,7 @@ bool leaves_certified(const HexCorners& cell, const std::array<double, 8>& f, co
   return ok;
 }
 
-TEST(certify, Subcase3_2Regression) {
+TEST(certify, Subcase3_2RegressionCellsCertify) {
   LocalRefinementTable former = local_refinement_table();
   former[static_cast<int>(Subcase::k3_2)].own_level = false;  // 0x0F at every level
   for (const Regression& r : k32Cells) {

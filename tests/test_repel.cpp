@@ -7,6 +7,7 @@
 // restore_cells gives the grid back, relax_cells halves moves first.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -155,10 +156,12 @@ TEST(Repel, RelaxCellsHalvesThenRestores) {
   const Case c = plane_case(2, xi + 0.1 * h);
   Repelled r = repel(c.cx, c.cube, c.values, c.sdf, {0.25});
   ASSERT_EQ(r.stats.moved, 100u);
-  // One cell with corners on column i (x = xi), and every cell for the second half.
+  // One cell with corners on column i (x = xi), named three times in the list (repeats do not
+  // count twice).
   std::uint32_t cell = 0;
   while (std::abs(c.cx.points[c.cx.cells[cell][1]].x - xi) > 1e-12) ++cell;
-  const std::vector<std::uint32_t> one = {cell};
+  const std::vector<std::uint32_t> one = {cell, cell, cell};
+  const Repelled before = r;
   std::vector<std::uint32_t> corners;
   for (std::uint32_t p : c.cx.cells[cell])
     if (std::abs(c.cx.points[p].x - xi) < 1e-12) corners.push_back(p);
@@ -170,9 +173,15 @@ TEST(Repel, RelaxCellsHalvesThenRestores) {
     for (std::uint32_t p : corners) {
       EXPECT_NEAR(c.cx.points[p].x - r.points[p].x, expected, 1e-12);
       EXPECT_EQ(r.values[p], xi + 0.1 * h - r.points[p].x);
-      EXPECT_EQ(r.state[p], RepelState::kMoved);
+      EXPECT_EQ(r.state[p], RepelState::kPinned);  // its crossing is nearer than delta again
     }
   }
+  EXPECT_EQ(r.stats.pinned, before.stats.pinned + 4);
+  for (std::size_t p = 0; p < r.points.size(); ++p)
+    if (std::find(corners.begin(), corners.end(), p) == corners.end()) {
+      EXPECT_EQ(r.points[p].x, before.points[p].x) << p;
+      EXPECT_EQ(r.values[p], before.values[p]) << p;
+    }
   EXPECT_EQ(r.stats.relaxed, 4u * kMaxRelaxHalvings);
   EXPECT_EQ(relax_cells(c.cx, c.values, one, c.sdf, r), 4u);
   for (std::uint32_t p : corners) {

@@ -480,7 +480,7 @@ std::string certify_report(const CertifyResult& r) {
                        types[f.type].name, f.rotation, std::string(subcase_name(f.subcase)), s, f.coefficient);
   }
   {
-    // The repelled cubes (mesh --repel): what restore_cells may be asked to take back.
+    // The repelled cubes (mesh --repel): what relax_cells may be asked to take back.
     int proven = 0, checked = 0;
     std::size_t hexes = 0;
     double least = std::numeric_limits<double>::infinity();
@@ -499,8 +499,8 @@ std::string certify_report(const CertifyResult& r) {
     }
     out += fmt::format(
         "repelled cubes (mesh --repel; corners moved along their edges by up to {}): {} cells, {} hexes, {}/{} "
-        "subcases certified on every sample (min coef {:.1e}) in {:.1f} s; left to the run-time restore "
-        "(restore_cells: the cell's corners go back, a proven cube):{}\n",
+        "subcases certified on every sample (min coef {:.1e}) in {:.1f} s; left to the run-time remedy "
+        "(relax_cells: the cell's corner moves halved, then undone, ending on a proven cube):{}\n",
         kMaxRepelDelta, r.repelled_cells, hexes, proven, checked, least, r.repelled_seconds,
         left.empty() ? " -" : left);
   }

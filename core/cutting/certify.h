@@ -35,7 +35,7 @@
 // repelling moved (each corner along one of its three axes, or not, by up to 0.45 of the edge in
 // either direction, drawn with a seed; half of the moved corners at +-0.45), routed and cut as the
 // mesher does (a moved cube is not affine: 11 and 14 are refined). What is not certified there is
-// handed to the run-time restore (core/cutting/repel.h restore_cells), which ends on the cube.
+// handed to the run-time restore (core/cutting/repel.h relax_cells), which ends on the cube.
 // Sign patterns: for each subcase, one cell per class of patterns up to rotation and complement
 // (the complement gives the same polyhedra), found by classify() on seeded random corner values
 // (13.5.2, which random values practically never give, from a constructed cell; a class with few
@@ -100,7 +100,7 @@ struct CertifyResult {
   std::size_t repeated_cells = 0;
   std::size_t not_landed_subcases = 0;  // subcases no sampled cell reached (not certified)
   // [subcase]: the repelled cubes. Not part of passed(): a repelled cell whose hexes are not
-  // certified gets its grid corners back at run time (restore_cells) and is an unmoved cube,
+  // certified gets its grid corners back at run time (relax_cells, after halving) and is an unmoved cube,
   // proven above; these entries say how often that remedy can be needed.
   std::array<CertifyEntry, kNumSubcases> repelled{};
   std::size_t repelled_cells = 0;

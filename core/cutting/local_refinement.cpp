@@ -86,7 +86,9 @@ constexpr LocalRefinementTable make_table() {
   // One level: every child is cut directly.
   set(S::k3_2, 0x0F);  // inner points next to the face z = 0 (the joined one) positive
   // ... but a cell that is 3.2 itself takes 0x7F (every inner point positive but the one next to
-  // corner 7): measured over the 8 basic cell types x 24 rotations x 709 sampled 3.2 cells (with
+  // corner 7): measured, before the virtual values kept their crossings clear of the inner points
+  // (kInnerCrossingMargin; with it 0x0F certifies the regression cells of test_certify too), over
+  // the 8 basic cell types x 24 rotations x 709 sampled 3.2 cells (with
   // core/cutting/repair.h's volume-centre search), 0x0F leaves 117 uncertified polyhedra on edge-3 and
   // face-3 (min scaled coefficient -6.9e-3, case-5 side frustums), 0x1F 65, 0x4F 54, 0x7F none
   // (the first one-level pattern with none); as the template of a 3.2 frustum at the second level

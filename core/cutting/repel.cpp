@@ -193,20 +193,33 @@ Repelled repel(const HexComplex& cx, const Box& cube, std::span<const double> va
   return out;
 }
 
+namespace {
+
+bool at_grid_position(const HexComplex& cx, const Repelled& rep, std::uint32_t p) {
+  const Vec3 o = cx.points[p];
+  return rep.points[p].x == o.x && rep.points[p].y == o.y && rep.points[p].z == o.z;
+}
+
+// A moved point given its grid position and value back.
+void give_back(const HexComplex& cx, std::span<const double> unmoved_values, std::uint32_t p, Repelled& rep) {
+  rep.points[p] = cx.points[p];
+  rep.values[p] = unmoved_values[p];
+  rep.state[p] = RepelState::kStill;
+  rep.stats.moved -= 1;
+  rep.stats.restored += 1;
+}
+
+}  // namespace
+
 std::size_t restore_cells(const HexComplex& cx, std::span<const double> unmoved_values,
                           std::span<const std::uint32_t> cells, Repelled& rep) {
   std::size_t restored = 0;
   for (std::uint32_t c : cells)
     for (std::uint32_t p : cx.cells.at(c)) {
-      const Vec3 o = cx.points[p];
-      if (rep.points[p].x == o.x && rep.points[p].y == o.y && rep.points[p].z == o.z) continue;
-      rep.points[p] = o;
-      rep.values[p] = unmoved_values[p];
-      rep.state[p] = RepelState::kStill;
+      if (at_grid_position(cx, rep, p)) continue;
+      give_back(cx, unmoved_values, p, rep);
       ++restored;
     }
-  rep.stats.moved -= restored;
-  rep.stats.restored += restored;
   return restored;
 }
 
@@ -217,26 +230,17 @@ std::size_t relax_cells(const HexComplex& cx, std::span<const double> unmoved_va
   // order or on repeats).
   std::vector<std::uint32_t> moved;
   for (std::uint32_t c : cells)
-    for (std::uint32_t p : cx.cells.at(c)) {
-      const Vec3 o = cx.points[p];
-      if (!(rep.points[p].x == o.x && rep.points[p].y == o.y && rep.points[p].z == o.z)) moved.push_back(p);
-    }
+    for (std::uint32_t p : cx.cells.at(c))
+      if (!at_grid_position(cx, rep, p)) moved.push_back(p);
   std::sort(moved.begin(), moved.end());
   moved.erase(std::unique(moved.begin(), moved.end()), moved.end());
   const double tiny = zero_tolerance_of(cx);
   const auto positive = [&](double v) { return (std::abs(v) < tiny ? -tiny : v) > 0; };
   std::vector<std::uint32_t> halve;
   std::vector<Vec3> at;
-  auto give_back = [&](std::uint32_t p) {
-    rep.points[p] = cx.points[p];
-    rep.values[p] = unmoved_values[p];
-    rep.state[p] = RepelState::kStill;
-    rep.stats.moved -= 1;
-    rep.stats.restored += 1;
-  };
   for (std::uint32_t p : moved) {
     if (rep.halvings[p] >= kMaxRelaxHalvings) {
-      give_back(p);
+      give_back(cx, unmoved_values, p, rep);
       continue;
     }
     halve.push_back(p);
@@ -247,13 +251,18 @@ std::size_t relax_cells(const HexComplex& cx, std::span<const double> unmoved_va
   for (std::size_t i = 0; i < halve.size(); ++i) {
     const std::uint32_t p = halve[i];
     if (!std::isfinite(v[i]) || positive(v[i]) != positive(unmoved_values[p])) {
-      give_back(p);
+      give_back(cx, unmoved_values, p, rep);
       continue;
     }
     rep.points[p] = at[i];
     rep.values[p] = v[i];
     rep.halvings[p] += 1;
     rep.stats.relaxed += 1;
+    // Half way back, its crossing is nearer than delta again: a request unmet.
+    if (rep.state[p] != RepelState::kPinned) {
+      rep.state[p] = RepelState::kPinned;
+      rep.stats.pinned += 1;
+    }
   }
   return moved.size();
 }

@@ -24,7 +24,8 @@
 // Points are moved, values re-evaluated; the complex's topology is untouched, so the sign of
 // every point and therefore every edge's cut state stays the same. The moved cells are not boxes:
 // the mesher maps through each cell's actual corners and Bernstein-checks every hex; a moved cell
-// whose hexes are not certified gets its corners back (restore_cells) and is meshed again.
+// whose hexes are not certified has its corners' moves halved, then undone (relax_cells), and is
+// meshed again.
 #pragma once
 
 #include <cstddef>
@@ -97,8 +98,8 @@ inline constexpr int kMaxRelaxHalvings = 2;
 // `cells` goes halfway back to its grid position (the SDF evaluated there) while it has been
 // halved fewer than kMaxRelaxHalvings times and the half-way value keeps the point's sign; else
 // it gets its grid position and value back, as restore_cells. A half move keeps most of what
-// repelling bought (a crossing at DELTA / 2 instead of eps from the corner), where a full
-// restore puts the crossing back at the clamp. Returns how many points changed; each call changes
+// repelling bought (the crossing between where it was and DELTA, instead of back at the clamp),
+// and a halved point counts as pinned (its request is unmet again). Returns how many points changed; each call changes
 // every moved corner of `cells`, so repeated calls end at the grid. Deterministic: every point
 // depends only on its own state.
 std::size_t relax_cells(const HexComplex& complex, std::span<const double> unmoved_values,
