@@ -18,6 +18,10 @@ namespace {
 // Rounding leaves a met request a few ulps short; such a crossing counts as met.
 constexpr double kSlack = 1e-9;
 
+// The zero rule's value (mchex_mesher.h): what the mesher's crossings are computed from.
+double zero_rule(double v, double tiny) { return std::abs(v) < tiny ? -tiny : v; }
+bool inside_by_zero_rule(double v, double tiny) { return zero_rule(v, tiny) > 0; }
+
 // The points' incident edges, as (other point, edge id), by ascending edge id.
 struct Incidence {
   std::vector<std::uint32_t> begin;  // points + 1
@@ -59,8 +63,7 @@ struct Repeller {
   std::vector<double> moved;  // displacement along dir
   std::vector<std::uint8_t> stuck;
 
-  // The zero rule's value (mchex_mesher.h): what the mesher's crossings are computed from.
-  double rule(double v) const { return std::abs(v) < tiny ? -tiny : v; }
+  double rule(double v) const { return zero_rule(v, tiny); }
 
   Request request(std::uint32_t p, std::span<const Vec3> x, std::span<const double> f) const {
     Request r;
@@ -128,7 +131,7 @@ Repelled repel(const HexComplex& cx, const Box& cube, std::span<const double> va
   out.points = cx.points;
   out.values.assign(values.begin(), values.end());
   out.stats.delta = o.delta;
-  const auto positive = [&](double v) { return r.rule(v) > 0; };
+  const auto positive = [&](double v) { return inside_by_zero_rule(v, r.tiny); };
 
   std::vector<Vec3> candidate(n);
   std::vector<std::uint8_t> wants(n);
@@ -211,18 +214,6 @@ void give_back(const HexComplex& cx, std::span<const double> unmoved_values, std
 
 }  // namespace
 
-std::size_t restore_cells(const HexComplex& cx, std::span<const double> unmoved_values,
-                          std::span<const std::uint32_t> cells, Repelled& rep) {
-  std::size_t restored = 0;
-  for (std::uint32_t c : cells)
-    for (std::uint32_t p : cx.cells.at(c)) {
-      if (at_grid_position(cx, rep, p)) continue;
-      give_back(cx, unmoved_values, p, rep);
-      ++restored;
-    }
-  return restored;
-}
-
 std::size_t relax_cells(const HexComplex& cx, std::span<const double> unmoved_values,
                         std::span<const std::uint32_t> cells, const SdfBatch& sdf, Repelled& rep) {
   if (rep.halvings.size() != cx.points.size()) rep.halvings.assign(cx.points.size(), 0);
@@ -235,7 +226,7 @@ std::size_t relax_cells(const HexComplex& cx, std::span<const double> unmoved_va
   std::sort(moved.begin(), moved.end());
   moved.erase(std::unique(moved.begin(), moved.end()), moved.end());
   const double tiny = zero_tolerance_of(cx);
-  const auto positive = [&](double v) { return (std::abs(v) < tiny ? -tiny : v) > 0; };
+  const auto positive = [&](double v) { return inside_by_zero_rule(v, tiny); };
   std::vector<std::uint32_t> halve;
   std::vector<Vec3> at;
   for (std::uint32_t p : moved) {

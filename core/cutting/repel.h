@@ -60,7 +60,7 @@ struct RepelStats {
   double delta = 0;
   std::size_t moved = 0;     // points at a new position
   std::size_t pinned = 0;    // points with a request still unmet (RepelState::kPinned)
-  std::size_t restored = 0;  // moved points given back their grid position (restore_cells, relax_cells)
+  std::size_t restored = 0;  // moved points given back their grid position (relax_cells)
   std::size_t relaxed = 0;   // moves halved by relax_cells (a point may count once per halving)
   int rounds = 0;            // rounds that moved a point
 };
@@ -86,22 +86,18 @@ Repelled repel(const HexComplex& complex, const Box& cube, std::span<const doubl
 // the slack repel allows for rounding.
 bool crossing_clear(double t, double delta);
 
-// The corners of `cells` given back their grid positions and values (unmoved_values: the SDF at
-// complex.points); returns how many of them had moved. stats.moved and stats.restored follow.
-std::size_t restore_cells(const HexComplex& complex, std::span<const double> unmoved_values,
-                          std::span<const std::uint32_t> cells, Repelled& repelled);
-
 // How often relax_cells halves a point's move before it gives the point its grid position back.
 inline constexpr int kMaxRelaxHalvings = 2;
 
-// The gentler remedy for cells whose moved shape left a hex uncertified: each moved corner of
-// `cells` goes halfway back to its grid position (the SDF evaluated there) while it has been
-// halved fewer than kMaxRelaxHalvings times and the half-way value keeps the point's sign; else
-// it gets its grid position and value back, as restore_cells. A half move keeps most of what
-// repelling bought (the crossing between where it was and DELTA, instead of back at the clamp),
-// and a halved point counts as pinned (its request is unmet again). Returns how many points changed; each call changes
-// every moved corner of `cells`, so repeated calls end at the grid. Deterministic: every point
-// depends only on its own state.
+// The remedy for cells whose moved shape left a hex uncertified: each moved corner of `cells`
+// goes halfway back to its grid position (the SDF evaluated there) while it has been halved
+// fewer than kMaxRelaxHalvings times and the half-way value keeps the point's sign; else it gets
+// its grid position and value back (unmoved_values: the SDF at complex.points). A half move keeps
+// most of what repelling bought (the crossing between where it was and DELTA, instead of back at
+// the clamp), and a halved point counts as pinned (its request is unmet again). Returns how many
+// points changed; each call changes every moved corner of `cells`, so repeated calls end at the
+// grid. stats.moved, pinned, relaxed and restored follow. Deterministic: every point depends only
+// on its own state.
 std::size_t relax_cells(const HexComplex& complex, std::span<const double> unmoved_values,
                         std::span<const std::uint32_t> cells, const SdfBatch& sdf, Repelled& repelled);
 

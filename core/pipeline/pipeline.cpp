@@ -260,8 +260,8 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
     }
     // A moved cell whose hexes are not all certified has its corners' moves halved, then given
     // back (relax_cells), and the grid is meshed again: each round halves or restores at least
-    // one moved point, so it ends, at worst with the unmoved grid. RO's hexes are the cells themselves, checked here
-    // the same way.
+    // one moved point, so it ends, at worst with the unmoved grid. RO's hexes are the cells
+    // themselves, checked here the same way.
     for (;;) {
       run.meshes = run_method(*moved_cx);
       std::vector<std::uint32_t> bad;
