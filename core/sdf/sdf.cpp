@@ -271,23 +271,32 @@ struct SurfaceSdf::Impl {
 
   template <class Out>
   void run(std::span<const Vec3> points, std::span<double> values, Out out) const {
+    run(points, morton_order(points), values, out);
+  }
+  // The same with the points' Morton order given (the caller reuses it).
+  template <class Out>
+  void run(std::span<const Vec3> points, std::span<const uint32_t> order, std::span<double> values, Out out) const {
     if (points.size() != values.size()) throw std::invalid_argument("SDF batch size mismatch");
     if (surface.triangles.empty()) {
       std::fill(values.begin(), values.end(), -std::numeric_limits<double>::infinity());
       return;
     }
-    search(points, [&](std::size_t i, Vec3 p, const Query& q) { values[i] = out(p, q); });
+    search(points, order, [&](std::size_t i, Vec3 p, const Query& q) { values[i] = out(p, q); });
   }
 
   // Every point's nearest triangle, handed to sink(index, point, query) (each index once, on any
   // thread). The surface has triangles.
   template <class Sink>
   void search(std::span<const Vec3> points, Sink sink) const {
-    // The points are searched in Morton order whatever order they come in: consecutive points
-    // are then neighbours in all three directions, so a packet is a compact group (its walk
-    // shared best), each candidate is a near neighbour's answer, and successive searches touch
-    // the same nodes while they are in cache. On grid rows this is 1.6x faster than row order.
-    const std::vector<uint32_t> order = morton_order(points);
+    search(points, morton_order(points), sink);
+  }
+  // The same in a given order. The points are searched in Morton order whatever order they come
+  // in: consecutive points are then neighbours in all three directions, so a packet is a compact
+  // group (its walk shared best), each candidate is a near neighbour's answer, and successive
+  // searches touch the same nodes while they are in cache. On grid rows this is 1.6x faster than
+  // row order.
+  template <class Sink>
+  void search(std::span<const Vec3> points, std::span<const uint32_t> order, Sink sink) const {
     parallel_chunks(points.size(), 256, [&](std::size_t b, std::size_t e) {
       // Each point's candidate: the triangle of the previous packet's closest point nearest to it
       // (a surface point near p bounds p's distance, and its triangle is usually near p's
@@ -341,10 +350,11 @@ const WindingNumber* SurfaceSdf::winding() const { return impl_->winding ? &*imp
 void SurfaceSdf::evaluate(std::span<const Vec3> points, std::span<double> values) const {
   const Impl& m = *impl_;
   if (m.winding) {
-    m.run(points, values, [&m](Vec3 p, const Impl::Query& q) {
-      const double d = std::sqrt(q.best.squared_distance);
-      return d == 0 ? 0 : m.winding->inside(p) ? d : -d;
-    });
+    // Distances first, then the signs in the same Morton order, where most points far from the
+    // surface inherit a neighbour's (apply_winding_sign).
+    const std::vector<uint32_t> order = morton_order(points);
+    m.run(points, order, values, [](Vec3, const Impl::Query& q) { return std::sqrt(q.best.squared_distance); });
+    if (!m.surface.triangles.empty()) apply_winding_sign(*m.winding, points, order, values);
     return;
   }
   evaluate_pseudonormal(points, values);
