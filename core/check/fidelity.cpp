@@ -151,26 +151,60 @@ std::vector<Vec3> sample_surface(const SignedDistance& solid, const Box& box, do
   return pts;
 }
 
+namespace {
+
+// The lattice's geometry: its step and its cell-centred samples.
+struct Lattice {
+  Vec3 lo, step;
+  std::size_t n;
+  Lattice(const Box& box, std::size_t lattice)
+      : lo(box.lo), step{box.size().x / lattice, box.size().y / lattice, box.size().z / lattice}, n(lattice) {}
+  Vec3 sample(std::size_t i, std::size_t j, std::size_t k) const {
+    return Vec3{lo.x + (i + 0.5) * step.x, lo.y + (j + 0.5) * step.y, lo.z + (k + 0.5) * step.z};
+  }
+  Vec3 sample(std::size_t s) const { return sample(s % n, (s / n) % n, s / (n * n)); }
+};
+
+}  // namespace
+
+FidelityReference fidelity_reference(const SignedDistance& solid, std::vector<Vec3> surface_samples,
+                                     const Box& lattice_box, std::size_t lattice, double spacing,
+                                     bool distance_bounds_sign) {
+  FidelityReference ref;
+  ref.surface_samples = std::move(surface_samples);
+  ref.lattice_box = lattice_box;
+  ref.lattice = lattice;
+  ref.spacing = spacing;
+  const Lattice grid(lattice_box, lattice);
+  const std::size_t count = lattice * lattice * lattice;
+  std::vector<Vec3> points(count);
+  parallel_for(count, [&](std::size_t s) { points[s] = grid.sample(s); });
+  ref.lattice_values.resize(count);
+  if (distance_bounds_sign) solid_on_lattice(solid, points, lattice, grid.step, ref.lattice_values);
+  else solid.evaluate(points, ref.lattice_values);
+  return ref;
+}
+
 Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, std::span<const Vec3> surface_samples,
                           const Box& lattice_box, std::size_t lattice, double spacing, const SurfaceDistance& distance,
                           bool distance_bounds_sign, double far_tolerance) {
-  Fidelity fid;
-  fid.lattice = lattice;
-  const Vec3 lo = lattice_box.lo, size = lattice_box.size();
-  const Vec3 step{size.x / lattice, size.y / lattice, size.z / lattice};
-  auto sample = [&](std::size_t i, std::size_t j, std::size_t k) {
-    return Vec3{lo.x + (i + 0.5) * step.x, lo.y + (j + 0.5) * step.y, lo.z + (k + 0.5) * step.z};
-  };
-  const std::size_t count = lattice * lattice * lattice;
+  const FidelityReference ref =
+      fidelity_reference(solid, std::vector<Vec3>(surface_samples.begin(), surface_samples.end()), lattice_box, lattice,
+                         spacing, distance_bounds_sign);
+  return measure_fidelity(inside, solid, ref, distance, far_tolerance);
+}
 
-  // The solid on the lattice.
-  std::vector<Vec3> points(count);
-  parallel_for(
-      count, [&](std::size_t s) { points[s] = sample(s % lattice, (s / lattice) % lattice, s / (lattice * lattice)); });
-  std::vector<double> f(count);
-  if (distance_bounds_sign) solid_on_lattice(solid, points, lattice, step, f);
-  else solid.evaluate(points, f);
-  points = {};
+Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, const FidelityReference& reference,
+                          const SurfaceDistance& distance, double far_tolerance) {
+  Fidelity fid;
+  const std::size_t lattice = reference.lattice;
+  fid.lattice = lattice;
+  const Lattice grid(reference.lattice_box, lattice);
+  const Vec3 lo = grid.lo, step = grid.step;
+  const std::size_t count = lattice * lattice * lattice;
+  const std::span<const double> f = reference.lattice_values;
+  const std::span<const Vec3> surface_samples = reference.surface_samples;
+  const double spacing = reference.spacing;
 
   // The mesh on the lattice: each hex marks the samples it contains (bit 0), and the samples in its
   // box where inverting its map failed (bit 1). A sample counts as unresolved when no hex contains
@@ -198,7 +232,7 @@ Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, st
           const std::size_t s = i + lattice * (j + lattice * k);
           if (covered[s].load(std::memory_order_relaxed) & kCovered) continue;
           bool in = false;
-          if (!invert_trilinear(x, sample(i, j, k), &in)) {
+          if (!invert_trilinear(x, grid.sample(i, j, k), &in)) {
             covered[s].fetch_or(kFailed, std::memory_order_relaxed);
             continue;
           }
@@ -218,7 +252,7 @@ Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, st
   if (far_tolerance > 0)
     for (std::size_t s = 0; s < count; ++s)
       if (((covered[s].load(std::memory_order_relaxed) & kCovered) != 0) != (f[s] > 0))
-        fid.misclassified_points.push_back(sample(s % lattice, (s / lattice) % lattice, s / (lattice * lattice)));
+        fid.misclassified_points.push_back(grid.sample(s));
   const double cell_volume = step.x * step.y * step.z;
   fid.iou = either ? double(both) / double(either) : 1.0;
   fid.mesh_volume = mesh_n * cell_volume;
