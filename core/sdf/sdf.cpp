@@ -5,6 +5,7 @@
 #include <bit>
 #include <cmath>
 #include <limits>
+#include <mutex>
 #include <numbers>
 #include <numeric>
 #include <optional>
@@ -128,7 +129,6 @@ inline float round_up(double x) {
 
 struct SurfaceSdf::Impl {
   TriangleSurface surface;
-  Pseudonormals normals;
   TriangleBvh bvh;
   SearchTree tree;
   std::vector<std::array<Vec3, 3>> leaf_corners;  // corners of each leaf slot's triangle, for locality
@@ -136,9 +136,17 @@ struct SurfaceSdf::Impl {
   double scale = 0;  // largest coordinate magnitude of the surface
   SignRule sign;
   std::optional<WindingNumber> winding;  // under SignRule::kWindingNumber and kWindingParity
+  // Made at the first query signed by the pseudonormal rule: a surface measured only for its
+  // distances (the fidelity's mesh boundary, rebuilt for every mesh) never needs them.
+  mutable std::once_flag normals_once;
+  mutable std::optional<Pseudonormals> normals_made;
+  const Pseudonormals& normals() const {
+    std::call_once(normals_once, [this] { normals_made.emplace(surface); });
+    return *normals_made;
+  }
 
   Impl(const TriangleSurface& s, SignRule rule)
-      : surface(s), normals(s), bvh(TriangleBvh::build(s)), tree(s, bvh), box(s.bounds()), sign(rule) {
+      : surface(s), bvh(TriangleBvh::build(s)), tree(s, bvh), box(s.bounds()), sign(rule) {
     if (sign == SignRule::kWindingNumber) winding.emplace(s, bvh);
     if (sign == SignRule::kWindingParity) winding.emplace(s, bvh, WindingNumber::Decision::kParity);
     if (bvh.leaf_triangles.size() >= (1u << 29)) throw std::length_error("too many triangles for the SDF search tree");
@@ -362,8 +370,9 @@ void SurfaceSdf::evaluate(std::span<const Vec3> points, std::span<double> values
 
 void SurfaceSdf::evaluate_pseudonormal(std::span<const Vec3> points, std::span<double> values) const {
   const Impl& m = *impl_;
-  m.run(points, values, [&m](Vec3 p, const Impl::Query& q) {
-    return signed_value(p, q.best, m.normals.of(q.best_triangle, q.best.region, m.surface));
+  const Pseudonormals& normals = m.normals();
+  m.run(points, values, [&m, &normals](Vec3 p, const Impl::Query& q) {
+    return signed_value(p, q.best, normals.of(q.best_triangle, q.best.region, m.surface));
   });
 }
 
