@@ -372,12 +372,14 @@ MeshRun run_pipeline(const MeshRequest& request) {
   std::vector<TriangleSurface> shells;  // --shells-as-regions: alive while the regions use them
   std::vector<SolidSource> sources = request.regions;
   if (request.shells_as_regions) {
-    if (request.solid.path.empty() || !sources.empty())
+    const SolidSource& one = request.solid;
+    if ((one.path.empty() && !one.surface) || !sources.empty())
       throw InputError("--shells-as-regions splits one INPUT file into its shells");
-    const std::string file = std::filesystem::path(request.solid.path).filename().string();
-    shells = clock.run("read", [&] { return split_shells(read_surface(request.solid.path)); });
+    const std::string file = one.surface ? one.surface_name : std::filesystem::path(one.path).filename().string();
+    shells = clock.run("read", [&] { return split_shells(one.surface ? *one.surface : read_surface(one.path)); });
     if (shells.size() < 2)
-      throw InputError(request.solid.path + ": one shell, so one region; --shells-as-regions needs two or more");
+      throw InputError((one.surface ? one.surface_name : one.path) +
+                       ": one shell, so one region; --shells-as-regions needs two or more");
     for (std::size_t i = 0; i < shells.size(); ++i)
       sources.push_back(SolidSource::in_memory(shells[i], fmt::format("{} shell {}", file, i + 1)));
   }
