@@ -37,6 +37,9 @@ struct Fidelity {
 
 // Points on the reference surface at about the given spacing.
 std::vector<Vec3> sample_surface(const TriangleSurface& surface, double spacing);
+// The same from an SDF whose |f| is 1-Lipschitz (every SDF here: exact distances, or the
+// two-holed solid's tube radius less a minimum of distances): the box's lattice points within a
+// spacing of the surface, pulled onto it.
 std::vector<Vec3> sample_surface(const SignedDistance& solid, const Box& box, double spacing);
 
 // The unsigned distance to the input surface at each point (what |f| of the solid's SDF gives,

@@ -241,6 +241,9 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
       });
     };
     auto run_method = [&](const auto& where) {
+      // The meshes of an earlier grid (a fit round, the remedy) are not needed any more: freed
+      // before the new ones are made rather than after, which would hold both at the peak.
+      run.meshes = MeshPair{};
       if (o.method != "mchex") return run.clock.run("ro", [&] { return mesh_remove_outside(where, mesh_values); });
       return run.clock.run("mchex", [&] {
         run.mchex = {};
