@@ -4,7 +4,9 @@
 // coordinates of a mesher's kind (irrational, full precision). The target is 20 M hexes
 // per second written in every format. Files go to --dir (default /dev/shm when it exists, so that
 // the figure is the format's cost and not the disk's). Prints a table and one JSON line.
-//   bench_formats [--n N] [--dir FOLDER] [--repeat R]
+//   bench_formats [--n N] [--dir FOLDER] [--repeat R] [--only NAME,NAME...] [--no-read]
+// --only runs the named rows (".vtu,.msh binary"), --no-read skips the reads: a writer's change
+// can then be timed in seconds rather than the minute all rows take.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -54,12 +56,30 @@ HexMesh block(uint32_t n) {
 int main(int argc, char** argv) {
   uint32_t n = 144;
   int repeat = 3;
+  std::string only;
+  bool reads = true;
   fs::path dir = fs::is_directory("/dev/shm") ? fs::path("/dev/shm") : fs::temp_directory_path();
-  for (int i = 1; i + 1 < argc; i += 2) {
+  for (int i = 1; i < argc; ++i) {
+    if (!std::strcmp(argv[i], "--no-read")) {
+      reads = false;
+      continue;
+    }
+    if (i + 1 == argc) break;
+    if (!std::strcmp(argv[i], "--only")) only = argv[i + 1];
     if (!std::strcmp(argv[i], "--n")) n = static_cast<uint32_t>(std::stoul(argv[i + 1]));
     if (!std::strcmp(argv[i], "--dir")) dir = argv[i + 1];
     if (!std::strcmp(argv[i], "--repeat")) repeat = std::stoi(argv[i + 1]);
+    ++i;
   }
+  auto selected = [&](const char* name) {
+    if (only.empty()) return true;
+    for (std::size_t b = 0; b <= only.size();) {
+      const std::size_t e = std::min(only.find(',', b), only.size());
+      if (only.compare(b, e - b, name) == 0) return true;
+      b = e + 1;
+    }
+    return false;
+  };
   const HexMesh mesh = block(n);
   const double hexes = static_cast<double>(mesh.hexes.size());
   std::printf("bench_formats: %zu hexes, %zu points, %d threads, files in %s (best of %d)\n", mesh.hexes.size(),
@@ -75,16 +95,18 @@ int main(int argc, char** argv) {
                         {".inp", ".inp", false}};
   nlohmann::json j = {{"bench", "formats"}, {"hexes", mesh.hexes.size()}, {"threads", hardware_threads()}};
   for (const Case& c : cases) {
+    if (!selected(c.name)) continue;
     const fs::path path = dir / (std::string("mchex_bench_formats") + c.extension);
     MeshWriteOptions options;
     options.binary = c.binary;
     double write = 1e30, read = 1e30;
     for (int r = 0; r < repeat; ++r) {
       write = std::min(write, seconds_of([&] { write_hex_mesh(mesh, path, options); }));
-      read = std::min(read, seconds_of([&] {
-                        const HexMesh back = read_hex_mesh(path);
-                        if (back.hexes.size() != mesh.hexes.size()) std::abort();
-                      }));
+      if (reads)
+        read = std::min(read, seconds_of([&] {
+                          const HexMesh back = read_hex_mesh(path);
+                          if (back.hexes.size() != mesh.hexes.size()) std::abort();
+                        }));
     }
     const double mb = static_cast<double>(fs::file_size(path)) / 1e6;
     fs::remove(path);
