@@ -4,9 +4,11 @@
 // coordinates of a mesher's kind (irrational, full precision). The target is 20 M hexes
 // per second written in every format. Files go to --dir (default /dev/shm when it exists, so that
 // the figure is the format's cost and not the disk's). Prints a table and one JSON line.
-//   bench_formats [--n N] [--dir FOLDER] [--repeat R] [--only NAME,NAME...] [--no-read]
+//   bench_formats [--n N] [--dir FOLDER] [--repeat R] [--only NAME,NAME...] [--no-read] [--keep]
 // --only runs the named rows (".vtu,.msh binary"), --no-read skips the reads: a writer's change
-// can then be timed in seconds rather than the minute all rows take.
+// can then be timed in seconds rather than the minute all rows take. --keep leaves the files in
+// --dir (mchex_bench_formats.EXT, the binary .msh as mchex_bench_formats_binary.msh), so that two
+// builds' files can be compared byte for byte.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -57,11 +59,15 @@ int main(int argc, char** argv) {
   uint32_t n = 144;
   int repeat = 3;
   std::string only;
-  bool reads = true;
+  bool reads = true, keep = false;
   fs::path dir = fs::is_directory("/dev/shm") ? fs::path("/dev/shm") : fs::temp_directory_path();
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--no-read")) {
       reads = false;
+      continue;
+    }
+    if (!std::strcmp(argv[i], "--keep")) {
+      keep = true;
       continue;
     }
     if (i + 1 == argc) break;
@@ -96,7 +102,7 @@ int main(int argc, char** argv) {
   nlohmann::json j = {{"bench", "formats"}, {"hexes", mesh.hexes.size()}, {"threads", hardware_threads()}};
   for (const Case& c : cases) {
     if (!selected(c.name)) continue;
-    const fs::path path = dir / (std::string("mchex_bench_formats") + c.extension);
+    const fs::path path = dir / (std::string("mchex_bench_formats") + (c.binary ? "_binary" : "") + c.extension);
     MeshWriteOptions options;
     options.binary = c.binary;
     double write = 1e30, read = 1e30;
@@ -109,7 +115,7 @@ int main(int argc, char** argv) {
                         }));
     }
     const double mb = static_cast<double>(fs::file_size(path)) / 1e6;
-    fs::remove(path);
+    if (!keep) fs::remove(path);
     std::printf("%-14s %12.1f %12.3f %12.1f %12.1f\n", c.name, mb, write, hexes / write / 1e6, hexes / read / 1e6);
     j[c.name] = {{"mb", mb},
                  {"write_s", write},
