@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "core/base/error.h"
+#include "core/io/text_numbers.h"
 
 namespace mchex {
 namespace {
@@ -327,6 +328,46 @@ TEST_P(EveryFormat, MissingFileNamesThePath) { expect_read_error(file("absent"),
 TEST_P(EveryFormat, DirectoryIsNotAMeshFile) {
   fs::create_directory(file("folder"));
   expect_read_error(file("folder"), "not a regular file");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Numbers
+
+// The writers print integers eight digits at a time (text_numbers.h); the characters must be
+// std::to_chars's for every length and sign.
+TEST(HexmeshNumbers, PutDecimalIsToChars) {
+  std::vector<std::int64_t> values = {0,
+                                      1,
+                                      9,
+                                      10,
+                                      99,
+                                      100,
+                                      12345678,
+                                      99999999,
+                                      100000000,
+                                      4294967295,
+                                      4294967296,
+                                      9999999999999999,
+                                      10000000000000000,
+                                      std::numeric_limits<std::int64_t>::max(),
+                                      std::numeric_limits<std::int64_t>::min(),
+                                      std::numeric_limits<int32_t>::min()};
+  std::mt19937_64 random(3);
+  for (int i = 0; i < 200000; ++i) values.push_back(static_cast<std::int64_t>(random() >> (random() % 64)));
+  for (std::uint64_t p = 1; p < 10000000000000000000ull; p *= 10)
+    for (const std::uint64_t v : {p - 1, p, p + 1}) values.push_back(static_cast<std::int64_t>(v));
+  for (const std::int64_t v : values) {
+    for (const std::int64_t w : {v, -v}) {
+      char want[32], got[io_detail::kNumberRoom];
+      const std::string_view expected(want, static_cast<std::size_t>(std::to_chars(want, want + 32, w).ptr - want));
+      ASSERT_EQ(std::string_view(got, static_cast<std::size_t>(io_detail::put_decimal(got, w) - got)), expected);
+      const auto u = static_cast<std::uint64_t>(w);
+      const std::string_view unsigned_expected(want,
+                                               static_cast<std::size_t>(std::to_chars(want, want + 32, u).ptr - want));
+      ASSERT_EQ(std::string_view(got, static_cast<std::size_t>(io_detail::put_decimal(got, u) - got)),
+                unsigned_expected);
+    }
+  }
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -68,9 +68,11 @@ bool region_of_elset(std::string_view name, int32_t& region) {
 }
 
 // A coordinate in at most kField characters (see the file comment).
-void put_coordinate(std::string& s, double v) {
+char* put_coordinate(char* p, double v) {
+  char* const end = put_real(p, v);
+  if (static_cast<std::size_t>(end - p) <= kField) return end;
   char buf[32];
-  auto r = std::to_chars(buf, buf + sizeof buf, v);
+  std::to_chars_result r{buf + sizeof buf, std::errc()};
   for (int digits = 16; static_cast<std::size_t>(r.ptr - buf) > kField && digits > 0; --digits) {
     r = std::to_chars(buf, buf + sizeof buf, v, std::chars_format::general, digits);
     double back = 0;
@@ -79,7 +81,8 @@ void put_coordinate(std::string& s, double v) {
         parse_real({buf, static_cast<std::size_t>(r.ptr - buf)}, back) != RealParse::kOk)
       r.ptr = buf + sizeof buf;
   }
-  s.append(buf, r.ptr);
+  std::memcpy(p, buf, static_cast<std::size_t>(r.ptr - buf));
+  return p + (r.ptr - buf);
 }
 
 class AbaqusReader {
@@ -320,32 +323,33 @@ void write_abaqus(const HexMesh& mesh, AtomicFile& out) {
   std::string s = "*HEADING\nmchex-gpu all-hex mesh: C3D8 elements, one ELSET per region\n";
   if (!mesh.points.empty()) s += "*NODE\n";
   out.write(s);
-  write_records(out, mesh.points.size(), [&](std::size_t begin, std::size_t end, std::string& text) {
-    text.reserve((end - begin) * 72);
+  // A node: its number (at most 10 digits) and three fields of at most kField characters.
+  write_records(out, mesh.points.size(), 11 + 3 * (kField + 1), [&](std::size_t begin, std::size_t end, char* p) {
     for (std::size_t i = begin; i < end; ++i) {
-      put_number(text, i + 1);
+      p = put_decimal(p, i + 1);
       for (int a = 0; a < 3; ++a) {
-        text += ',';
-        put_coordinate(text, mesh.points[i][a]);
+        *p++ = ',';
+        p = put_coordinate(p, mesh.points[i][a]);
       }
-      text += '\n';
+      *p++ = '\n';
     }
+    return p;
   });
   // One *ELEMENT block of every hex in order, then one *ELSET per region: a GENERATE range when
   // its hexes are consecutive, else their numbers, 10 to a line (a 132-character line holds 10
   // of CalculiX's 10-digit integers; meshio reads one GENERATE line and whole lists).
   if (mesh.hexes.empty()) return;
   out.write("*ELEMENT, TYPE=C3D8\n");
-  write_records(out, mesh.hexes.size(), [&](std::size_t begin, std::size_t end, std::string& text) {
-    text.reserve((end - begin) * 96);
+  write_records(out, mesh.hexes.size(), 9 * 21, [&](std::size_t begin, std::size_t end, char* p) {
     for (std::size_t k = begin; k < end; ++k) {
-      put_number(text, k + 1);
+      p = put_decimal(p, k + 1);
       for (const uint32_t v : mesh.hexes[k]) {
-        text += ',';
-        put_number(text, std::uint64_t{v} + 1);
+        *p++ = ',';
+        p = put_decimal(p, std::uint64_t{v} + 1);
       }
-      text += '\n';
+      *p++ = '\n';
     }
+    return p;
   });
   // Hexes grouped by region value, each group in hex order.
   std::vector<std::size_t> order(mesh.hexes.size());
