@@ -29,6 +29,7 @@
 #include "core/io/format_error.h"
 #include "core/io/mesh_formats.h"
 #include "core/io/record_writer.h"
+#include "core/io/region_groups.h"
 #include "core/io/text_numbers.h"
 
 namespace mchex::io_detail {
@@ -319,6 +320,44 @@ class AbaqusReader {
 
 }  // namespace
 
+namespace {
+
+// A hex number in an element set and its separator.
+constexpr std::size_t kElsetNumberBytes = 21;
+
+// The element sets of a mesh with more region values than region_groups lists: the hexes sorted
+// by (region, hex), which is unique, so the order is the same on every library.
+void write_elsets_sorted(const HexMesh& mesh, AtomicFile& out) {
+  std::vector<std::size_t> order(mesh.hexes.size());
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  parallel_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return mesh.region[a] != mesh.region[b] ? mesh.region[a] < mesh.region[b] : a < b;
+  });
+  std::string text;
+  for (std::size_t g = 0; g < order.size();) {
+    std::size_t e = g + 1;
+    while (e < order.size() && mesh.region[order[e]] == mesh.region[order[g]]) ++e;
+    text += "*ELSET, ELSET=" + elset_name(mesh.region[order[g]]);
+    if (order[e - 1] - order[g] == e - 1 - g) {
+      text += ", GENERATE\n" + std::to_string(order[g] + 1) + "," + std::to_string(order[e - 1] + 1) + ",1\n";
+    } else {
+      text += '\n';
+      for (std::size_t k = g; k < e; ++k) {
+        put_number(text, order[k] + 1);
+        text += (k + 1 - g) % 10 == 0 || k + 1 == e ? '\n' : ',';
+      }
+    }
+    if (text.size() > (std::size_t{1} << 20)) {
+      out.write(text);
+      text.clear();
+    }
+    g = e;
+  }
+  out.write(text);
+}
+
+}  // namespace
+
 void write_abaqus(const HexMesh& mesh, AtomicFile& out) {
   std::string s = "*HEADING\nmchex-gpu all-hex mesh: C3D8 elements, one ELSET per region\n";
   if (!mesh.points.empty()) s += "*NODE\n";
@@ -351,34 +390,38 @@ void write_abaqus(const HexMesh& mesh, AtomicFile& out) {
     }
     return p;
   });
-  // Hexes grouped by region value, each group in hex order.
-  std::vector<std::size_t> order(mesh.hexes.size());
-  std::iota(order.begin(), order.end(), std::size_t{0});
-  // (region, hex) is unique, so the order is the same on every library.
-  parallel_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-    return mesh.region[a] != mesh.region[b] ? mesh.region[a] < mesh.region[b] : a < b;
-  });
-  std::string text;
-  for (std::size_t g = 0; g < order.size();) {
-    std::size_t e = g + 1;
-    while (e < order.size() && mesh.region[order[e]] == mesh.region[order[g]]) ++e;
-    text += "*ELSET, ELSET=" + elset_name(mesh.region[order[g]]);
-    if (order[e - 1] - order[g] == e - 1 - g) {
-      text += ", GENERATE\n" + std::to_string(order[g] + 1) + "," + std::to_string(order[e - 1] + 1) + ",1\n";
-    } else {
-      text += '\n';
-      for (std::size_t k = g; k < e; ++k) {
-        put_number(text, order[k] + 1);
-        text += (k + 1 - g) % 10 == 0 || k + 1 == e ? '\n' : ',';
-      }
-    }
-    if (text.size() > (std::size_t{1} << 20)) {
-      out.write(text);
-      text.clear();
-    }
-    g = e;
+  const RegionGroups regions = region_groups(mesh.region);
+  if (regions.many) {
+    write_elsets_sorted(mesh, out);
+    return;
   }
-  out.write(text);
+  for (const RegionGroup& g : regions.groups) {
+    std::string head = "*ELSET, ELSET=" + elset_name(g.region);
+    if (g.last - g.first + 1 == g.count) {
+      out.write(head + ", GENERATE\n" + std::to_string(g.first + 1) + "," + std::to_string(g.last + 1) + ",1\n");
+      continue;
+    }
+    out.write(head + "\n");
+    // The group's hexes are numbered in hex order; chunk c starts at the group's before[c]-th.
+    const std::size_t span = g.last - g.first + 1;
+    const std::size_t per_chunk = records_per_chunk(kElsetNumberBytes);
+    std::vector<std::size_t> before((span + per_chunk - 1) / per_chunk + 1, 0);
+    parallel_for(before.size() - 1, [&](std::size_t c) {
+      const std::size_t b = g.first + c * per_chunk, e = std::min(g.last + 1, b + per_chunk);
+      before[c + 1] = static_cast<std::size_t>(std::count(mesh.region.begin() + b, mesh.region.begin() + e, g.region));
+    });
+    std::partial_sum(before.begin(), before.end(), before.begin());
+    write_records(out, span, kElsetNumberBytes, [&](std::size_t begin, std::size_t end, char* p) {
+      std::size_t k = before[begin / per_chunk];
+      for (std::size_t h = g.first + begin; h < g.first + end; ++h) {
+        if (mesh.region[h] != g.region) continue;
+        p = put_decimal(p, h + 1);
+        ++k;
+        *p++ = k % 10 == 0 || k == g.count ? '\n' : ',';
+      }
+      return p;
+    });
+  }
 }
 
 HexMesh read_abaqus(std::string_view text) { return AbaqusReader(text).read(); }
