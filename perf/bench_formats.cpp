@@ -5,10 +5,12 @@
 // per second written in every format. Files go to --dir (default /dev/shm when it exists, so that
 // the figure is the format's cost and not the disk's). Prints a table and one JSON line.
 //   bench_formats [--n N] [--dir FOLDER] [--repeat R] [--only NAME,NAME...] [--no-read] [--keep]
+// The row ".vtu given sj" passes each hex's scaled Jacobian in (MeshWriteOptions), as the
+// pipeline can from its check; ".vtu" has the writer compute them.
 // --only runs the named rows (".vtu,.msh binary"), --no-read skips the reads: a writer's change
 // can then be timed in seconds rather than the minute all rows take. --keep leaves the files in
-// --dir (mchex_bench_formats.EXT, the binary .msh as mchex_bench_formats_binary.msh), so that two
-// builds' files can be compared byte for byte.
+// --dir (mchex_bench_formats.EXT; the binary .msh and the given-sj .vtu with _binary and _given
+// before the extension), so that two builds' files can be compared byte for byte.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -22,6 +24,7 @@
 #include "core/base/parallel.h"
 #include "core/io/mesh_io.h"
 #include "core/mesh/hex_mesh.h"
+#include "core/mesh/quality.h"
 #include "perf/bench_common.h"
 
 using namespace mchex;
@@ -95,16 +98,27 @@ int main(int argc, char** argv) {
     const char* name;
     const char* extension;
     bool binary;
+    bool given_quality = false;  // .vtu: the scaled Jacobians passed in, as the pipeline has them
   };
-  const Case cases[] = {{".mesh", ".mesh", false},     {".meshb", ".meshb", false},   {".vtu", ".vtu", false},
-                        {".msh ascii", ".msh", false}, {".msh binary", ".msh", true}, {".exo", ".exo", false},
-                        {".inp", ".inp", false}};
+  const Case cases[] = {{".mesh", ".mesh", false},     {".meshb", ".meshb", false},
+                        {".vtu", ".vtu", false},       {".vtu given sj", ".vtu", false, true},
+                        {".msh ascii", ".msh", false}, {".msh binary", ".msh", true},
+                        {".exo", ".exo", false},       {".inp", ".inp", false}};
+  std::vector<double> quality;
   nlohmann::json j = {{"bench", "formats"}, {"hexes", mesh.hexes.size()}, {"threads", hardware_threads()}};
   for (const Case& c : cases) {
     if (!selected(c.name)) continue;
-    const fs::path path = dir / (std::string("mchex_bench_formats") + (c.binary ? "_binary" : "") + c.extension);
+    const fs::path path = dir / (std::string("mchex_bench_formats") + (c.binary ? "_binary" : "") +
+                                 (c.given_quality ? "_given" : "") + c.extension);
     MeshWriteOptions options;
     options.binary = c.binary;
+    if (c.given_quality) {
+      if (quality.empty()) {
+        quality.resize(mesh.hexes.size());
+        parallel_for(mesh.hexes.size(), [&](std::size_t h) { quality[h] = scaled_jacobian(mesh.corners(h)); });
+      }
+      options.scaled_jacobians = quality;
+    }
     double write = 1e30, read = 1e30;
     for (int r = 0; r < repeat; ++r) {
       write = std::min(write, seconds_of([&] { write_hex_mesh(mesh, path, options); }));

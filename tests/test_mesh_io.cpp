@@ -26,6 +26,7 @@
 
 #include "core/base/error.h"
 #include "core/io/text_numbers.h"
+#include "core/mesh/quality.h"
 
 namespace mchex {
 namespace {
@@ -760,6 +761,28 @@ TEST(HexmeshVtu, MissingRegionArrayReadsAsZero) {
 TEST(HexmeshVtu, UnterminatedProcessingInstructionIsOneLine) {
   TempDir dir;
   expect_read_error(dir, "cut.vtu", "<?xml version=\"1.0\"?>\n<?>\n<VTKFile", "XML: unterminated '<?>?'");
+}
+
+// The pipeline has each hex's scaled Jacobian from its check and may hand them to the writer; the
+// file is the one the writer makes computing them itself.
+TEST(HexmeshVtu, GivenScaledJacobiansGiveTheSameFile) {
+  TempDir dir;
+  HexMesh mesh = grid_mesh(12);
+  // Warped, so that the quality's shortcut for parallelepipeds is not the only path taken.
+  for (Vec3& p : mesh.points) p += Vec3{0.05 * std::sin(5 * p.y), 0.04 * std::sin(3 * p.z + p.x), 1e-4 * std::sin(p.x)};
+  std::vector<double> quality;
+  for (std::size_t h = 0; h < mesh.hexes.size(); ++h) quality.push_back(hex_quality(mesh.corners(h)).scaled_jacobian);
+  write_hex_mesh(mesh, dir / "computed.vtu");
+  MeshWriteOptions options;
+  options.scaled_jacobians = quality;
+  write_hex_mesh(mesh, dir / "given.vtu", options);
+  EXPECT_EQ(read_bytes(dir / "computed.vtu"), read_bytes(dir / "given.vtu"));
+  quality.pop_back();
+  options.scaled_jacobians = quality;
+  const fs::path path = dir / "short.vtu";
+  EXPECT_EQ(input_error([&] { write_hex_mesh(mesh, path, options); }),
+            path.string() + ": 1727 scaled Jacobians given for 1728 hexes");
+  EXPECT_FALSE(fs::exists(path));
 }
 
 TEST(HexmeshVtu, BadFiles) {
