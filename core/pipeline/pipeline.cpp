@@ -361,7 +361,10 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
       return label_regions(run.meshes, run.uniform ? uniform_points : run.adaptive->complex.points, *regions, &stats);
     });
   }
-  run.check = run.clock.run("check", [&] { return check_mesh(run.meshes.inside, &run.meshes.outside, &run.cube); });
+  CheckOptions check_options;
+  check_options.keep_scaled_jacobians = o.keep_scaled_jacobians;
+  run.check = run.clock.run(
+      "check", [&] { return check_mesh(run.meshes.inside, &run.meshes.outside, &run.cube, check_options); });
   if (o.fidelity && !run.fidelity)
     run.fidelity = run.clock.run("fidelity", [&] { return solid.fidelity(run.meshes.inside, run.cube, o.lattice); });
   run.peak_memory_bytes = peak_memory_bytes();
@@ -407,9 +410,15 @@ void write_meshes(MeshRun& run, const std::filesystem::path& inside, const std::
                   const MeshWriteOptions& write) {
   if (!run.check.ok) throw std::logic_error("write_meshes: the mesh fails its own check");
   run.clock.run("write", [&] {
-    write_hex_mesh(run.meshes.inside, inside, write);
-    write_hex_mesh(run.meshes.outside, outside, write);
+    // The check's scaled Jacobians are those of these very meshes (nothing moves them after it).
+    MeshWriteOptions in = write, out = write;
+    in.scaled_jacobians = run.check.inside.scaled_jacobians;
+    if (run.check.outside) out.scaled_jacobians = run.check.outside->scaled_jacobians;
+    write_hex_mesh(run.meshes.inside, inside, in);
+    write_hex_mesh(run.meshes.outside, outside, out);
   });
+  run.check.inside.scaled_jacobians = {};
+  if (run.check.outside) run.check.outside->scaled_jacobians = {};
   run.peak_memory_bytes = peak_memory_bytes();
 }
 
