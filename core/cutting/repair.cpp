@@ -26,15 +26,27 @@ constexpr double kDerivativeStep = 1e-6;   // central differences, in L (the coe
 constexpr int kMaxIterations = 60;
 constexpr std::size_t kMaxActive = 8;  // linearized coefficients per LP (with the 6 box sides)
 
+// 1 / (mean edge)^3: a hex's coefficients times this are its scaled coefficients.
+double coefficient_scale(double mean_length) { return 1.0 / (mean_length * mean_length * mean_length); }
+
 // Every scaled coefficient (beta / mean edge^3) of every hex, hex-major.
 void scaled_coefficients(const std::vector<SubdivisionHex>& hexes, std::vector<double>& out) {
-  out.clear();
-  out.reserve(27 * hexes.size());
+  out.resize(27 * hexes.size());
+  double* o = out.data();
   for (const SubdivisionHex& h : hexes) {
-    const double l = mean_edge_length(h.corners);
-    const double scale = 1.0 / (l * l * l);
-    for (double b : bernstein_jacobian(h.corners)) out.push_back(b * scale);
+    double l = 0;
+    const BernsteinCoefficients beta = bernstein_jacobian(h.corners, l);
+    const double scale = coefficient_scale(l);
+    for (double b : beta) *o++ = b * scale;
   }
+}
+
+// The value std::min_element finds (the first least; a NaN in front stays), kept in a register.
+double least_of(const double* v, std::size_t n) {
+  double m = v[0];
+  for (std::size_t i = 1; i < n; ++i)
+    if (v[i] < m) m = v[i];
+  return m;
 }
 
 // max t subject to t <= c_k + g_k . d (the rows) and |d_i| <= r: the optimum is a vertex, where 4
@@ -116,25 +128,43 @@ MappedSubdivision subdivide_in_cell(const Polyhedron& parametric, const HexCorne
   out.hexes = midpoint_subdivide(parametric);
   for (SubdivisionHex& h : out.hexes)
     for (Vec3& x : h.corners) x = trilinear_map(cell, x);
-  std::vector<double> beta;
-  auto least = [&] {
-    scaled_coefficients(out.hexes, beta);
-    return *std::min_element(beta.begin(), beta.end());
-  };
   // Scaled coefficients have the sign of the coefficients (the scale is a positive length cubed;
   // a hex with all corners equal gives NaN, which counts as not certified).
   auto finish = [&](double least_value) {
-    out.hex_min_scaled.assign(out.hexes.size(), 0);
-    for (std::size_t i = 0; i < out.hexes.size(); ++i)
-      out.hex_min_scaled[i] = *std::min_element(beta.begin() + 27 * i, beta.begin() + 27 * (i + 1));
     out.min_scaled = least_value;
     out.certified = true;
     for (double v : out.hex_min_scaled) out.certified = out.certified && v > 0;
     return out;
   };
-  const double plain_least = least();
+  // Plain subdivision, which certifies almost every polyhedron: each hex's least coefficient and
+  // the least over all of them, folded as the coefficients are made (the values min_element
+  // finds in the hex-major list of every coefficient, without storing that list).
+  const std::size_t n = out.hexes.size();
+  out.hex_min_scaled.resize(n);
+  double plain_least = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    double l = 0;
+    const BernsteinCoefficients beta = bernstein_jacobian(out.hexes[i].corners, l);
+    const double scale = coefficient_scale(l);
+    double hex_least = beta[0] * scale;
+    if (i == 0) plain_least = hex_least;
+    else if (hex_least < plain_least) plain_least = hex_least;
+    for (int k = 1; k < 27; ++k) {
+      const double v = beta[k] * scale;
+      if (v < hex_least) hex_least = v;
+      if (v < plain_least) plain_least = v;
+    }
+    out.hex_min_scaled[i] = hex_least;
+  }
   if (plain_least > 0) return finish(plain_least);
   out.centre_moved = true;
+  std::vector<double> beta;
+  auto least = [&] {
+    scaled_coefficients(out.hexes, beta);
+    for (std::size_t i = 0; i < n; ++i) out.hex_min_scaled[i] = least_of(beta.data() + 27 * i, 27);
+    return least_of(beta.data(), beta.size());
+  };
+  least();
   // Corner 6 of every hex is the volume centre (subdivide.h).
   auto place = [&](const Vec3& c) {
     for (SubdivisionHex& h : out.hexes) h.corners[6] = c;
@@ -193,7 +223,7 @@ MappedSubdivision subdivide_in_cell(const Polyhedron& parametric, const HexCorne
     const Vec3 trial = centre + Vec3{x[0], x[1], x[2]};
     place(trial);
     scaled_coefficients(out.hexes, plus);
-    const double v = *std::min_element(plus.begin(), plus.end());
+    const double v = least_of(plus.data(), plus.size());
     if (v > best) {
       best = v;
       centre = trial;

@@ -408,6 +408,12 @@ double min_bernstein_scaled(const HexCorners& c) {
 
 double mean_edge_length(const HexCorners& c) { return mean_edge(Edges(c)); }
 
+BernsteinCoefficients bernstein_jacobian(const HexCorners& c, double& mean_length) {
+  const Edges e(c);
+  mean_length = mean_edge(e);
+  return bernstein_from_edges(e);
+}
+
 double edge_ratio(const HexCorners& c) { return ratio_of_edges(Edges(c)); }
 
 double hex_volume(const HexCorners& c) { return volume_of(bernstein_jacobian(c)); }
