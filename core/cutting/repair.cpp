@@ -121,20 +121,17 @@ bool solve_lp(const std::vector<LpRow>& rows, std::array<double, 4>& best) {
   return found;
 }
 
-}  // namespace
-
-MappedSubdivision subdivide_in_cell(const Polyhedron& parametric, const HexCorners& cell) {
-  MappedSubdivision out;
-  out.hexes = midpoint_subdivide(parametric);
+// subdivide_in_cell on out.hexes, which hold the parametric hexes: mapped, checked, repaired.
+void map_check_and_repair(const HexCorners& cell, MappedSubdivision& out) {
   for (SubdivisionHex& h : out.hexes)
     for (Vec3& x : h.corners) x = trilinear_map(cell, x);
+  out.centre_moved = false;
   // Scaled coefficients have the sign of the coefficients (the scale is a positive length cubed;
   // a hex with all corners equal gives NaN, which counts as not certified).
   auto finish = [&](double least_value) {
     out.min_scaled = least_value;
     out.certified = true;
     for (double v : out.hex_min_scaled) out.certified = out.certified && v > 0;
-    return out;
   };
   // Plain subdivision, which certifies almost every polyhedron: each hex's least coefficient and
   // the least over all of them, folded as the coefficients are made (the values min_element
@@ -156,7 +153,10 @@ MappedSubdivision subdivide_in_cell(const Polyhedron& parametric, const HexCorne
     }
     out.hex_min_scaled[i] = hex_least;
   }
-  if (plain_least > 0) return finish(plain_least);
+  if (plain_least > 0) {
+    finish(plain_least);
+    return;
+  }
   out.centre_moved = true;
   std::vector<double> beta;
   auto least = [&] {
@@ -235,7 +235,21 @@ MappedSubdivision subdivide_in_cell(const Polyhedron& parametric, const HexCorne
   }
   place(centre);
   least();
-  return finish(best);
+  finish(best);
+}
+
+}  // namespace
+
+MappedSubdivision subdivide_in_cell(const Polyhedron& parametric, const HexCorners& cell) {
+  MappedSubdivision out;
+  out.hexes = midpoint_subdivide(parametric);
+  map_check_and_repair(cell, out);
+  return out;
+}
+
+void subdivide_in_cell(const Polyhedron& parametric, const HexCorners& cell, MappedSubdivision& out) {
+  midpoint_subdivide(parametric, out.hexes);
+  map_check_and_repair(cell, out);
 }
 
 bool uncut_affine_cell_certified(const HexCorners& x) {

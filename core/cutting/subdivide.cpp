@@ -9,6 +9,12 @@
 namespace mchex {
 
 std::vector<SubdivisionHex> midpoint_subdivide(const Polyhedron& p) {
+  std::vector<SubdivisionHex> hexes;
+  midpoint_subdivide(p, hexes);
+  return hexes;
+}
+
+void midpoint_subdivide(const Polyhedron& p, std::vector<SubdivisionHex>& hexes) {
   using Kind = SubdivisionPointKey::Kind;
   const std::size_t nv = p.points.size();
   // Per vertex, the faces through it with the vertex before and after it in the face's cycle.
@@ -16,10 +22,14 @@ std::vector<SubdivisionHex> midpoint_subdivide(const Polyhedron& p) {
     std::uint32_t face, prev, next;
   };
   // Three incidences per vertex at most (a fourth makes the vertex fail below): one flat array,
-  // not a vector per vertex (this runs for every polyhedron the mesher and certify cut).
-  std::vector<std::array<Incidence, 3>> around(nv);
-  std::vector<std::uint8_t> degree(nv, 0);
-  std::vector<Vec3> centroid(p.faces.size());
+  // not a vector per vertex, kept per thread with the others (this runs for every polyhedron the
+  // mesher and certify cut; `around` is read only where `degree` says it was written).
+  thread_local std::vector<std::array<Incidence, 3>> around;
+  thread_local std::vector<std::uint8_t> degree;
+  thread_local std::vector<Vec3> centroid;
+  around.resize(nv);
+  degree.assign(nv, 0);
+  centroid.resize(p.faces.size());
   for (std::uint32_t f = 0; f < p.faces.size(); ++f) {
     const auto& face = p.faces[f];
     const std::size_t m = face.size();
@@ -50,7 +60,7 @@ std::vector<SubdivisionHex> midpoint_subdivide(const Polyhedron& p) {
                                 " is not a consistently oriented degree-3 vertex");
   };
 
-  std::vector<SubdivisionHex> hexes;
+  hexes.clear();
   hexes.reserve(nv);
   for (std::uint32_t v = 0; v < nv; ++v) {
     const auto& inc = around[v];
@@ -89,7 +99,6 @@ std::vector<SubdivisionHex> midpoint_subdivide(const Polyhedron& p) {
               face_key(fbc->face)};
     hexes.push_back(h);
   }
-  return hexes;
 }
 
 }  // namespace mchex
