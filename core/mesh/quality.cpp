@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <utility>
 
 namespace mchex {
 namespace {
@@ -94,8 +95,9 @@ Vec3 bilinear(const Vec3 e[2][2], double s, double t) {
 // products of actual edge vectors, with no cancellation between large monomial terms. For an
 // affine element all 64 triple products equal det A, so every coefficient is det A.
 // Which of the 64 triples each coefficient averages, in the order the sum takes them (a, then b,
-// then c, ascending), as indices ((((a * 2 + a') * 2 + b) * 2 + b') * 2 + c) * 2 + c' into the
-// triples below: a fixed table, so the per-hex work is 64 dot products and 64 additions.
+// then c, ascending), as indices into the triples below: a fixed table, so the per-hex work is 64
+// dot products and 64 additions. The triple of xi[b][c], eta[a][c'], zeta[a'][b'] sits at
+// 16 * (b * 2 + c) + 4 * (a * 2 + c') + (a' * 2 + b'): the 16 triples of one xi edge together.
 struct TripleTerms {
   std::array<std::array<std::uint8_t, 8>, 27> index{};
   std::array<std::uint8_t, 27> count{};
@@ -111,7 +113,7 @@ constexpr TripleTerms make_triple_terms() {
           for (int b = j == 2 ? 1 : 0; b <= (j == 0 ? 0 : 1); ++b)
             for (int c = k == 2 ? 1 : 0; c <= (k == 0 ? 0 : 1); ++c)
               t.index[n][t.count[n]++] =
-                  static_cast<std::uint8_t>(((((a * 2 + (i - a)) * 2 + b) * 2 + (j - b)) * 2 + c) * 2 + (k - c));
+                  static_cast<std::uint8_t>(16 * (b * 2 + c) + 4 * (a * 2 + (k - c)) + ((i - a) * 2 + (j - b)));
       }
   return t;
 }
@@ -124,18 +126,24 @@ double mean_of_sum(double sum, int terms) {
   return sum * (terms == 1 ? 1.0 : terms == 2 ? 0.5 : terms == 4 ? 0.25 : 0.125);
 }
 
-BernsteinCoefficients bernstein_from_triples(const std::array<double, 64>& triples) {
-  BernsteinCoefficients beta{};
-  for (int n = 0; n < 27; ++n) {
-    double sum = 0;
-    for (int t = 0; t < kTripleTerms.count[n]; ++t) sum += triples[kTripleTerms.index[n][t]];
-    beta[n] = mean_of_sum(sum, kTripleTerms.count[n]);
-  }
+// Coefficient N: the sum from 0 in the table's order, with the table and the term count known at
+// compile time (the loop unrolls; certify computes billions of these).
+template <int N>
+void coefficient_from_triples(const std::array<double, 64>& triples, BernsteinCoefficients& beta) {
+  constexpr int terms = kTripleTerms.count[N];
+  double sum = 0;
+  for (int t = 0; t < terms; ++t) sum += triples[kTripleTerms.index[N][t]];
+  beta[N] = mean_of_sum(sum, terms);
+}
+
+template <int... N>
+BernsteinCoefficients bernstein_from_triples(const std::array<double, 64>& triples, std::integer_sequence<int, N...>) {
+  BernsteinCoefficients beta;
+  (coefficient_from_triples<N>(triples, beta), ...);
   return beta;
 }
 
 BernsteinCoefficients bernstein_from_edges(const Edges& e) {
-  std::array<double, 64> triples;
   if (e.parallel) {
     // Every cross product below is cross(eta, zeta) and every triple the same dot t, so a
     // coefficient depends only on how many triples it averages: the sum of that many t's, in
@@ -152,20 +160,32 @@ BernsteinCoefficients bernstein_from_edges(const Edges& e) {
     return beta;
   }
   // triple(x, y, z) = dot(x, cross(y, z)): the 16 cross products of an eta and a zeta edge, each
-  // used by four of the 64 triples, computed once (the same operations, so the same doubles).
-  Vec3 eta_zeta[2][2][2][2];  // [a][c'][a'][b']
-  for (int a = 0; a < 2; ++a)
-    for (int c = 0; c < 2; ++c)
-      for (int a2 = 0; a2 < 2; ++a2)
-        for (int b = 0; b < 2; ++b) eta_zeta[a][c][a2][b] = cross(e.eta[a][c], e.zeta[a2][b]);
-  for (int a = 0; a < 2; ++a)
-    for (int a2 = 0; a2 < 2; ++a2)
-      for (int b = 0; b < 2; ++b)
-        for (int b2 = 0; b2 < 2; ++b2)
-          for (int c = 0; c < 2; ++c)
-            for (int c2 = 0; c2 < 2; ++c2)
-              triples[((((a * 2 + a2) * 2 + b) * 2 + b2) * 2 + c) * 2 + c2] = dot(e.xi[b][c], eta_zeta[a][c2][a2][b2]);
-  return bernstein_from_triples(triples);
+  // used by four of the 64 triples, computed once. In components, each loop the same operations
+  // over 4 or 16 values, which the compiler vectorizes; every value is the same double as cross()
+  // and dot() give (the same products, summed in the same order).
+  auto flat = [](const Vec3(&v)[2][2], int i) { return v[i >> 1][i & 1]; };
+  std::array<double, 4> zx, zy, zz;  // zeta[a'][b'] at a' * 2 + b'
+  for (int j = 0; j < 4; ++j) {
+    const Vec3 z = flat(e.zeta, j);
+    zx[j] = z.x;
+    zy[j] = z.y;
+    zz[j] = z.z;
+  }
+  std::array<double, 16> cx, cy, cz;  // cross(eta[a][c'], zeta[a'][b']) at 4 * (a * 2 + c') + a' * 2 + b'
+  for (int i = 0; i < 4; ++i) {
+    const Vec3 y = flat(e.eta, i);
+    for (int j = 0; j < 4; ++j) {
+      cx[4 * i + j] = y.y * zz[j] - y.z * zy[j];
+      cy[4 * i + j] = y.z * zx[j] - y.x * zz[j];
+      cz[4 * i + j] = y.x * zy[j] - y.y * zx[j];
+    }
+  }
+  std::array<double, 64> triples;
+  for (int i = 0; i < 4; ++i) {
+    const Vec3 x = flat(e.xi, i);  // xi[b][c] at b * 2 + c
+    for (int k = 0; k < 16; ++k) triples[16 * i + k] = x.x * cx[k] + x.y * cy[k] + x.z * cz[k];
+  }
+  return bernstein_from_triples(triples, std::make_integer_sequence<int, 27>());
 }
 
 // Certificate. Each B_i^2(xi) B_j^2(eta) B_k^2(zeta) is >= 0 on [0,1]^3 and together they sum
