@@ -119,6 +119,11 @@ constexpr TripleTerms make_triple_terms() {
 }
 constexpr TripleTerms kTripleTerms = make_triple_terms();
 
+// Two doubles as one SSE2 register (a GCC and Clang vector extension; elsewhere two scalars): each
+// operation is the IEEE operation on each lane, so a lane holds what the scalar code computes.
+using Double2 = double __attribute__((vector_size(16)));
+static_assert(sizeof(Double2) == 2 * sizeof(double));
+
 // Each coefficient, the average of its triples in the table's order.
 // The mean of `terms` values from their sum: terms is 1, 2, 4 or 8, so the product by its
 // reciprocal is the same double as the quotient.
@@ -160,31 +165,36 @@ BernsteinCoefficients bernstein_from_edges(const Edges& e) {
     return beta;
   }
   // triple(x, y, z) = dot(x, cross(y, z)): the 16 cross products of an eta and a zeta edge, each
-  // used by four of the 64 triples, computed once. In components, each loop the same operations
-  // over 4 or 16 values, which the compiler vectorizes; every value is the same double as cross()
-  // and dot() give (the same products, summed in the same order).
+  // used by four of the 64 triples, computed once. In components, two values per operation (the
+  // compiler does not find this layout itself); every value is the same double as cross() and
+  // dot() give, the same products summed in the same order on each lane.
   auto flat = [](const Vec3(&v)[2][2], int i) { return v[i >> 1][i & 1]; };
-  std::array<double, 4> zx, zy, zz;  // zeta[a'][b'] at a' * 2 + b'
-  for (int j = 0; j < 4; ++j) {
-    const Vec3 z = flat(e.zeta, j);
-    zx[j] = z.x;
-    zy[j] = z.y;
-    zz[j] = z.z;
+  auto both = [](double v) { return Double2{v, v}; };
+  Double2 zx[2], zy[2], zz[2];  // zeta[a'][b'] at a' * 2 + b', two per value
+  for (int h = 0; h < 2; ++h) {
+    const Vec3 z0 = flat(e.zeta, 2 * h), z1 = flat(e.zeta, 2 * h + 1);
+    zx[h] = Double2{z0.x, z1.x};
+    zy[h] = Double2{z0.y, z1.y};
+    zz[h] = Double2{z0.z, z1.z};
   }
-  std::array<double, 16> cx, cy, cz;  // cross(eta[a][c'], zeta[a'][b']) at 4 * (a * 2 + c') + a' * 2 + b'
+  Double2 cx[8], cy[8], cz[8];  // cross(eta[a][c'], zeta[a'][b']) at 4 * (a * 2 + c') + a' * 2 + b'
   for (int i = 0; i < 4; ++i) {
     const Vec3 y = flat(e.eta, i);
-    for (int j = 0; j < 4; ++j) {
-      cx[4 * i + j] = y.y * zz[j] - y.z * zy[j];
-      cy[4 * i + j] = y.z * zx[j] - y.x * zz[j];
-      cz[4 * i + j] = y.x * zy[j] - y.y * zx[j];
+    const Double2 yx = both(y.x), yy = both(y.y), yz = both(y.z);
+    for (int h = 0; h < 2; ++h) {
+      cx[2 * i + h] = yy * zz[h] - yz * zy[h];
+      cy[2 * i + h] = yz * zx[h] - yx * zz[h];
+      cz[2 * i + h] = yx * zy[h] - yy * zx[h];
     }
   }
-  std::array<double, 64> triples;
+  Double2 pairs[32];
   for (int i = 0; i < 4; ++i) {
     const Vec3 x = flat(e.xi, i);  // xi[b][c] at b * 2 + c
-    for (int k = 0; k < 16; ++k) triples[16 * i + k] = x.x * cx[k] + x.y * cy[k] + x.z * cz[k];
+    const Double2 xx = both(x.x), xy = both(x.y), xz = both(x.z);
+    for (int k = 0; k < 8; ++k) pairs[8 * i + k] = xx * cx[k] + xy * cy[k] + xz * cz[k];
   }
+  std::array<double, 64> triples;
+  std::memcpy(triples.data(), pairs, sizeof pairs);
   return bernstein_from_triples(triples, std::make_integer_sequence<int, 27>());
 }
 
