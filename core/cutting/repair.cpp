@@ -50,7 +50,7 @@ double least_of(const double* v, std::size_t n) {
 }
 
 // max t subject to t <= c_k + g_k . d (the rows) and |d_i| <= r: the optimum is a vertex, where 4
-// of the constraints hold with equality; every 4-subset is solved (Gaussian elimination with
+// of the constraints hold with equality; every 4-subset is solved (Gauss-Jordan elimination with
 // partial pivoting) and the best feasible one kept. Rows are few (kMaxActive + 6), so this is
 // cheap and exact.
 struct LpRow {
@@ -58,26 +58,48 @@ struct LpRow {
   double b;
 };
 
-bool solve4(std::array<std::array<double, 5>, 4> m, std::array<double, 4>& x) {
+// One vertex: the 4 rows' equalities a . (d, t) = b, by Gauss-Jordan elimination with partial
+// pivoting. Column by column the pivot row reduces every other row: the rows below it (forward)
+// and the earlier pivots above it (backward). The last row is never above a pivot, so t = x[3]
+// follows from the forward reductions alone, and solve_lp needs the rest only for a vertex whose t
+// beats the best so far (a few of the hundreds it solves). So the halves run apart: `forward`
+// leaves each row as it was when it became the pivot, which is all `backward` reads, and
+// `backward` reduces each earlier row by the later pivots in column order. Every value is the
+// one the whole elimination gives; an entry in a column already done, never read again, is not
+// computed.
+using VertexSystem = std::array<std::array<double, 5>, 4>;
+
+// False where a pivot is below 1e-14 (the subset is singular); else t.
+bool forward(VertexSystem& m, double& t) {
   for (int c = 0; c < 4; ++c) {
     int piv = c;
     for (int r = c + 1; r < 4; ++r)
       if (std::abs(m[r][c]) > std::abs(m[piv][c])) piv = r;
     if (std::abs(m[piv][c]) < 1e-14) return false;
     std::swap(m[c], m[piv]);
-    for (int r = 0; r < 4; ++r) {
-      if (r == c) continue;
+    for (int r = c + 1; r < 4; ++r) {
       const double f = m[r][c] / m[c][c];
-      for (int k = c; k < 5; ++k) m[r][k] -= f * m[c][k];
+      for (int k = c + 1; k < 5; ++k) m[r][k] -= f * m[c][k];
     }
   }
-  for (int r = 0; r < 4; ++r) x[r] = m[r][4] / m[r][r];
+  t = m[3][4] / m[3][3];
   return true;
+}
+
+void backward(VertexSystem& m, std::array<double, 4>& x) {
+  for (int r = 0; r < 3; ++r) {
+    for (int c = r + 1; c < 4; ++c) {
+      const double f = m[r][c] / m[c][c];
+      for (int k = c + 1; k < 5; ++k) m[r][k] -= f * m[c][k];
+    }
+    x[r] = m[r][4] / m[r][r];
+  }
+  x[3] = m[3][4] / m[3][3];
 }
 
 // rows: the linearized coefficients, then the 6 box sides (+x, -x, +y, -y, +z, -z), as the
 // search builds them. A 4-subset with no coefficient row (t's column is zero) or with both sides
-// of one axis (two opposite rows) is singular, and solve4 would say so after the elimination:
+// of one axis (two opposite rows) is singular, and forward() would say so after the elimination:
 // those subsets are skipped before it, which leaves the result as it was.
 bool solve_lp(const std::vector<LpRow>& rows, std::array<double, 4>& best) {
   const std::size_t n = rows.size();
@@ -95,15 +117,17 @@ bool solve_lp(const std::vector<LpRow>& rows, std::array<double, 4>& best) {
         for (std::size_t l = k + 1; l < n; ++l) {
           const unsigned all = ijk | kind(k);
           if ((all & kind(l) & 7u) != 0 || ((all | kind(l)) & 8u) == 0) continue;
-          std::array<std::array<double, 5>, 4> m{};
+          VertexSystem m;
           const std::array<std::size_t, 4> pick = {i, j, k, l};
           for (int r = 0; r < 4; ++r) {
             for (int c = 0; c < 4; ++c) m[r][c] = rows[pick[r]].a[c];
             m[r][4] = rows[pick[r]].b;
           }
+          double t = 0;
+          if (!forward(m, t)) continue;
+          if (found && t <= best[3]) continue;
           std::array<double, 4> x{};
-          if (!solve4(m, x)) continue;
-          if (found && x[3] <= best[3]) continue;
+          backward(m, x);
           bool feasible = true;
           for (const LpRow& row : rows) {
             const double lhs = row.a[0] * x[0] + row.a[1] * x[1] + row.a[2] * x[2] + row.a[3] * x[3];
