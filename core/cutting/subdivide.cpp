@@ -23,13 +23,19 @@ void midpoint_subdivide(const Polyhedron& p, std::vector<SubdivisionHex>& hexes)
   };
   // Three incidences per vertex at most (a fourth makes the vertex fail below): one flat array,
   // not a vector per vertex, kept per thread with the others (this runs for every polyhedron the
-  // mesher and certify cut; `around` is read only where `degree` says it was written).
-  thread_local std::vector<std::array<Incidence, 3>> around;
-  thread_local std::vector<std::uint8_t> degree;
-  thread_local std::vector<Vec3> centroid;
-  around.resize(nv);
-  degree.assign(nv, 0);
-  centroid.resize(p.faces.size());
+  // mesher and certify cut; `around` is read only where `degree` says it was written). Grown,
+  // never shrunk, and used through plain pointers: a store through one does not make the
+  // compiler reload the others (degree is not a char type for that reason).
+  thread_local std::vector<std::array<Incidence, 3>> around_storage;
+  thread_local std::vector<std::uint32_t> degree_storage;
+  thread_local std::vector<Vec3> centroid_storage;
+  if (around_storage.size() < nv) around_storage.resize(nv);
+  if (degree_storage.size() < nv) degree_storage.resize(nv);
+  if (centroid_storage.size() < p.faces.size()) centroid_storage.resize(p.faces.size());
+  std::array<Incidence, 3>* const around = around_storage.data();
+  std::uint32_t* const degree = degree_storage.data();
+  Vec3* const centroid = centroid_storage.data();
+  std::fill_n(degree, nv, 0u);
   for (std::uint32_t f = 0; f < p.faces.size(); ++f) {
     const auto& face = p.faces[f];
     const std::size_t m = face.size();
@@ -39,8 +45,8 @@ void midpoint_subdivide(const Polyhedron& p, std::vector<SubdivisionHex>& hexes)
       const std::uint32_t v = face[i];
       if (v >= nv) throw std::invalid_argument("midpoint_subdivide: a face vertex out of range");
       sum += p.points[v];
-      if (degree[v] < 3) around[v][degree[v]] = {f, face[(i + m - 1) % m], face[(i + 1) % m]};
-      degree[v] = static_cast<std::uint8_t>(std::min(degree[v] + 1, 4));
+      if (degree[v] < 3) around[v][degree[v]] = {f, face[i == 0 ? m - 1 : i - 1], face[i + 1 == m ? 0 : i + 1]};
+      degree[v] = std::min(degree[v] + 1, 4u);
     }
     centroid[f] = sum / static_cast<double>(m);
   }
