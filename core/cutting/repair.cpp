@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 namespace mchex {
@@ -47,6 +48,40 @@ double least_of(const double* v, std::size_t n) {
   for (std::size_t i = 1; i < n; ++i)
     if (v[i] < m) m = v[i];
   return m;
+}
+
+// min_element's value over beta[k] * scale, one product at a time.
+double least_of_products(const BernsteinCoefficients& beta, double scale) {
+  double m = beta[0] * scale;
+  for (int k = 1; k < 27; ++k) {
+    const double v = beta[k] * scale;
+    if (v < m) m = v;
+  }
+  return m;
+}
+
+// The same value from the least coefficient: for a positive finite scale, rounding is monotonic,
+// so the least product is the least coefficient's product, a double of that value; and equal
+// values are the same double unless they are zeros. So where no coefficient is NaN (their sum is
+// not), the scale is positive and finite, and the product is a normal number, `least` is exactly
+// least_of_products (found two coefficients per operation); else false, and the caller folds
+// the products (and the hexes' list) in order.
+bool least_scaled(const BernsteinCoefficients& beta, double scale, double& least) {
+  auto pair = [&](int k) {
+    Double2 v;
+    std::memcpy(&v, &beta[k], sizeof v);
+    return v;
+  };
+  Double2 lo = pair(0), sum = lo;
+  for (int k = 2; k < 26; k += 2) {
+    const Double2 v = pair(k);
+    lo = v < lo ? v : lo;
+    sum += v;
+  }
+  const double mu = std::min({lo[0], lo[1], beta[26]});
+  const double probe = sum[0] + sum[1] + beta[26];
+  least = mu * scale;
+  return !std::isnan(probe) && scale > 0 && std::isfinite(scale) && std::isnormal(least);
 }
 
 // max t subject to t <= c_k + g_k . d (the rows) and |d_i| <= r: the optimum is a vertex, where 4
@@ -157,25 +192,30 @@ void map_check_and_repair(const HexCorners& cell, MappedSubdivision& out) {
     out.certified = true;
     for (double v : out.hex_min_scaled) out.certified = out.certified && v > 0;
   };
-  // Plain subdivision, which certifies almost every polyhedron: each hex's least coefficient and
-  // the least over all of them, folded as the coefficients are made (the values min_element
-  // finds in the hex-major list of every coefficient, without storing that list).
+  // Plain subdivision, which certifies almost every polyhedron: each hex's least scaled
+  // coefficient and the least over all hexes, the values min_element finds in the hex-major list
+  // of every scaled coefficient, without that list. Where no coefficient is NaN, the least over
+  // all hexes is the least of the hexes' least (the first least value either way).
   const std::size_t n = out.hexes.size();
   out.hex_min_scaled.resize(n);
   double plain_least = 0;
+  bool any_nan = false;
   for (std::size_t i = 0; i < n; ++i) {
     double l = 0;
     const BernsteinCoefficients beta = bernstein_jacobian(out.hexes[i].corners, l);
     const double scale = coefficient_scale(l);
-    double hex_least = beta[0] * scale;
-    if (i == 0) plain_least = hex_least;
-    else if (hex_least < plain_least) plain_least = hex_least;
-    for (int k = 1; k < 27; ++k) {
-      const double v = beta[k] * scale;
-      if (v < hex_least) hex_least = v;
-      if (v < plain_least) plain_least = v;
+    double hex_least = 0;
+    if (!least_scaled(beta, scale, hex_least)) {
+      hex_least = least_of_products(beta, scale);
+      for (double b : beta) any_nan = any_nan || std::isnan(b * scale);
     }
     out.hex_min_scaled[i] = hex_least;
+    plain_least = i == 0 || hex_least < plain_least ? hex_least : plain_least;
+  }
+  if (any_nan) {  // the list's own order decides where a NaN is (never seen on real hexes)
+    std::vector<double> all;
+    scaled_coefficients(out.hexes, all);
+    plain_least = least_of(all.data(), all.size());
   }
   if (plain_least > 0) {
     finish(plain_least);

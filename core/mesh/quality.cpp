@@ -119,11 +119,6 @@ constexpr TripleTerms make_triple_terms() {
 }
 constexpr TripleTerms kTripleTerms = make_triple_terms();
 
-// Two doubles as one SSE2 register (a GCC and Clang vector extension; elsewhere two scalars): each
-// operation is the IEEE operation on each lane, so a lane holds what the scalar code computes.
-using Double2 = double __attribute__((vector_size(16)));
-static_assert(sizeof(Double2) == 2 * sizeof(double));
-
 // Each coefficient, the average of its triples in the table's order.
 // The mean of `terms` values from their sum: terms is 1, 2, 4 or 8, so the product by its
 // reciprocal is the same double as the quotient.
