@@ -97,28 +97,53 @@ struct LpRow {
 // pivoting. Column by column the pivot row reduces every other row: the rows below it (forward)
 // and the earlier pivots above it (backward). The last row is never above a pivot, so t = x[3]
 // follows from the forward reductions alone, and solve_lp needs the rest only for a vertex whose t
-// beats the best so far (a few of the hundreds it solves). So the halves run apart: `forward`
-// leaves each row as it was when it became the pivot, which is all `backward` reads, and
+// beats the best so far (a few of the hundreds it solves). So the halves run apart: the forward
+// half leaves each row as it was when it became the pivot, which is all `backward` reads, and
 // `backward` reduces each earlier row by the later pivots in column order. Every value is the
 // one the whole elimination gives; an entry in a column already done, never read again, is not
 // computed.
 using VertexSystem = std::array<std::array<double, 5>, 4>;
 
-// False where a pivot is below 1e-14 (the subset is singular); else t.
-bool forward(VertexSystem& m, double& t) {
+// The forward half on two systems at once, one per lane of a Double2 (each system is a chain of
+// divisions, and the lanes run two chains for the price of one): on each lane the operations of
+// the scalar elimination, its pivot (the first row of largest magnitude) chosen and its rows
+// swapped by a select per lane. Returns the lanes whose pivot is below 1e-14 (singular; their
+// later values, which the scalar elimination would not compute, are not read) and t per lane.
+using VertexSystems = std::array<std::array<Double2, 5>, 4>;
+using Mask2 = decltype(Double2{} < Double2{});  // per lane: all ones (true) or zero
+
+Double2 abs2(Double2 v) {  // std::abs: the sign bit cleared
+  const Mask2 magnitude{0x7fffffffffffffff, 0x7fffffffffffffff};
+  return Double2(Mask2(v) & magnitude);
+}
+
+Mask2 forward2(VertexSystems& m, Double2& t) {
+  Mask2 singular{0, 0};
   for (int c = 0; c < 4; ++c) {
-    int piv = c;
-    for (int r = c + 1; r < 4; ++r)
-      if (std::abs(m[r][c]) > std::abs(m[piv][c])) piv = r;
-    if (std::abs(m[piv][c]) < 1e-14) return false;
-    std::swap(m[c], m[piv]);
+    Double2 largest = abs2(m[c][c]);
+    Mask2 piv{c, c};
     for (int r = c + 1; r < 4; ++r) {
-      const double f = m[r][c] / m[c][c];
+      const Double2 a = abs2(m[r][c]);
+      const Mask2 larger = a > largest;
+      largest = larger ? a : largest;
+      piv = larger ? Mask2{r, r} : piv;
+    }
+    singular |= largest < Double2{1e-14, 1e-14};
+    for (int r = c + 1; r < 4; ++r) {
+      const Mask2 swap = piv == Mask2{r, r};
+      for (int k = c; k < 5; ++k) {
+        const Double2 above = m[c][k];
+        m[c][k] = swap ? m[r][k] : above;
+        m[r][k] = swap ? above : m[r][k];
+      }
+    }
+    for (int r = c + 1; r < 4; ++r) {
+      const Double2 f = m[r][c] / m[c][c];
       for (int k = c + 1; k < 5; ++k) m[r][k] -= f * m[c][k];
     }
   }
   t = m[3][4] / m[3][3];
-  return true;
+  return singular;
 }
 
 void backward(VertexSystem& m, std::array<double, 4>& x) {
@@ -134,15 +159,16 @@ void backward(VertexSystem& m, std::array<double, 4>& x) {
 
 // rows: the linearized coefficients, then the 6 box sides (+x, -x, +y, -y, +z, -z), as the
 // search builds them. A 4-subset with no coefficient row (t's column is zero) or with both sides
-// of one axis (two opposite rows) is singular, and forward() would say so after the elimination:
+// of one axis (two opposite rows) is singular, and the elimination would find a pivot below 1e-14:
 // those subsets are skipped before it, which leaves the result as it was.
 bool solve_lp(const std::vector<LpRow>& rows, std::array<double, 4>& best) {
   const std::size_t n = rows.size();
   const std::size_t first_side = n - 6;
   // Bit a set: the row is a side of axis a; 8: a coefficient row.
   auto kind = [&](std::size_t r) { return r < first_side ? 8u : 1u << ((r - first_side) / 2); };
-  bool found = false;
-  const double tol = 1e-12;
+  // The subsets to solve, in the order of the loops (which decides among vertices of equal t).
+  std::array<std::array<std::uint8_t, 4>, 1001> subsets;
+  std::size_t count = 0;
   for (std::size_t i = 0; i < n; ++i)
     for (std::size_t j = i + 1; j < n; ++j) {
       if (kind(i) == kind(j) && kind(i) != 8u) continue;
@@ -152,31 +178,51 @@ bool solve_lp(const std::vector<LpRow>& rows, std::array<double, 4>& best) {
         for (std::size_t l = k + 1; l < n; ++l) {
           const unsigned all = ijk | kind(k);
           if ((all & kind(l) & 7u) != 0 || ((all | kind(l)) & 8u) == 0) continue;
-          VertexSystem m;
-          const std::array<std::size_t, 4> pick = {i, j, k, l};
-          for (int r = 0; r < 4; ++r) {
-            for (int c = 0; c < 4; ++c) m[r][c] = rows[pick[r]].a[c];
-            m[r][4] = rows[pick[r]].b;
-          }
-          double t = 0;
-          if (!forward(m, t)) continue;
-          if (found && t <= best[3]) continue;
-          std::array<double, 4> x{};
-          backward(m, x);
-          bool feasible = true;
-          for (const LpRow& row : rows) {
-            const double lhs = row.a[0] * x[0] + row.a[1] * x[1] + row.a[2] * x[2] + row.a[3] * x[3];
-            if (lhs > row.b + tol * (1 + std::abs(row.b))) {
-              feasible = false;
-              break;
-            }
-          }
-          if (!feasible) continue;
-          best = x;
-          found = true;
+          subsets[count++] = {static_cast<std::uint8_t>(i), static_cast<std::uint8_t>(j), static_cast<std::uint8_t>(k),
+                              static_cast<std::uint8_t>(l)};
         }
       }
     }
+  bool found = false;
+  const double tol = 1e-12;
+  // One subset after the forward half, in the subsets' order: the best so far decides whether its
+  // vertex is finished and checked.
+  auto consider = [&](const VertexSystems& m, int lane, double t) {
+    if (found && t <= best[3]) return;
+    VertexSystem one;
+    for (int r = 0; r < 4; ++r)
+      for (int c = 0; c < 5; ++c) one[r][c] = m[r][c][lane];
+    std::array<double, 4> x{};
+    backward(one, x);
+    for (const LpRow& row : rows) {
+      const double lhs = row.a[0] * x[0] + row.a[1] * x[1] + row.a[2] * x[2] + row.a[3] * x[3];
+      if (lhs > row.b + tol * (1 + std::abs(row.b))) return;
+    }
+    best = x;
+    found = true;
+  };
+  auto load = [&](std::size_t s, VertexSystems& m) {
+    const auto& first = subsets[std::min(s, count - 1)];
+    const auto& second = subsets[std::min(s + 1, count - 1)];  // past the end: the last again, not read
+    for (int r = 0; r < 4; ++r) {
+      const LpRow& p = rows[first[r]];
+      const LpRow& q = rows[second[r]];
+      for (int c = 0; c < 4; ++c) m[r][c] = Double2{p.a[c], q.a[c]};
+      m[r][4] = Double2{p.b, q.b};
+    }
+  };
+  // Four subsets per step, two systems of two lanes: independent chains the processor overlaps.
+  for (std::size_t s = 0; s < count; s += 4) {
+    VertexSystems m0, m1;
+    load(s, m0);
+    load(s + 2, m1);
+    Double2 t0, t1;
+    const Mask2 singular0 = forward2(m0, t0), singular1 = forward2(m1, t1);
+    if (!singular0[0]) consider(m0, 0, t0[0]);
+    if (s + 1 < count && !singular0[1]) consider(m0, 1, t0[1]);
+    if (s + 2 < count && !singular1[0]) consider(m1, 0, t1[0]);
+    if (s + 3 < count && !singular1[1]) consider(m1, 1, t1[1]);
+  }
   return found;
 }
 
