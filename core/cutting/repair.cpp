@@ -97,18 +97,13 @@ struct LpRow {
 // pivoting. Column by column the pivot row reduces every other row: the rows below it (forward)
 // and the earlier pivots above it (backward). The last row is never above a pivot, so t = x[3]
 // follows from the forward reductions alone, and solve_lp needs the rest only for a vertex whose t
-// beats the best so far (a few of the hundreds it solves). So the halves run apart: the forward
-// half leaves each row as it was when it became the pivot, which is all `backward` reads, and
-// `backward` reduces each earlier row by the later pivots in column order. Every value is the
-// one the whole elimination gives; an entry in a column already done, never read again, is not
-// computed.
-using VertexSystem = std::array<std::array<double, 5>, 4>;
-
-// The forward half on two systems at once, one per lane of a Double2 (each system is a chain of
-// divisions, and the lanes run two chains for the price of one): on each lane the operations of
-// the scalar elimination, its pivot (the first row of largest magnitude) chosen and its rows
-// swapped by a select per lane. Returns the lanes whose pivot is below 1e-14 (singular; their
-// later values, which the scalar elimination would not compute, are not read) and t per lane.
+// beats the best so far. So the halves run apart: forward2 leaves each row as it was when it
+// became the pivot, which is all backward2 reads, and backward2 reduces each earlier row by the
+// later pivots in column order. Every value is the one the whole elimination gives; an entry in a
+// column already done, never read again, is not computed. Both run on two systems at once, one
+// per lane of a Double2 (each system is a chain of divisions, and the lanes run two chains for the
+// price of one): on each lane the operations of the scalar elimination, its pivot (the first row
+// of largest magnitude) chosen and its rows swapped by a select per lane.
 using VertexSystems = std::array<std::array<Double2, 5>, 4>;
 using Mask2 = decltype(Double2{} < Double2{});  // per lane: all ones (true) or zero
 
@@ -117,6 +112,8 @@ Double2 abs2(Double2 v) {  // std::abs: the sign bit cleared
   return Double2(Mask2(v) & magnitude);
 }
 
+// Returns the lanes whose pivot is below 1e-14 (singular; their later values, which the scalar
+// elimination would not compute, are not read) and t per lane.
 Mask2 forward2(VertexSystems& m, Double2& t) {
   Mask2 singular{0, 0};
   for (int c = 0; c < 4; ++c) {
@@ -146,10 +143,11 @@ Mask2 forward2(VertexSystems& m, Double2& t) {
   return singular;
 }
 
-void backward(VertexSystem& m, std::array<double, 4>& x) {
+// The backward half, on the same lanes: x per lane.
+void backward2(VertexSystems& m, std::array<Double2, 4>& x) {
   for (int r = 0; r < 3; ++r) {
     for (int c = r + 1; c < 4; ++c) {
-      const double f = m[r][c] / m[c][c];
+      const Double2 f = m[r][c] / m[c][c];
       for (int k = c + 1; k < 5; ++k) m[r][k] -= f * m[c][k];
     }
     x[r] = m[r][4] / m[r][r];
@@ -185,15 +183,11 @@ bool solve_lp(const std::vector<LpRow>& rows, std::array<double, 4>& best) {
     }
   bool found = false;
   const double tol = 1e-12;
-  // One subset after the forward half, in the subsets' order: the best so far decides whether its
-  // vertex is finished and checked.
-  auto consider = [&](const VertexSystems& m, int lane, double t) {
-    if (found && t <= best[3]) return;
-    VertexSystem one;
-    for (int r = 0; r < 4; ++r)
-      for (int c = 0; c < 5; ++c) one[r][c] = m[r][c][lane];
-    std::array<double, 4> x{};
-    backward(one, x);
+  // One subset's vertex, in the subsets' order: kept if its t beats the best so far and it is
+  // feasible.
+  auto consider = [&](const std::array<Double2, 4>& xs, int lane) {
+    const std::array<double, 4> x = {xs[0][lane], xs[1][lane], xs[2][lane], xs[3][lane]};
+    if (found && x[3] <= best[3]) return;
     for (const LpRow& row : rows) {
       const double lhs = row.a[0] * x[0] + row.a[1] * x[1] + row.a[2] * x[2] + row.a[3] * x[3];
       if (lhs > row.b + tol * (1 + std::abs(row.b))) return;
@@ -212,16 +206,24 @@ bool solve_lp(const std::vector<LpRow>& rows, std::array<double, 4>& best) {
     }
   };
   // Four subsets per step, two systems of two lanes: independent chains the processor overlaps.
+  // Most vertices that are not singular beat the best so far (many of them infeasible), so the
+  // backward half runs on both lanes of a system unless neither can (the best only grows).
   for (std::size_t s = 0; s < count; s += 4) {
     VertexSystems m0, m1;
     load(s, m0);
     load(s + 2, m1);
     Double2 t0, t1;
     const Mask2 singular0 = forward2(m0, t0), singular1 = forward2(m1, t1);
-    if (!singular0[0]) consider(m0, 0, t0[0]);
-    if (s + 1 < count && !singular0[1]) consider(m0, 1, t0[1]);
-    if (s + 2 < count && !singular1[0]) consider(m1, 0, t1[0]);
-    if (s + 3 < count && !singular1[1]) consider(m1, 1, t1[1]);
+    const std::array<bool, 4> open = {!singular0[0], s + 1 < count && !singular0[1], s + 2 < count && !singular1[0],
+                                      s + 3 < count && !singular1[1]};
+    const std::array<double, 4> t = {t0[0], t0[1], t1[0], t1[1]};
+    std::array<bool, 4> can{};
+    for (int i = 0; i < 4; ++i) can[i] = open[i] && !(found && t[i] <= best[3]);
+    std::array<Double2, 4> x0, x1;
+    if (can[0] || can[1]) backward2(m0, x0);
+    if (can[2] || can[3]) backward2(m1, x1);
+    for (int i = 0; i < 4; ++i)
+      if (can[i]) consider(i < 2 ? x0 : x1, i % 2);
   }
   return found;
 }
