@@ -2,7 +2,8 @@
 // the definition's, bit for bit: every Bernstein coefficient of every mapped hex times 1 / (mean
 // edge)^3 (min_element per hex and over all), written here from quality.h's public functions; the
 // implementation folds them faster and the search picks its centre from them, so any drift would
-// change meshes. The overload that reuses storage gives the same bits as the one that returns.
+// change meshes. The overload that reuses storage gives the same bits as the one that returns, and
+// the mapped corners are trilinear_map's.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -16,6 +17,7 @@
 #include "core/cutting/mc33.h"
 #include "core/cutting/polyhedra.h"
 #include "core/cutting/repair.h"
+#include "core/cutting/subdivide.h"
 #include "core/grid/cell_types.h"
 
 namespace mchex {
@@ -58,6 +60,15 @@ void expect_exact(const Polyhedron& p, const HexCorners& cell, MappedSubdivision
   ASSERT_EQ(ms.certified, reused.certified) << what;
   ASSERT_EQ(ms.centre_moved, reused.centre_moved) << what;
   moved += ms.centre_moved;
+  // Every corner is the cell's trilinear map of the parametric one (the centre, where the search
+  // moved it, aside).
+  const std::vector<SubdivisionHex> parametric = midpoint_subdivide(p);
+  for (std::size_t i = 0; i < ms.hexes.size(); ++i)
+    for (int c = 0; c < 8; ++c)
+      if (c != 6 || !ms.centre_moved) {
+        const Vec3 want = trilinear_map(cell, parametric[i].corners[c]);
+        ASSERT_EQ(std::memcmp(&want, &ms.hexes[i].corners[c], sizeof want), 0) << what << " hex " << i;
+      }
   // After a search too: the reported values are those of the hexes with the centre it kept.
   const Least want = least_by_definition(ms.hexes);
   for (std::size_t i = 0; i < ms.hexes.size(); ++i)

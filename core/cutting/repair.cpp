@@ -228,10 +228,43 @@ bool solve_lp(const std::vector<LpRow>& rows, std::array<double, 4>& best) {
   return found;
 }
 
+// trilinear_map (quality.h) of every hex corner, two corners per operation: on each lane, per
+// coordinate, trilinear_map's lerps a + s * (b - a), the first four of whose differences b - a are
+// the cell's own and computed once. Every mapped coordinate is trilinear_map's double.
+void map_corners(const HexCorners& cell, std::vector<SubdivisionHex>& hexes) {
+  auto both = [](double v) { return Double2{v, v}; };
+  // Per coordinate: the four lerps along x, (c0, c1), (c3, c2), (c4, c5), (c7, c6), as base and
+  // difference.
+  std::array<std::array<Double2, 8>, 3> lerps;
+  for (int j = 0; j < 3; ++j) {
+    const int pairs[4][2] = {{0, 1}, {3, 2}, {4, 5}, {7, 6}};
+    for (int q = 0; q < 4; ++q) {
+      const double a = cell[pairs[q][0]][j], b = cell[pairs[q][1]][j];
+      lerps[j][2 * q] = both(a);
+      lerps[j][2 * q + 1] = both(b - a);
+    }
+  }
+  for (SubdivisionHex& h : hexes)
+    for (int i = 0; i < 8; i += 2) {
+      Vec3& p = h.corners[i];
+      Vec3& q = h.corners[i + 1];
+      const Double2 tx{p.x, q.x}, ty{p.y, q.y}, tz{p.z, q.z};
+      Double2 mapped[3];
+      for (int j = 0; j < 3; ++j) {
+        const std::array<Double2, 8>& l = lerps[j];
+        const Double2 a01 = l[0] + tx * l[1], a32 = l[2] + tx * l[3];
+        const Double2 a45 = l[4] + tx * l[5], a76 = l[6] + tx * l[7];
+        const Double2 y0 = a01 + ty * (a32 - a01), y1 = a45 + ty * (a76 - a45);
+        mapped[j] = y0 + tz * (y1 - y0);
+      }
+      p = {mapped[0][0], mapped[1][0], mapped[2][0]};
+      q = {mapped[0][1], mapped[1][1], mapped[2][1]};
+    }
+}
+
 // subdivide_in_cell on out.hexes, which hold the parametric hexes: mapped, checked, repaired.
 void map_check_and_repair(const HexCorners& cell, MappedSubdivision& out) {
-  for (SubdivisionHex& h : out.hexes)
-    for (Vec3& x : h.corners) x = trilinear_map(cell, x);
+  map_corners(cell, out.hexes);
   out.centre_moved = false;
   // Scaled coefficients have the sign of the coefficients (the scale is a positive length cubed;
   // a hex with all corners equal gives NaN, which counts as not certified).
