@@ -9,22 +9,24 @@
 namespace mchex {
 namespace {
 
-constexpr int kNoEdge = -1;
-
-int edge_between(int a, int b) {
-  for (int e = 0; e < 12; ++e)
-    if ((kCubeEdges[e][0] == a && kCubeEdges[e][1] == b) || (kCubeEdges[e][0] == b && kCubeEdges[e][1] == a)) return e;
-  return kNoEdge;
+// The cell edge from corner i of face f to corner i + 1 (kHexFaces order).
+constexpr std::array<std::array<int, 4>, 6> make_face_edges() {
+  std::array<std::array<int, 4>, 6> out{};
+  for (int f = 0; f < 6; ++f)
+    for (int i = 0; i < 4; ++i) out[f][i] = detail::cube_edge_index(kHexFaces[f][i], kHexFaces[f][(i + 1) % 4]);
+  return out;
 }
+constexpr std::array<std::array<int, 4>, 6> kFaceEdges = make_face_edges();
 
 // A piece of a cell face, as cell point keys in the face's counter-clockwise order (seen from
 // outside the cell, kHexFaces), and the region it belongs to. Fixed storage (this runs for every
 // cell the mesher and certify cut): a face's cycle has 4 corners and at most 4 crossings, and a
-// piece at most 6 of them (a hexagon; the arc of an odd count, which fails, is never built).
+// piece at most 6 of them (a hexagon; the arc of an odd count, which fails, is never built). Keys
+// are filled through a local count: a byte store could alias `size`, which the compiler would
+// then reload after each.
 struct KeyList {
-  std::array<CellPointKey, 8> key{};
+  std::array<CellPointKey, 8> key;  // [0, size)
   int size = 0;
-  void push_back(CellPointKey k) { key[size++] = k; }
   const CellPointKey* begin() const { return key.data(); }
   const CellPointKey* end() const { return key.data() + size; }
 };
@@ -55,15 +57,16 @@ void face_pieces(const CellClass& c, int f, FacePieces& out) {
   const auto& q = kHexFaces[f];
   KeyList cycle;
   std::array<int, 4> crossing_pos{};
-  int k = 0;
+  int k = 0, n = 0;
   for (int i = 0; i < 4; ++i) {
-    cycle.push_back(corner_key(q[i]));
-    const int e = edge_between(q[i], q[(i + 1) % 4]);
+    cycle.key[n++] = corner_key(q[i]);
+    const int e = kFaceEdges[f][i];
     if (c.cut_edges >> e & 1) {
-      crossing_pos[k++] = cycle.size;
-      cycle.push_back(crossing_key(e));
+      crossing_pos[k++] = n;
+      cycle.key[n++] = crossing_key(e);
     }
   }
+  cycle.size = n;
   auto region_of = [&](const KeyList& keys) {
     int region = -1;
     for (CellPointKey key : keys) {
@@ -81,15 +84,16 @@ void face_pieces(const CellClass& c, int f, FacePieces& out) {
   }
   if (k != 2 && k != 4) throw std::logic_error("cut_cell: a face with an odd number of crossings");
   // The arcs, starting at each crossing and ending at the next one (cyclically).
-  const int n = cycle.size;
   std::array<KeyList, 4> arcs;
   for (int i = 0; i < k; ++i) {
     KeyList& arc = arcs[i];
-    const int begin = crossing_pos[i], end = crossing_pos[(i + 1) % k];
-    for (int p = begin;; p = (p + 1) % n) {
-      arc.push_back(cycle.key[p]);
-      if (p == end && arc.size > 1) break;
+    const int begin = crossing_pos[i], end = crossing_pos[i + 1 == k ? 0 : i + 1];
+    int m = 0;
+    for (int p = begin;; p = p + 1 == n ? 0 : p + 1) {
+      arc.key[m++] = cycle.key[p];
+      if (p == end && m > 1) break;
     }
+    arc.size = m;
   }
   if (k == 2) {
     for (int i = 0; i < 2; ++i) out.push_back(arcs[i], region_of(arcs[i]));
@@ -102,7 +106,9 @@ void face_pieces(const CellClass& c, int f, FacePieces& out) {
   };
   const int first_joined = arc_positive(arcs[0]) == joins_positive ? 0 : 1;
   KeyList merged = arcs[first_joined];
-  for (CellPointKey key : arcs[first_joined + 2]) merged.push_back(key);
+  int m = merged.size;
+  for (CellPointKey key : arcs[first_joined + 2]) merged.key[m++] = key;
+  merged.size = m;
   out.push_back(merged, region_of(merged));
   for (int i : {1 - first_joined, 3 - first_joined}) out.push_back(arcs[i], region_of(arcs[i]));
 }
@@ -171,7 +177,7 @@ void cut_cell(const std::array<Vec3, 8>& corners, const CellClass& c, std::vecto
       std::vector<std::uint32_t>& face = new_face();
       const int m = piece.keys.size;
       for (int i = 0; i < m; ++i) {
-        const CellPointKey u = piece.keys.key[i], v = piece.keys.key[(i + 1) % m];
+        const CellPointKey u = piece.keys.key[i], v = piece.keys.key[i + 1 == m ? 0 : i + 1];
         face.push_back(index_of(u));
         if (!is_corner_key(u) && !is_corner_key(v)) {
           if (next[v] >= 0) throw std::logic_error("cut_cell: two chords leave one crossing");
