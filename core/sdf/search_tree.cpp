@@ -121,7 +121,7 @@ TriangleLeaf::TriangleLeaf(const TriangleSurface& s, std::span<const uint32_t> t
   }
 }
 
-SearchTree::SearchTree(const TriangleSurface& s, const TriangleBvh& bvh) {
+SearchTree::SearchTree(const TriangleSurface& s, const TriangleBvh& bvh, Frames frames) {
   if (bvh.nodes.empty()) return;
   const auto slots = bvh.subtree_slots();
   const std::span<const uint32_t> all(bvh.leaf_triangles);
@@ -212,7 +212,7 @@ SearchTree::SearchTree(const TriangleSurface& s, const TriangleBvh& bvh) {
       const Sums& sum = sums[l.node];
       ids.clear();
       corners.clear();
-      if (nearly_flat(sum.normal, sum.area)) {
+      if (frames == Frames::kFitted && nearly_flat(sum.normal, sum.area)) {
         for (uint32_t t : subtree(l.node))
           for (uint32_t i : s.triangles[t]) ids.push_back(i);
         std::sort(ids.begin(), ids.end());
@@ -221,7 +221,7 @@ SearchTree::SearchTree(const TriangleSurface& s, const TriangleBvh& bvh) {
       } else {
         corners = {sum.box.lo, sum.box.hi};
       }
-      boxes[k] = bound_corners(corners, sum.normal, sum.area);
+      boxes[k] = frames == Frames::kFitted ? bound_corners(corners, sum.normal, sum.area) : bound_corners(corners, {}, 0);
     }
   });
   // Set on one thread: lanes of one wide node share its vectors and its leaf mask.

@@ -111,11 +111,18 @@ struct alignas(64) TriangleLeaf {
 // The search tree: wide nodes collapsed from the binary tree (each node takes its two children
 // and keeps opening the inner one holding the most triangles until it has four: half the depth,
 // four boxes per step), and the triangle layer, one node per leaf.
+//
+// Frames::kAxisAligned gives every node the coordinate frame (its corner box): the answers are the
+// same (the search is exact whatever the boxes), a search may open more nodes, and the tree is
+// made in about half the time (no node's corners gathered and sorted, no turns tried), which pays
+// for a surface searched by one batch (the fidelity's mesh boundary, made for every mesh it
+// measures).
 struct SearchTree {
+  enum class Frames { kFitted, kAxisAligned };
   std::vector<WideNode> nodes;
   std::vector<TriangleLeaf> leaves;
 
-  SearchTree(const TriangleSurface& s, const TriangleBvh& bvh);
+  SearchTree(const TriangleSurface& s, const TriangleBvh& bvh, Frames frames = Frames::kFitted);
 };
 
 }  // namespace mchex
