@@ -22,13 +22,13 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
-#include <map>
 #include <numeric>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "core/base/parallel.h"
+#include "core/io/face_matching.h"
 #include "core/io/format_error.h"
 #include "core/io/mesh_formats.h"
 #include "core/io/netcdf_classic.h"
@@ -79,36 +79,7 @@ class Database {
   int id_;
 };
 
-// For each face 6h + k of the mesh (kHexFaces order), the face 6g + l of another hex with the same
-// four corners, or kNone. Faces are grouped by their smallest corner (a counting sort), so only the
-// few faces around one point are compared.
 constexpr uint32_t kNone = std::numeric_limits<uint32_t>::max();
-
-std::vector<uint32_t> face_partners(const HexMesh& mesh) {
-  const std::size_t faces = 6 * mesh.hexes.size();
-  auto corners = [&](uint32_t f) {
-    std::array<uint32_t, 4> c;
-    for (int i = 0; i < 4; ++i) c[i] = mesh.hexes[f / 6][kHexFaces[f % 6][i]];
-    std::sort(c.begin(), c.end());
-    return c;
-  };
-  auto each_face = [&](const auto& f) { parallel_for(faces, [&](std::size_t i) { f(static_cast<uint32_t>(i)); }); };
-  const KeyGroups groups = group_by_key(mesh.points.size(), each_face, [&](uint32_t f) { return corners(f)[0]; });
-  std::vector<uint32_t> partner(faces, kNone);
-  parallel_for(mesh.points.size(), [&](std::size_t v) {
-    // Each face's sorted corners once, then compared pairwise within the (small) group.
-    thread_local std::vector<std::array<uint32_t, 4>> sorted;
-    sorted.clear();
-    for (uint32_t a = groups.start[v]; a < groups.start[v + 1]; ++a) sorted.push_back(corners(groups.items[a]));
-    for (std::size_t a = 0; a < sorted.size(); ++a)
-      for (std::size_t b = a + 1; b < sorted.size(); ++b)
-        if (sorted[a] == sorted[b]) {
-          partner[groups.items[groups.start[v] + a]] = groups.items[groups.start[v] + b];
-          partner[groups.items[groups.start[v] + b]] = groups.items[groups.start[v] + a];
-        }
-  });
-  return partner;
-}
 
 }  // namespace
 
@@ -141,21 +112,16 @@ void write_exodus(const HexMesh& mesh, AtomicFile& out) {
     }
   }
 
-  // Boundary nodes and interface sides from the face partners.
-  const std::vector<uint32_t> partner = face_partners(mesh);
+  // Boundary nodes and interface sides from the matched faces.
+  const MatchedFaces faces = match_faces(mesh);
   std::vector<unsigned char> on_boundary(n, 0);
-  std::map<std::pair<int32_t, int32_t>, std::pair<std::vector<int>, std::vector<int>>> interfaces;
-  for (std::size_t f = 0; f < partner.size(); ++f) {
-    const std::size_t h = f / 6;
-    if (partner[f] == kNone) {
-      for (const int c : kHexFaces[f % 6]) on_boundary[mesh.hexes[h][c]] = 1;
-      continue;
-    }
-    const int32_t a = mesh.region[h];
-    const int32_t b = mesh.region[partner[f] / 6];
-    if (a < b) {
-      auto& side_set = interfaces[{a, b}];
-      side_set.first.push_back(element[h] + 1);
+  for (const uint32_t f : faces.boundary)
+    for (const int c : kHexFaces[f % 6]) on_boundary[mesh.hexes[f / 6][c]] = 1;
+  std::vector<std::pair<std::vector<int>, std::vector<int>>> interfaces;  // elements, sides
+  for (const RegionInterface& i : faces.interfaces) {
+    auto& side_set = interfaces.emplace_back();
+    for (const uint32_t f : i.faces) {
+      side_set.first.push_back(element[f / 6] + 1);
       side_set.second.push_back(kExodusSide[f % 6]);
     }
   }
@@ -218,12 +184,14 @@ void write_exodus(const HexMesh& mesh, AtomicFile& out) {
   if (!interfaces.empty()) {
     std::vector<std::string> set_names;
     int set_id = 1;
-    for (const auto& [pair, sides] : interfaces) {
+    for (std::size_t j = 0; j < interfaces.size(); ++j) {
+      const auto& sides = interfaces[j];
       check(ex_put_set_param(id, EX_SIDE_SET, set_id, static_cast<int64_t>(sides.first.size()), 0),
             "write failed: an interface side set");
       check(ex_put_set(id, EX_SIDE_SET, set_id, sides.first.data(), sides.second.data()),
             "write failed: an interface side set");
-      set_names.push_back("interface_" + std::to_string(pair.first) + "_" + std::to_string(pair.second));
+      set_names.push_back("interface_" + std::to_string(faces.interfaces[j].lower) + "_" +
+                          std::to_string(faces.interfaces[j].upper));
       ++set_id;
     }
     std::vector<char*> pointers;
