@@ -406,7 +406,9 @@ TEST(SolverFormatsExodus, BlocksNumberMapAndSetsAreWhatLibexodusiiReads) {
 // The faces are matched on all threads in slices of the hex order (core/io/face_matching.h): hexes
 // in a scrambled order put a face's two hexes in different slices, far apart; the sets must still
 // be the brute force's, with any labels (negative ones give block ids 1..k) and any number of
-// regions.
+// regions. The largest mesh passes the writer's 64 Ki values per libexodusii call in points, in
+// element numbers and in hexes per block. The file is netCDF classic with 64-bit offsets, the
+// layout exodus.cpp reads itself.
 TEST(SolverFormatsExodus, SetsAreTheBruteForcesInAnyHexOrder) {
   TempDir dir;
   auto scrambled = [](HexMesh mesh, unsigned seed) {
@@ -427,17 +429,26 @@ TEST(SolverFormatsExodus, SetsAreTheBruteForcesInAnyHexOrder) {
   const auto many = [](uint32_t i, uint32_t j, uint32_t k) {
     return static_cast<int32_t>((i + 3 * j + 5 * k) % 40 + 1);
   };
+  // More region values than core/io/region_groups.h lists, 0 among them.
+  const auto hundreds = [](uint32_t i, uint32_t j, uint32_t k) {
+    return static_cast<int32_t>((i + 8 * j + 64 * k) % 300);
+  };
   const std::vector<std::pair<std::string, HexMesh>> meshes = {
       {"one region", block_mesh(6, [](uint32_t, uint32_t, uint32_t) { return 1; })},
       {"three regions", block_mesh(9, three)},
       {"three regions scrambled", scrambled(block_mesh(11, three), 7)},
       {"negative labels scrambled", scrambled(block_mesh(7, negative), 8)},
       {"40 regions scrambled", scrambled(block_mesh(10, many), 9)},
+      {"300 regions", block_mesh(8, hundreds)},
+      {"74088 hexes scrambled", scrambled(block_mesh(42, three), 10)},
   };
   for (const auto& [name, mesh] : meshes) {
     SCOPED_TRACE(name);
     write_hex_mesh(mesh, dir / "m.exo");
     expect_exodus_holds(dir / "m.exo", mesh);
+    EXPECT_EQ(read_bytes(dir / "m.exo").substr(0, 4), std::string("CDF\x02", 4));
+    const HexMesh back = read_hex_mesh(dir / "m.exo");
+    EXPECT_TRUE(back.points == mesh.points && back.hexes == mesh.hexes && back.region == mesh.region);
   }
 }
 
