@@ -18,6 +18,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <random>
 #include <set>
 #include <sstream>
 #include <string>
@@ -261,19 +262,33 @@ std::map<std::array<uint32_t, 4>, std::vector<std::size_t>> faces_by_corners(con
   return faces;
 }
 
-TEST(SolverFormatsExodus, BlocksNumberMapAndSetsAreWhatLibexodusiiReads) {
-  TempDir dir;
-  // Region 1 a 2x2x2 core, 2 around it, 3 a slab on top: interfaces 1-2, 2-3 and 1-3.
-  const HexMesh mesh = block_mesh(4, [](uint32_t i, uint32_t j, uint32_t k) -> int32_t {
-    if (k == 3) return 3;
-    return (i >= 1 && i <= 2 && j >= 1 && j <= 2 && k >= 1) ? 1 : 2;
-  });
-  write_hex_mesh(mesh, dir / "m.exo");
+// Reads `path` with libexodusii and checks it holds `mesh`: one HEX8 block per region value,
+// ascending, id = the region when all are positive (else 1..k), named region_R; the number map
+// giving each element's hex; the node set "boundary" of the nodes of faces one hex has; a side set
+// "interface_a_b" per pair of regions a < b that share faces, libexodusii's own side numbering
+// turning each (element, side) into exactly those faces, the element on the region-a side.
+void expect_exodus_holds(const fs::path& path, const HexMesh& mesh) {
+  std::vector<int32_t> values(mesh.region);
+  std::sort(values.begin(), values.end());
+  values.erase(std::unique(values.begin(), values.end()), values.end());
+  const auto faces = faces_by_corners(mesh);
+  std::set<int> boundary;
+  std::map<std::pair<int, int>, std::set<std::array<uint32_t, 4>>> expected;
+  for (const auto& [key, hexes] : faces) {
+    ASSERT_LE(hexes.size(), 2u) << "a face of more than two hexes: not a mesh for this check";
+    if (hexes.size() == 1)
+      for (const uint32_t v : key) boundary.insert(static_cast<int>(v + 1));
+    if (hexes.size() == 2 && mesh.region[hexes[0]] != mesh.region[hexes[1]]) {
+      const int a = std::min(mesh.region[hexes[0]], mesh.region[hexes[1]]);
+      const int b = std::max(mesh.region[hexes[0]], mesh.region[hexes[1]]);
+      expected[{a, b}].insert(key);
+    }
+  }
 
   ex_opts(0);
   int comp_ws = 8, io_ws = 0;
   float version = 0;
-  const int id = ex_open((dir / "m.exo").c_str(), EX_READ, &comp_ws, &io_ws, &version);
+  const int id = ex_open(path.c_str(), EX_READ, &comp_ws, &io_ws, &version);
   ASSERT_GE(id, 0);
   char title[MAX_LINE_LENGTH + 1];
   int dim, nodes, elements, blocks, node_sets, side_sets;
@@ -281,66 +296,65 @@ TEST(SolverFormatsExodus, BlocksNumberMapAndSetsAreWhatLibexodusiiReads) {
   EXPECT_EQ(dim, 3);
   EXPECT_EQ(nodes, static_cast<int>(mesh.points.size()));
   EXPECT_EQ(elements, static_cast<int>(mesh.hexes.size()));
-  EXPECT_EQ(blocks, 3);
+  ASSERT_EQ(blocks, static_cast<int>(values.size()));
   EXPECT_EQ(node_sets, 1);
-  EXPECT_EQ(side_sets, 3);
+  ASSERT_EQ(side_sets, static_cast<int>(expected.size()));
 
-  // Blocks: ids = regions 1, 2, 3, HEX8, named region_R; elements in block order, the number map
-  // giving each element's hex.
-  std::vector<int> ids(3);
+  std::vector<double> x(mesh.points.size()), y(x.size()), z(x.size());
+  ASSERT_EQ(ex_get_coord(id, x.data(), y.data(), z.data()), 0);
+  for (std::size_t i = 0; i < x.size(); ++i)
+    EXPECT_TRUE((Vec3{x[i], y[i], z[i]} == mesh.points[i])) << "node " << i + 1;
+
+  // Blocks in ascending region order; elements in block order, the number map giving each
+  // element's hex, in hex order within a block.
+  std::vector<int> ids(values.size());
   ASSERT_EQ(ex_get_ids(id, EX_ELEM_BLOCK, ids.data()), 0);
-  EXPECT_EQ(ids, (std::vector<int>{1, 2, 3}));
   std::vector<int> number(mesh.hexes.size());
   ASSERT_EQ(ex_get_id_map(id, EX_ELEM_MAP, number.data()), 0);
+  const bool ids_are_regions = values.front() > 0;
   std::size_t element = 0;
-  for (const int block : ids) {
+  for (std::size_t k = 0; k < ids.size(); ++k) {
+    EXPECT_EQ(ids[k], ids_are_regions ? values[k] : static_cast<int>(k + 1));
     char type[MAX_STR_LENGTH + 1];
-    int count, per, edges, faces, attributes;
-    ASSERT_EQ(ex_get_block(id, EX_ELEM_BLOCK, block, type, &count, &per, &edges, &faces, &attributes), 0);
+    int count, per, edges, block_faces, attributes;
+    ASSERT_EQ(ex_get_block(id, EX_ELEM_BLOCK, ids[k], type, &count, &per, &edges, &block_faces, &attributes), 0);
     EXPECT_STREQ(type, "HEX8");
     EXPECT_EQ(per, 8);
     char name[MAX_STR_LENGTH + 1];
-    ASSERT_EQ(ex_get_name(id, EX_ELEM_BLOCK, block, name), 0);
-    EXPECT_EQ(std::string(name), "region_" + std::to_string(block));
+    ASSERT_EQ(ex_get_name(id, EX_ELEM_BLOCK, ids[k], name), 0);
+    EXPECT_EQ(std::string(name), "region_" + std::to_string(values[k]));
     std::vector<int> connectivity(8 * static_cast<std::size_t>(count));
-    ASSERT_EQ(ex_get_conn(id, EX_ELEM_BLOCK, block, connectivity.data(), nullptr, nullptr), 0);
+    ASSERT_EQ(ex_get_conn(id, EX_ELEM_BLOCK, ids[k], connectivity.data(), nullptr, nullptr), 0);
+    int previous = 0;
     for (int e = 0; e < count; ++e, ++element) {
+      ASSERT_GT(number[element], previous);
+      previous = number[element];
       const std::size_t h = static_cast<std::size_t>(number[element] - 1);
-      EXPECT_EQ(mesh.region[h], block);
+      ASSERT_LT(h, mesh.hexes.size());
+      EXPECT_EQ(mesh.region[h], values[k]);
       for (int c = 0; c < 8; ++c) EXPECT_EQ(connectivity[8 * e + c], static_cast<int>(mesh.hexes[h][c] + 1));
     }
   }
+  EXPECT_EQ(element, mesh.hexes.size());
 
-  const auto faces = faces_by_corners(mesh);
-  // The boundary node set: the nodes of faces that one hex has.
-  std::set<int> boundary;
-  for (const auto& [key, hexes] : faces)
-    if (hexes.size() == 1)
-      for (const uint32_t v : key) boundary.insert(static_cast<int>(v + 1));
   int set_ids[1];
   ASSERT_EQ(ex_get_ids(id, EX_NODE_SET, set_ids), 0);
   int entries = 0, factors = 0;
   ASSERT_EQ(ex_get_set_param(id, EX_NODE_SET, set_ids[0], &entries, &factors), 0);
   std::vector<int> set_nodes(static_cast<std::size_t>(entries));
-  ASSERT_EQ(ex_get_set(id, EX_NODE_SET, set_ids[0], set_nodes.data(), nullptr), 0);
+  if (entries > 0) {
+    ASSERT_EQ(ex_get_set(id, EX_NODE_SET, set_ids[0], set_nodes.data(), nullptr), 0);
+  }
   EXPECT_EQ(std::set<int>(set_nodes.begin(), set_nodes.end()), boundary);
   EXPECT_EQ(set_nodes.size(), boundary.size());
   char set_name[MAX_STR_LENGTH + 1];
   ASSERT_EQ(ex_get_name(id, EX_NODE_SET, set_ids[0], set_name), 0);
   EXPECT_STREQ(set_name, "boundary");
 
-  // Interface side sets: libexodusii's own side numbering turns (element, side) into 4 nodes;
-  // those must be exactly the faces shared by a hex of region a and one of region b.
-  std::map<std::pair<int, int>, std::set<std::array<uint32_t, 4>>> expected;
-  for (const auto& [key, hexes] : faces)
-    if (hexes.size() == 2 && mesh.region[hexes[0]] != mesh.region[hexes[1]]) {
-      const int a = std::min(mesh.region[hexes[0]], mesh.region[hexes[1]]);
-      const int b = std::max(mesh.region[hexes[0]], mesh.region[hexes[1]]);
-      expected[{a, b}].insert(key);
-    }
-  ASSERT_EQ(expected.size(), 3u);
-  std::vector<int> side_ids(3);
-  ASSERT_EQ(ex_get_ids(id, EX_SIDE_SET, side_ids.data()), 0);
+  std::vector<int> side_ids(expected.size());
+  if (!side_ids.empty()) {
+    ASSERT_EQ(ex_get_ids(id, EX_SIDE_SET, side_ids.data()), 0);
+  }
   std::map<std::pair<int, int>, std::set<std::array<uint32_t, 4>>> got;
   for (const int s : side_ids) {
     ASSERT_EQ(ex_get_set_param(id, EX_SIDE_SET, s, &entries, &factors), 0);
@@ -363,6 +377,79 @@ TEST(SolverFormatsExodus, BlocksNumberMapAndSetsAreWhatLibexodusiiReads) {
   }
   EXPECT_EQ(got, expected);
   ex_close(id);
+}
+
+TEST(SolverFormatsExodus, BlocksNumberMapAndSetsAreWhatLibexodusiiReads) {
+  TempDir dir;
+  // Region 1 a 2x2x2 core, 2 around it, 3 a slab on top: interfaces 1-2, 2-3 and 1-3.
+  const HexMesh mesh = block_mesh(4, [](uint32_t i, uint32_t j, uint32_t k) -> int32_t {
+    if (k == 3) return 3;
+    return (i >= 1 && i <= 2 && j >= 1 && j <= 2 && k >= 1) ? 1 : 2;
+  });
+  write_hex_mesh(mesh, dir / "m.exo");
+  {
+    SCOPED_TRACE("three regions");
+    expect_exodus_holds(dir / "m.exo", mesh);
+  }
+  int comp_ws = 8, io_ws = 0;
+  float version = 0;
+  const int id = ex_open((dir / "m.exo").c_str(), EX_READ, &comp_ws, &io_ws, &version);
+  ASSERT_GE(id, 0);
+  char title[MAX_LINE_LENGTH + 1];
+  int dim, nodes, elements, blocks, node_sets, side_sets;
+  ASSERT_EQ(ex_get_init(id, title, &dim, &nodes, &elements, &blocks, &node_sets, &side_sets), 0);
+  EXPECT_EQ(blocks, 3);
+  EXPECT_EQ(side_sets, 3);
+  ex_close(id);
+}
+
+// The faces are matched on all threads in slices of the hex order (core/io/face_matching.h): hexes
+// in a scrambled order put a face's two hexes in different slices, far apart; the sets must still
+// be the brute force's, with any labels (negative ones give block ids 1..k) and any number of
+// regions. The largest mesh passes the writer's 64 Ki values per libexodusii call in points, in
+// element numbers and in hexes per block. The file is netCDF classic with 64-bit offsets, the
+// layout exodus.cpp reads itself.
+TEST(SolverFormatsExodus, SetsAreTheBruteForcesInAnyHexOrder) {
+  TempDir dir;
+  auto scrambled = [](HexMesh mesh, unsigned seed) {
+    std::mt19937 random(seed);
+    for (std::size_t h = mesh.hexes.size(); h > 1; --h) {
+      const std::size_t g = random() % h;
+      std::swap(mesh.hexes[h - 1], mesh.hexes[g]);
+      std::swap(mesh.region[h - 1], mesh.region[g]);
+    }
+    return mesh;
+  };
+  const auto three = [](uint32_t i, uint32_t j, uint32_t k) {
+    return static_cast<int32_t>(1 + (i / 3 + j / 4 + k / 2) % 3);
+  };
+  const auto negative = [](uint32_t i, uint32_t j, uint32_t k) {
+    return static_cast<int32_t>((i * 7 + j * 3 + k) % 5) - 2;
+  };
+  const auto many = [](uint32_t i, uint32_t j, uint32_t k) {
+    return static_cast<int32_t>((i + 3 * j + 5 * k) % 40 + 1);
+  };
+  // More region values than core/io/region_groups.h lists, 0 among them.
+  const auto hundreds = [](uint32_t i, uint32_t j, uint32_t k) {
+    return static_cast<int32_t>((i + 8 * j + 64 * k) % 300);
+  };
+  const std::vector<std::pair<std::string, HexMesh>> meshes = {
+      {"one region", block_mesh(6, [](uint32_t, uint32_t, uint32_t) { return 1; })},
+      {"three regions", block_mesh(9, three)},
+      {"three regions scrambled", scrambled(block_mesh(11, three), 7)},
+      {"negative labels scrambled", scrambled(block_mesh(7, negative), 8)},
+      {"40 regions scrambled", scrambled(block_mesh(10, many), 9)},
+      {"300 regions", block_mesh(8, hundreds)},
+      {"74088 hexes scrambled", scrambled(block_mesh(42, three), 10)},
+  };
+  for (const auto& [name, mesh] : meshes) {
+    SCOPED_TRACE(name);
+    write_hex_mesh(mesh, dir / "m.exo");
+    expect_exodus_holds(dir / "m.exo", mesh);
+    EXPECT_EQ(read_bytes(dir / "m.exo").substr(0, 4), std::string("CDF\x02", 4));
+    const HexMesh back = read_hex_mesh(dir / "m.exo");
+    EXPECT_TRUE(back.points == mesh.points && back.hexes == mesh.hexes && back.region == mesh.region);
+  }
 }
 
 TEST(SolverFormatsExodus, NotAnExodusFile) {

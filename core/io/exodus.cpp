@@ -1,14 +1,15 @@
 // Exodus II .exo through libexodusii (netCDF underneath); mesh_io.h states the contract.
 //
-// Written: the coordinates in double precision, one element block of type HEX8 per region value
-// (ascending, block id = the region when all regions are positive, else 1..k; every block named
-// "region_R" so that the region itself survives either way), the element number map giving each
-// element its hex number (1-based, HexMesh order) so that a reader restores the hex order, a node
-// set "boundary" of every node on a face that only one hex has (the boundary of the whole mesh),
-// and per pair of regions a < b that share faces a side set "interface_a_b" of those faces, each as
-// (element of region a, its Exodus side number). HEX8's node order is VTK_HEXAHEDRON's; its side
-// numbering is the Exodus II manual's (docs/formats.md). 32-bit integers in the file (the classic
-// netCDF model every Exodus reader takes), so a mesh over 2^31 - 1 points or hexes is refused.
+// Written (exodus_writer.cpp): the coordinates in double precision, one element block of type HEX8
+// per region value (ascending, block id = the region when all regions are positive, else 1..k;
+// every block named "region_R" so that the region itself survives either way), the element number
+// map giving each element its hex number (1-based, HexMesh order) so that a reader restores the
+// hex order, a node set "boundary" of every node on a face that only one hex has (the boundary of
+// the whole mesh), and per pair of regions a < b that share faces a side set "interface_a_b" of
+// those faces, each as (element of region a, its Exodus side number). HEX8's node order is
+// VTK_HEXAHEDRON's; its side numbering is the Exodus II manual's (docs/formats.md). 32-bit
+// integers in the file (the classic netCDF model every Exodus reader takes), so a mesh over
+// 2^31 - 1 points or hexes is refused.
 // Read: every element block of a HEX type with 8 nodes per element (blocks of 2D or 1D elements
 // skipped, other 3D elements an error), the region from the block name "region_R" else the block
 // id, the hexes put in the order of the element number map when it is a permutation of 1..m.
@@ -18,222 +19,26 @@
 #include <exodusII.h>
 
 #include <algorithm>
-#include <array>
 #include <cstdint>
-#include <cstring>
 #include <limits>
-#include <map>
-#include <numeric>
 #include <string>
 #include <utility>
 #include <vector>
 
-#include "core/base/parallel.h"
+#include "core/io/exodus_library.h"
 #include "core/io/format_error.h"
 #include "core/io/mesh_formats.h"
 #include "core/io/netcdf_classic.h"
 #include "core/io/text_numbers.h"
-#include "core/mesh/hex_faces.h"
 
 namespace mchex::io_detail {
 namespace {
 
-// Exodus II HEX side s (1..6) as the kHexFaces entry with the same four corners: side 1 is
-// corners {0,1,5,4}, 2 {1,2,6,5}, 3 {2,3,7,6}, 4 {0,4,7,3}, 5 {0,3,2,1}, 6 {4,5,6,7} (0-based).
-constexpr std::array<int, 6> kExodusSide = {4, 2, 1, 3, 5, 6};  // indexed by kHexFaces face
+using exodus_library::check;
+using exodus_library::Database;
+using exodus_library::message;
 
-std::string library_message(std::string_view what, int status) {
-  const char* msg = nullptr;
-  const char* func = nullptr;
-  int code = 0;
-  ex_get_err(&msg, &func, &code);
-  std::string reason = std::string(what) + ": ";
-  reason += msg != nullptr && *msg != '\0' ? std::string(msg) : "Exodus error " + std::to_string(status);
-  if (code != 0) reason += " (error " + std::to_string(code) + ")";
-  for (char& c : reason)
-    if (c == '\n' || c == '\r') c = ' ';
-  return reason;
-}
-
-void check(int status, std::string_view what) {
-  if (status < 0) throw FormatError(library_message(what, status));
-}
-
-// Closes the database however the caller leaves.
-class Database {
- public:
-  explicit Database(int id) : id_(id) {}
-  Database(const Database&) = delete;
-  Database& operator=(const Database&) = delete;
-  ~Database() {
-    if (id_ >= 0) ex_close(id_);
-  }
-  int id() const { return id_; }
-  void close(std::string_view what) {
-    const int status = ex_close(id_);
-    id_ = -1;
-    check(status, what);
-  }
-
- private:
-  int id_;
-};
-
-// For each face 6h + k of the mesh (kHexFaces order), the face 6g + l of another hex with the same
-// four corners, or kNone. Faces are grouped by their smallest corner (a counting sort), so only the
-// few faces around one point are compared.
-constexpr uint32_t kNone = std::numeric_limits<uint32_t>::max();
-
-std::vector<uint32_t> face_partners(const HexMesh& mesh) {
-  const std::size_t faces = 6 * mesh.hexes.size();
-  auto corners = [&](uint32_t f) {
-    std::array<uint32_t, 4> c;
-    for (int i = 0; i < 4; ++i) c[i] = mesh.hexes[f / 6][kHexFaces[f % 6][i]];
-    std::sort(c.begin(), c.end());
-    return c;
-  };
-  auto each_face = [&](const auto& f) { parallel_for(faces, [&](std::size_t i) { f(static_cast<uint32_t>(i)); }); };
-  const KeyGroups groups = group_by_key(mesh.points.size(), each_face, [&](uint32_t f) { return corners(f)[0]; });
-  std::vector<uint32_t> partner(faces, kNone);
-  parallel_for(mesh.points.size(), [&](std::size_t v) {
-    // Each face's sorted corners once, then compared pairwise within the (small) group.
-    thread_local std::vector<std::array<uint32_t, 4>> sorted;
-    sorted.clear();
-    for (uint32_t a = groups.start[v]; a < groups.start[v + 1]; ++a) sorted.push_back(corners(groups.items[a]));
-    for (std::size_t a = 0; a < sorted.size(); ++a)
-      for (std::size_t b = a + 1; b < sorted.size(); ++b)
-        if (sorted[a] == sorted[b]) {
-          partner[groups.items[groups.start[v] + a]] = groups.items[groups.start[v] + b];
-          partner[groups.items[groups.start[v] + b]] = groups.items[groups.start[v] + a];
-        }
-  });
-  return partner;
-}
-
-}  // namespace
-
-void write_exodus(const HexMesh& mesh, AtomicFile& out) {
-  constexpr std::size_t kInt32 = std::numeric_limits<int32_t>::max();
-  const std::size_t n = mesh.points.size();
-  const std::size_t m = mesh.hexes.size();
-  if (n > kInt32 || 6 * m > kInt32)
-    throw FormatError("Exodus files of 32-bit integers hold at most 2^31 - 1 points and 357913941 hexes");
-
-  // Blocks: the region values in ascending order; hexes in HexMesh order inside each block.
-  std::vector<int32_t> values(mesh.region);
-  std::sort(values.begin(), values.end());
-  values.erase(std::unique(values.begin(), values.end()), values.end());
-  const bool ids_are_regions = values.empty() || values.front() > 0;
-  auto block_of = [&](int32_t region) {
-    return static_cast<std::size_t>(std::lower_bound(values.begin(), values.end(), region) - values.begin());
-  };
-  std::vector<std::size_t> block_start(values.size() + 1, 0);
-  for (const int32_t r : mesh.region) ++block_start[block_of(r) + 1];
-  std::partial_sum(block_start.begin(), block_start.end(), block_start.begin());
-  // element[h]: hex h's position in block order (the Exodus element number - 1); order: inverse.
-  std::vector<int> element(m), order(m);
-  {
-    std::vector<std::size_t> fill(block_start.begin(), block_start.end() - 1);
-    for (std::size_t h = 0; h < m; ++h) {
-      const std::size_t e = fill[block_of(mesh.region[h])]++;
-      element[h] = static_cast<int>(e);
-      order[e] = static_cast<int>(h);
-    }
-  }
-
-  // Boundary nodes and interface sides from the face partners.
-  const std::vector<uint32_t> partner = face_partners(mesh);
-  std::vector<unsigned char> on_boundary(n, 0);
-  std::map<std::pair<int32_t, int32_t>, std::pair<std::vector<int>, std::vector<int>>> interfaces;
-  for (std::size_t f = 0; f < partner.size(); ++f) {
-    const std::size_t h = f / 6;
-    if (partner[f] == kNone) {
-      for (const int c : kHexFaces[f % 6]) on_boundary[mesh.hexes[h][c]] = 1;
-      continue;
-    }
-    const int32_t a = mesh.region[h];
-    const int32_t b = mesh.region[partner[f] / 6];
-    if (a < b) {
-      auto& side_set = interfaces[{a, b}];
-      side_set.first.push_back(element[h] + 1);
-      side_set.second.push_back(kExodusSide[f % 6]);
-    }
-  }
-  std::vector<int> boundary;
-  for (std::size_t v = 0; v < n; ++v)
-    if (on_boundary[v] != 0) boundary.push_back(static_cast<int>(v + 1));
-
-  ex_opts(0);  // errors come back as status codes, never printed or fatal
-  int comp_ws = 8, io_ws = 8;
-  const int id = ex_create(out.temporary().c_str(), EX_CLOBBER | EX_LARGE_MODEL, &comp_ws, &io_ws);
-  if (id < 0) throw FormatError(library_message("write failed: cannot create the Exodus database", id));
-  Database db(id);
-  const int node_sets = n > 0 ? 1 : 0;
-  check(ex_put_init(id, "mchex-gpu all-hex mesh", 3, static_cast<int64_t>(n), static_cast<int64_t>(m),
-                    static_cast<int64_t>(values.size()), node_sets, static_cast<int64_t>(interfaces.size())),
-        "write failed: the Exodus header");
-  if (n > 0) {
-    std::vector<double> x(n), y(n), z(n);
-    parallel_for(n, [&](std::size_t i) {
-      x[i] = mesh.points[i].x;
-      y[i] = mesh.points[i].y;
-      z[i] = mesh.points[i].z;
-    });
-    check(ex_put_coord(id, x.data(), y.data(), z.data()), "write failed: the coordinates");
-    const char* coordinate_names[] = {"x", "y", "z"};
-    check(ex_put_coord_names(id, const_cast<char**>(coordinate_names)), "write failed: the coordinate names");
-  }
-  std::vector<std::string> names;
-  for (std::size_t k = 0; k < values.size(); ++k) {
-    const int64_t block_id = ids_are_regions ? values[k] : static_cast<int64_t>(k) + 1;
-    const std::size_t count = block_start[k + 1] - block_start[k];
-    check(ex_put_block(id, EX_ELEM_BLOCK, block_id, "HEX8", static_cast<int64_t>(count), 8, 0, 0, 0),
-          "write failed: an element block");
-    std::vector<int> connectivity(8 * count);
-    parallel_for(count, [&](std::size_t i) {
-      const Hex& hex = mesh.hexes[static_cast<std::size_t>(order[block_start[k] + i])];
-      for (int c = 0; c < 8; ++c) connectivity[8 * i + c] = static_cast<int>(hex[c] + 1);
-    });
-    check(ex_put_conn(id, EX_ELEM_BLOCK, block_id, connectivity.data(), nullptr, nullptr),
-          "write failed: the connectivity");
-    names.push_back("region_" + std::to_string(values[k]));
-  }
-  if (!values.empty()) {
-    std::vector<char*> name_pointers;
-    for (std::string& s : names) name_pointers.push_back(s.data());
-    check(ex_put_names(id, EX_ELEM_BLOCK, name_pointers.data()), "write failed: the block names");
-    std::vector<int> numbers(m);
-    for (std::size_t e = 0; e < m; ++e) numbers[e] = order[e] + 1;
-    check(ex_put_id_map(id, EX_ELEM_MAP, numbers.data()), "write failed: the element number map");
-  }
-  if (node_sets != 0) {
-    check(ex_put_set_param(id, EX_NODE_SET, 1, static_cast<int64_t>(boundary.size()), 0),
-          "write failed: the boundary node set");
-    if (!boundary.empty())
-      check(ex_put_set(id, EX_NODE_SET, 1, boundary.data(), nullptr), "write failed: the boundary node set");
-    char boundary_name[] = "boundary";
-    char* set_names[] = {boundary_name};
-    check(ex_put_names(id, EX_NODE_SET, set_names), "write failed: the node set name");
-  }
-  if (!interfaces.empty()) {
-    std::vector<std::string> set_names;
-    int set_id = 1;
-    for (const auto& [pair, sides] : interfaces) {
-      check(ex_put_set_param(id, EX_SIDE_SET, set_id, static_cast<int64_t>(sides.first.size()), 0),
-            "write failed: an interface side set");
-      check(ex_put_set(id, EX_SIDE_SET, set_id, sides.first.data(), sides.second.data()),
-            "write failed: an interface side set");
-      set_names.push_back("interface_" + std::to_string(pair.first) + "_" + std::to_string(pair.second));
-      ++set_id;
-    }
-    std::vector<char*> pointers;
-    for (std::string& s : set_names) pointers.push_back(s.data());
-    check(ex_put_names(id, EX_SIDE_SET, pointers.data()), "write failed: the side set names");
-  }
-  db.close("write failed: closing the Exodus database");
-}
-
-namespace {
+constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();  // no element yet
 
 // What the two readers below take from a file, checked and assembled by assemble().
 struct Block {
@@ -299,11 +104,11 @@ HexMesh assemble(Content&& c) {
   }
   // The element number map, when it is a permutation of 1..m over hex blocks only, gives the order.
   if (!skipped && !c.numbers.empty() && c.numbers.size() == mesh.hexes.size()) {
-    std::vector<std::size_t> slot(c.numbers.size(), std::size_t(kNone));
+    std::vector<std::size_t> slot(c.numbers.size(), kNone);
     bool permutation = true;
     for (std::size_t e = 0; e < c.numbers.size() && permutation; ++e) {
       const std::int64_t k = c.numbers[e];
-      permutation = k >= 1 && static_cast<std::uint64_t>(k) <= c.numbers.size() && slot[k - 1] == std::size_t(kNone);
+      permutation = k >= 1 && static_cast<std::uint64_t>(k) <= c.numbers.size() && slot[k - 1] == kNone;
       if (permutation) slot[k - 1] = e;
     }
     if (permutation) {
@@ -394,7 +199,7 @@ Content read_library(const std::filesystem::path& path) {
   int comp_ws = 8, io_ws = 0;
   float version = 0;
   const int id = ex_open(path.c_str(), EX_READ, &comp_ws, &io_ws, &version);
-  if (id < 0) throw FormatError(library_message("not an Exodus II file", id));
+  if (id < 0) throw FormatError(message("not an Exodus II file", id));
   Database db(id);
   char title[MAX_LINE_LENGTH + 1] = {};
   int dim = 0, nodes = 0, elements = 0, blocks = 0, node_sets = 0, side_sets = 0;
