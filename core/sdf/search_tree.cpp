@@ -221,7 +221,8 @@ SearchTree::SearchTree(const TriangleSurface& s, const TriangleBvh& bvh, Frames 
       } else {
         corners = {sum.box.lo, sum.box.hi};
       }
-      boxes[k] = frames == Frames::kFitted ? bound_corners(corners, sum.normal, sum.area) : bound_corners(corners, {}, 0);
+      boxes[k] =
+          frames == Frames::kFitted ? bound_corners(corners, sum.normal, sum.area) : bound_corners(corners, {}, 0);
     }
   });
   // Set on one thread: lanes of one wide node share its vectors and its leaf mask.
