@@ -190,6 +190,7 @@ struct Optimizer {
   std::vector<uint8_t> locked;   // bit a: coordinate a is held (box planes)
   std::vector<Vec3> normal;      // surface vertices: the area-weighted boundary normal
   std::vector<double> sj;        // per hex, the scaled Jacobian (min over the 9 points)
+  std::vector<double> ratio;     // per hex, the edge ratio
   std::vector<uint8_t> certified;
   // A vertex is visited again only once a vertex sharing a hex with it has moved (or it moved
   // itself): otherwise its candidates and their scores are those it has already refused.
@@ -274,10 +275,12 @@ struct Optimizer {
       if (incident.start[v + 1] - incident.start[v] > kMaxValence) flags[v] |= kFixed;
     });
     sj.resize(j.hexes.size());
+    ratio.resize(j.hexes.size());
     certified.resize(j.hexes.size());
     parallel_for(j.hexes.size(), [&](std::size_t h) {
       const HexQuality q = hex_quality(corners_of(j.x, j.hexes[h]));
       sj[h] = q.scaled_jacobian;
+      ratio[h] = q.edge_ratio;
       certified[h] = q.certified();
     });
   }
@@ -314,14 +317,23 @@ struct Optimizer {
     double min = kInf, sum = 0, max_ratio = 0;
   };
 
+  // A vertex's hexes where it is, measured once per visit (by candidates, for try_move): their
+  // minimum and sum, the offset of the worst hex and its worst point.
+  struct Visit {
+    Local now;
+    uint32_t worst = 0;
+    int point = 0;
+  };
+
   // The scaled Jacobians of v's hexes with v at y (the certificate and the edge ratio, given a
   // finite ratio_cap, are apart: they are asked only of the candidate chosen); stops early
   // (min = -inf) as soon as a hex falls below `floor` or passes `ratio_cap`.
   // `first` (an offset into v's incident hexes) is measured first: the worst hex at the current
   // point, which rejects most candidates that fall below the floor at once. `worst` returns the
-  // offset of the worst hex, `worst_point` its worst of the 9 points.
+  // offset of the worst hex, `worst_point` its worst of the 9 points; `mins`, if given, each
+  // hex's scaled Jacobian (by offset), as hex_quality has it (the same operations).
   Local evaluate(uint32_t v, Vec3 y, double floor, double ratio_cap, uint32_t first = 0, uint32_t* worst = nullptr,
-                 int* worst_point = nullptr) const {
+                 int* worst_point = nullptr, double* mins = nullptr) const {
     Local l;
     const uint32_t b = incident.start[v], n = incident.start[v + 1] - b;
     for (uint32_t i = 0; i < n; ++i) {
@@ -337,6 +349,7 @@ struct Optimizer {
         l.min = -kInf;
         return l;
       }
+      if (mins) mins[off] = *lowest;
       if (*lowest < l.min) {
         l.min = *lowest;
         if (worst) *worst = off, *worst_point = int(lowest - s.begin());
@@ -384,7 +397,7 @@ struct Optimizer {
 
   // The candidate positions of v (slot 0: where it is), before projection onto the surface; a
   // snapped vertex's are projected onto its curve here.
-  void candidates(uint32_t v, Vec3* out) const {
+  void candidates(uint32_t v, Vec3* out, Visit& visit) const {
     const Vec3 x = j.x[v];
     Vec3 ideal{}, mean{};
     double length = 0;
@@ -406,10 +419,10 @@ struct Optimizer {
     mean = mean / (3.0 * count);
     length /= 3.0 * count;
     // Gradient of the worst scaled Jacobian at v (central differences on that one point).
-    uint32_t worst_offset = 0;
-    int worst_point = 0;
-    const Local now = evaluate(v, x, -kInf, kInf, 0, &worst_offset, &worst_point);
-    const std::size_t worst_hex = incident.items[incident.start[v] + worst_offset] / 8;
+    visit.now = evaluate(v, x, -kInf, kInf, 0, &visit.worst, &visit.point);
+    const Local& now = visit.now;
+    const int worst_point = visit.point;
+    const std::size_t worst_hex = incident.items[incident.start[v] + visit.worst] / 8;
     Vec3 gradient{};
     if (now.min > -kInf) {
       const Hex& h = j.hexes[worst_hex];
@@ -452,6 +465,7 @@ struct Optimizer {
     std::vector<Vec3> cand;
     std::vector<Vec3> to_project;
     std::vector<uint8_t> accepted;
+    std::vector<Visit> visits;
     for (const std::vector<uint32_t>& cls : classes) {
       active.clear();
       for (uint32_t v : cls) {
@@ -465,8 +479,9 @@ struct Optimizer {
       }
       if (active.empty()) continue;
       cand.resize(active.size() * kCandidates);
+      visits.resize(active.size());
       parallel_chunks(active.size(), 16, [&](std::size_t b, std::size_t e) {
-        for (std::size_t a = b; a < e; ++a) candidates(active[a], &cand[a * kCandidates]);
+        for (std::size_t a = b; a < e; ++a) candidates(active[a], &cand[a * kCandidates], visits[a]);
       });
       // Surface vertices' candidates onto the surface, in one batch.
       to_project.clear();
@@ -485,7 +500,7 @@ struct Optimizer {
       }
       accepted.assign(active.size(), 0);
       parallel_chunks(active.size(), 16, [&](std::size_t b, std::size_t e) {
-        for (std::size_t a = b; a < e; ++a) accepted[a] = try_move(active[a], &cand[a * kCandidates]);
+        for (std::size_t a = b; a < e; ++a) accepted[a] = try_move(active[a], &cand[a * kCandidates], visits[a]);
       });
       for (std::size_t a = 0; a < active.size(); ++a) {
         const uint32_t v = active[a];
@@ -502,24 +517,26 @@ struct Optimizer {
     return moved;
   }
 
-  bool try_move(uint32_t v, const Vec3* cand) {
+  bool try_move(uint32_t v, const Vec3* cand, const Visit& visit) {
     const Vec3 x = j.x[v];
-    uint32_t worst = 0;
-    int point = 0;
-    const Local now = evaluate(v, x, -kInf, kInf, 0, &worst, &point);
+    const Local& now = visit.now;
+    const uint32_t worst = visit.worst;
+    const uint32_t b = incident.start[v], e = incident.start[v + 1];
     double now_ratio = 0;
-    for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k)
-      now_ratio = std::max(now_ratio, edge_ratio(corners_of(j.x, j.hexes[incident.items[k] / 8])));
+    for (uint32_t k = b; k < e; ++k) now_ratio = std::max(now_ratio, ratio[incident.items[k] / 8]);
     const double cap = std::max(now_ratio, o.max_edge_ratio);
+    // Each hex's scaled Jacobian and edge ratio at the candidate taken, for place().
+    double mins[kQualityCandidates][kMaxValence], ratios[kMaxValence];
     // A feature vertex not yet on its target first tries to get there (all the way, half, a
     // quarter): the first step that keeps the minimum, every certificate and the cap is taken.
     double target_distance = kInf;
     if (snapping(v)) {
       for (const int k : {kTarget, kApproach, kApproach + 1}) {
         const Vec3 y = cand[k];
-        if (!is_finite(y) || y == x || !(evaluate(v, y, now.min, cap).min > -kInf) || !keeps_certificates(v, y))
+        if (!is_finite(y) || y == x || !(evaluate(v, y, now.min, cap, 0, nullptr, nullptr, mins[0]).min > -kInf) ||
+            !keeps_certificates(v, y))
           continue;
-        place(v, y, k == kTarget);
+        place(v, y, k == kTarget, mins[0]);
         return true;
       }
       target_distance = squared_norm(cand[kTarget] - x);
@@ -540,7 +557,7 @@ struct Optimizer {
       if (!is_finite(y) || y == x) continue;
       // Never away from the target (the feature would blur).
       if (target_distance < kInf && features.nearest(y, target[v]).squared_distance > target_distance) continue;
-      const Local l = evaluate(v, y, best.min, kInf, worst);
+      const Local l = evaluate(v, y, best.min, kInf, worst, nullptr, nullptr, mins[n]);
       if (l.min == -kInf) continue;
       const bool gain = n == 0 ? l.min - now.min > 1e-12 || (l.min >= now.min && l.sum - now.sum > 1e-9 * (now.sum + 1))
                                : l.min > best.min || (l.min == best.min && l.sum > best.sum);
@@ -551,24 +568,40 @@ struct Optimizer {
     }
     for (int i = n - 1; i >= 0; --i) {
       const Vec3 y = cand[options[i].k];
-      if (!keeps_certificates(v, y) || !(evaluate(v, y, -kInf, cap).min > -kInf)) continue;
-      place(v, y, snapping(v) && features.nearest(y, target[v]).squared_distance <= on_target);
+      if (!keeps_certificates(v, y) || !within_ratio(v, y, cap, ratios)) continue;
+      place(v, y, snapping(v) && features.nearest(y, target[v]).squared_distance <= on_target, mins[i], ratios);
       return true;
     }
     return false;
   }
 
-  // Moves v to y (on the surface; on its target, if `reaches_target`) and measures its hexes
-  // again.
-  void place(uint32_t v, Vec3 y, bool reaches_target) {
+  // Whether every hex of v keeps its edge ratio at most `cap` with v at y; `out` gets them.
+  bool within_ratio(uint32_t v, Vec3 y, double cap, double* out) const {
+    const uint32_t b = incident.start[v], n = incident.start[v + 1] - b;
+    for (uint32_t i = 0; i < n; ++i) {
+      const uint32_t h = incident.items[b + i] / 8, corner = incident.items[b + i] % 8;
+      HexCorners c = corners_of(j.x, j.hexes[h]);
+      c[corner] = y;
+      out[i] = edge_ratio(c);
+      if (out[i] > cap) return false;
+    }
+    return true;
+  }
+
+  // Moves v to y (on the surface; on its target, if `reaches_target`) and records its hexes'
+  // scaled Jacobians `mins` and edge ratios `ratios` there (by offset; measured when the move
+  // was chosen, ratios also here when not given). Certified hexes were re-certified before.
+  void place(uint32_t v, Vec3 y, bool reaches_target, const double* mins, const double* ratios = nullptr) {
     j.x[v] = y;
     if (surface && (flags[v] & kOnSurface)) flags[v] |= kPlaced;
     if (reaches_target) flags[v] |= kSnapped;
-    for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k) {
-      const uint32_t h = incident.items[k] / 8;
-      const HexQuality q = hex_quality(corners_of(j.x, j.hexes[h]));
-      sj[h] = q.scaled_jacobian;
-      certified[h] = q.certified();
+    const uint32_t b = incident.start[v], n = incident.start[v + 1] - b;
+    for (uint32_t i = 0; i < n; ++i) {
+      const uint32_t h = incident.items[b + i] / 8;
+      sj[h] = mins[i];
+      if (ratios) ratio[h] = ratios[i];
+      else ratio[h] = edge_ratio(corners_of(j.x, j.hexes[h]));
+      if (!certified[h]) certified[h] = bernstein_certified(corners_of(j.x, j.hexes[h]));
     }
   }
 
