@@ -25,6 +25,8 @@
 #include <vector>
 
 #include "core/base/error.h"
+#include "core/io/text_numbers.h"
+#include "core/mesh/quality.h"
 
 namespace mchex {
 namespace {
@@ -327,6 +329,46 @@ TEST_P(EveryFormat, MissingFileNamesThePath) { expect_read_error(file("absent"),
 TEST_P(EveryFormat, DirectoryIsNotAMeshFile) {
   fs::create_directory(file("folder"));
   expect_read_error(file("folder"), "not a regular file");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Numbers
+
+// The writers print integers eight digits at a time (text_numbers.h); the characters must be
+// std::to_chars's for every length and sign.
+TEST(HexmeshNumbers, PutDecimalIsToChars) {
+  std::vector<std::int64_t> values = {0,
+                                      1,
+                                      9,
+                                      10,
+                                      99,
+                                      100,
+                                      12345678,
+                                      99999999,
+                                      100000000,
+                                      4294967295,
+                                      4294967296,
+                                      9999999999999999,
+                                      10000000000000000,
+                                      std::numeric_limits<std::int64_t>::max(),
+                                      std::numeric_limits<std::int64_t>::min(),
+                                      std::numeric_limits<int32_t>::min()};
+  std::mt19937_64 random(3);
+  for (int i = 0; i < 200000; ++i) values.push_back(static_cast<std::int64_t>(random() >> (random() % 64)));
+  for (std::uint64_t p = 1; p < 10000000000000000000ull; p *= 10)
+    for (const std::uint64_t v : {p - 1, p, p + 1}) values.push_back(static_cast<std::int64_t>(v));
+  for (const std::int64_t v : values) {
+    for (const std::int64_t w : {v, -v}) {
+      char want[32], got[io_detail::kNumberRoom];
+      const std::string_view expected(want, static_cast<std::size_t>(std::to_chars(want, want + 32, w).ptr - want));
+      ASSERT_EQ(std::string_view(got, static_cast<std::size_t>(io_detail::put_decimal(got, w) - got)), expected);
+      const auto u = static_cast<std::uint64_t>(w);
+      const std::string_view unsigned_expected(want,
+                                               static_cast<std::size_t>(std::to_chars(want, want + 32, u).ptr - want));
+      ASSERT_EQ(std::string_view(got, static_cast<std::size_t>(io_detail::put_decimal(got, u) - got)),
+                unsigned_expected);
+    }
+  }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -719,6 +761,28 @@ TEST(HexmeshVtu, MissingRegionArrayReadsAsZero) {
 TEST(HexmeshVtu, UnterminatedProcessingInstructionIsOneLine) {
   TempDir dir;
   expect_read_error(dir, "cut.vtu", "<?xml version=\"1.0\"?>\n<?>\n<VTKFile", "XML: unterminated '<?>?'");
+}
+
+// The pipeline has each hex's scaled Jacobian from its check and may hand them to the writer; the
+// file is the one the writer makes computing them itself.
+TEST(HexmeshVtu, GivenScaledJacobiansGiveTheSameFile) {
+  TempDir dir;
+  HexMesh mesh = grid_mesh(12);
+  // Warped, so that the quality's shortcut for parallelepipeds is not the only path taken.
+  for (Vec3& p : mesh.points) p += Vec3{0.05 * std::sin(5 * p.y), 0.04 * std::sin(3 * p.z + p.x), 1e-4 * std::sin(p.x)};
+  std::vector<double> quality;
+  for (std::size_t h = 0; h < mesh.hexes.size(); ++h) quality.push_back(hex_quality(mesh.corners(h)).scaled_jacobian);
+  write_hex_mesh(mesh, dir / "computed.vtu");
+  MeshWriteOptions options;
+  options.scaled_jacobians = quality;
+  write_hex_mesh(mesh, dir / "given.vtu", options);
+  EXPECT_EQ(read_bytes(dir / "computed.vtu"), read_bytes(dir / "given.vtu"));
+  quality.pop_back();
+  options.scaled_jacobians = quality;
+  const fs::path path = dir / "short.vtu";
+  EXPECT_EQ(input_error([&] { write_hex_mesh(mesh, path, options); }),
+            path.string() + ": 1727 scaled Jacobians given for 1728 hexes");
+  EXPECT_FALSE(fs::exists(path));
 }
 
 TEST(HexmeshVtu, BadFiles) {

@@ -12,6 +12,8 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -28,6 +30,7 @@
 #include "core/io/mesh_io.h"
 #include "core/io/surface_io.h"
 #include "core/mesh/orientation.h"
+#include "core/mesh/quality.h"
 #include "core/pipeline/pipeline.h"
 #include "core/pipeline/report.h"
 #include "core/sdf/sdf.h"
@@ -376,6 +379,35 @@ TEST(Pipeline, WriteMeshesWritesWhatWasCheckedAndRefusesAFailedCheck) {
   t.run.check.ok = false;
   EXPECT_THROW(write_meshes(t.run, dir / "in2.mesh", dir / "out2.mesh"), std::logic_error);
   EXPECT_FALSE(fs::exists(dir / "in2.mesh"));
+  fs::remove_all(dir);
+}
+
+TEST(Pipeline, CheckedScaledJacobiansWriteTheVtuTheWriterWouldCompute) {
+  MeshRequest request;
+  request.solid.shape = "torus";
+  request.options.depth = 2;
+  Timed plain = run_timed(request);
+  request.options.keep_scaled_jacobians = true;
+  Timed kept = run_timed(request);
+  ASSERT_TRUE(plain.run.check.inside.scaled_jacobians.empty());
+  const std::vector<double>& sj = kept.run.check.inside.scaled_jacobians;
+  ASSERT_EQ(sj.size(), kept.run.meshes.inside.hexes.size());
+  ASSERT_EQ(kept.run.check.outside->scaled_jacobians.size(), kept.run.meshes.outside.hexes.size());
+  for (std::size_t h = 0; h < sj.size(); h += 97)
+    EXPECT_EQ(sj[h], hex_quality(kept.run.meshes.inside.corners(h)).scaled_jacobian) << "hex " << h;
+  const fs::path dir = fs::temp_directory_path() / ("mchex_test_pipeline_sj_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  write_meshes(plain.run, dir / "a.vtu", dir / "a_out.vtu");
+  write_meshes(kept.run, dir / "b.vtu", dir / "b_out.vtu");
+  auto bytes = [](const fs::path& p) {
+    std::ifstream f(p, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(f), {});
+  };
+  EXPECT_EQ(bytes(dir / "a.vtu"), bytes(dir / "b.vtu"));
+  EXPECT_EQ(bytes(dir / "a_out.vtu"), bytes(dir / "b_out.vtu"));
+  // Released once written.
+  EXPECT_TRUE(kept.run.check.inside.scaled_jacobians.empty());
+  EXPECT_TRUE(kept.run.check.outside->scaled_jacobians.empty());
   fs::remove_all(dir);
 }
 

@@ -212,7 +212,7 @@ def test_bad_arrays_and_options_raise_input_error():
         with pytest.raises(mchex.InputError) as e:
             mchex.mesh(source, depth=1)
         assert str(e.value) == message
-    with pytest.raises(mchex.InputError, match=r"^mesh: unknown option dpeth \(the options: method, eps, depth,"):
+    with pytest.raises(mchex.InputError, match=r"^mesh: unknown option dpeth \(the options: region_order, shells_as_regions, method, eps, depth,"):
         mchex.mesh(shape="sphere", dpeth=3)
     with pytest.raises(mchex.InputError, match=r"^--depth: expected a value, got True$"):
         mchex.mesh(shape="sphere", depth=True)
@@ -221,6 +221,52 @@ def test_bad_arrays_and_options_raise_input_error():
     with pytest.raises(mchex.InputError, match=r"^check: unknown option depth"):
         mchex.check((v, np.zeros((1, 8), np.int64)), depth=3)
 
+
+
+def test_several_sources_are_the_clis_regions(tmp_path):
+    """A list of surfaces meshes as several INPUT files do: the same region-labelled meshes byte
+    for byte, whether each region comes as a file or as arrays, region_order and
+    shells_as_regions as on the command line."""
+    v, t = sphere_surface()
+    small = (0.5 * v).astype(np.float32).astype(np.float64)
+    write_off(tmp_path / "big.off", v, t)
+    write_off(tmp_path / "small.off", small, t)
+    opts = dict(depth=2, fidelity=False)
+    for order in (None, "1,2"):
+        extra = ["--region-order", order] if order else []
+        cli("-q", "mesh", tmp_path / "big.off", tmp_path / "small.off", "--depth", 2, "--no-fidelity", *extra,
+            "-o", tmp_path / "c.vtu", "--report", tmp_path / "c.json")
+        c = meshio.read(tmp_path / "c.vtu")
+        rep = json.loads((tmp_path / "c.json").read_text())
+        by_files = mchex.mesh([tmp_path / "big.off", str(tmp_path / "small.off")], region_order=order, **opts)
+        by_arrays = mchex.mesh([(v, t), (small, t)], region_order=order, **opts)
+        for r in (by_files, by_arrays):
+            np.testing.assert_array_equal(r.inside.points, c.points)
+            np.testing.assert_array_equal(r.inside.hexes, c.cells_dict["hexahedron"])
+            np.testing.assert_array_equal(r.inside.region, c.cell_data["region"][0])
+            assert set(np.unique(r.outside.region)) == {3}
+            assert r.report["regions"]["priority"] == rep["regions"]["priority"]
+            assert [x["hexes"] for x in r.report["regions"]["regions"]] == [
+                x["hexes"] for x in rep["regions"]["regions"]]
+        assert [x["name"] for x in by_arrays.report["regions"]["regions"]] == ["arrays 1", "arrays 2"]
+        # The ball is inside the shell: by volume it wins its points, with "1,2" the shell does.
+        counts = np.bincount(by_files.inside.region, minlength=3)[1:]
+        assert (counts[1] > 0) == (order is None)
+    # One file of two shells, and the same shells as one pair of arrays.
+    both_v = np.concatenate([v, small])
+    both_t = np.concatenate([t, t + len(v)])
+    write_off(tmp_path / "both.off", both_v, both_t)
+    shells = mchex.mesh(tmp_path / "both.off", shells_as_regions=True, **opts)
+    shells_arrays = mchex.mesh((both_v, both_t), shells_as_regions=True, **opts)
+    assert_same_mesh(shells.inside, shells_arrays.inside)
+    np.testing.assert_array_equal(np.bincount(shells.inside.region)[1:], np.bincount(
+        mchex.mesh([(v, t), (small, t)], **opts).inside.region)[1:])
+    with pytest.raises(mchex.InputError, match="^source: an empty list"):
+        mchex.mesh([], **opts)
+    with pytest.raises(mchex.InputError, match=r"^--region-order orders the regions of several INPUT"):
+        mchex.mesh((v, t), region_order="2,1", **opts)
+    with pytest.raises(mchex.InputError, match="^give either a surface or a shape, not both$"):
+        mchex.mesh([(v, t), (small, t)], shape="sphere", **opts)
 
 def test_check_finds_a_broken_mesh(sphere3):
     r, _ = sphere3

@@ -207,6 +207,50 @@ TEST(quality, ParallelepipedShortcutIsBitIdentical) {
   }
 }
 
+// bernstein_jacobian's coefficients are the means of their triple products (quality.cpp, "Collecting
+// terms"), summed from 0 in the order a, then b, then c ascending, and the mean edge length the mean
+// of norm() of the 12 edges in Edges::for_each order; the library lays both out for speed. Written
+// here straight from the formulas, every value must be the same double: the certificate (and which
+// centre the repair search picks, core/cutting/repair.h) rests on them.
+TEST(quality, BernsteinCoefficientsAndMeanEdgeFollowTheirFormulasBitForBit) {
+  auto at = [](const HexCorners& c, int a, int b, int d) { return c[4 * d + (b == 0 ? a : 3 - a)]; };
+  auto same_bits = [](double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; };
+  std::mt19937_64 rng(17);
+  std::uniform_real_distribution<double> scale(1e-3, 1e3);
+  for (int t = 0; t < 2000; ++t) {
+    const double s = scale(rng);
+    const HexCorners c = map_corners(random_hex(rng, t % 2 ? 0.45 : 0.8), [&](Vec3 p) { return s * p; });
+    Vec3 xi[2][2], eta[2][2], zeta[2][2];
+    for (int u = 0; u < 2; ++u)
+      for (int v = 0; v < 2; ++v) {
+        xi[u][v] = at(c, 1, u, v) - at(c, 0, u, v);
+        eta[u][v] = at(c, u, 1, v) - at(c, u, 0, v);
+        zeta[u][v] = at(c, u, v, 1) - at(c, u, v, 0);
+      }
+    double sum = 0;
+    for (int u = 0; u < 2; ++u)
+      for (int v = 0; v < 2; ++v) sum = sum + norm(xi[u][v]) + norm(eta[u][v]) + norm(zeta[u][v]);
+    double mean = 0;
+    const BernsteinCoefficients both = bernstein_jacobian(c, mean);
+    ASSERT_TRUE(same_bits(mean, sum / 12)) << t;
+    ASSERT_TRUE(same_bits(mean_edge_length(c), sum / 12)) << t;
+    const BernsteinCoefficients beta = bernstein_jacobian(c);
+    ASSERT_EQ(std::memcmp(both.data(), beta.data(), sizeof beta), 0) << t;
+    for (int k = 0; k < 3; ++k)
+      for (int j = 0; j < 3; ++j)
+        for (int i = 0; i < 3; ++i) {
+          double sum = 0;
+          int terms = 0;
+          for (int a = i == 2 ? 1 : 0; a <= (i == 0 ? 0 : 1); ++a)
+            for (int b = j == 2 ? 1 : 0; b <= (j == 0 ? 0 : 1); ++b)
+              for (int d = k == 2 ? 1 : 0; d <= (k == 0 ? 0 : 1); ++d, ++terms)
+                sum += triple(xi[b][d], eta[a][k - d], zeta[i - a][j - b]);
+          const double mean = sum * (1.0 / terms);  // terms is 1, 2, 4 or 8: exact
+          ASSERT_TRUE(same_bits(beta[bernstein_index(i, j, k)], mean)) << t << " " << i << j << k;
+        }
+  }
+}
+
 TEST(quality, AffineRealHexesHaveEveryCoefficientEqualToDetA) {
   std::mt19937_64 rng(12);
   for (int t = 0; t < 200; ++t) {

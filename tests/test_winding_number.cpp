@@ -510,5 +510,80 @@ TEST(SurfaceSdfSign, ApplyWindingSignMakesAnyBackendsValuesTheWindingNumbers) {
   EXPECT_EQ(a.back(), 0);
 }
 
+TEST(WindingNumber, ConstantOffSurfaceExactlyOnTwoCycles) {
+  // Closed and consistently oriented, shells overlapping, nested or inward included.
+  EXPECT_TRUE(WindingNumber(bumpy_torus(24, 12)).constant_off_surface());
+  EXPECT_TRUE(WindingNumber(folded_spike()).constant_off_surface());
+  EXPECT_TRUE(WindingNumber(join(sphere({-0.4, 0, 0}, 1), sphere({0.4, 0, 0}, 1))).constant_off_surface());
+  EXPECT_TRUE(WindingNumber(join(sphere({}, 1.2), sphere({}, 0.6, true))).constant_off_surface());
+  // A degenerate triangle bounds nothing.
+  TriangleSurface with_sliver = sphere({}, 1);
+  with_sliver.triangles.push_back({0, 0, 1});
+  EXPECT_TRUE(WindingNumber(with_sliver).constant_off_surface());
+  // A hole, one flipped triangle, a lone triangle, nothing: w is not an integer off the surface.
+  TriangleSurface holed = sphere({}, 1), flipped = sphere({}, 1);
+  holed.triangles.pop_back();
+  std::swap(flipped.triangles[7][1], flipped.triangles[7][2]);
+  EXPECT_FALSE(WindingNumber(holed).constant_off_surface());
+  EXPECT_FALSE(WindingNumber(flipped).constant_off_surface());
+  TriangleSurface lone;
+  lone.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  lone.triangles = {{0, 1, 2}};
+  EXPECT_FALSE(WindingNumber(lone).constant_off_surface());
+  EXPECT_FALSE(WindingNumber(TriangleSurface{}).constant_off_surface());
+}
+
+// The ordered re-signing against the point-by-point decision: the same sign everywhere, and on a
+// two-cycle most points of a grid decided without a query.
+void expect_inherited_signs(const TriangleSurface& s, WindingNumber::Decision decision, bool inherits) {
+  const WindingNumber wn(s, decision);
+  ASSERT_EQ(wn.constant_off_surface(), inherits);
+  const SurfaceSdf sdf(s);
+  std::vector<Vec3> pts = grid_points(s.bounds(), 32);
+  std::mt19937_64 rng(5);
+  const Box box = s.bounds();
+  std::uniform_real_distribution<double> ux(box.lo.x, box.hi.x), uy(box.lo.y, box.hi.y), uz(box.lo.z, box.hi.z);
+  for (int i = 0; i < 4000; ++i) pts.push_back({ux(rng), uy(rng), uz(rng)});
+  pts.push_back(s.vertices[3]);  // on the surface: 0
+  std::vector<double> d(pts.size());
+  sdf.distance(pts, d);
+  std::vector<double> v = d;
+  const std::size_t queries = apply_winding_sign(wn, pts, morton_order(pts), v);
+  std::size_t off_surface = 0;
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    off_surface += d[i] != 0;
+    ASSERT_EQ(std::abs(v[i]), d[i]);
+    if (d[i] != 0) {
+      ASSERT_EQ(v[i] > 0, wn.inside(pts[i])) << "point " << i;
+    }
+  }
+  EXPECT_EQ(v.back(), 0);
+  if (inherits) {
+    EXPECT_LT(queries, off_surface / 3) << "most grid points lie in a neighbour's surface-free ball";
+  } else {
+    EXPECT_EQ(queries, off_surface);
+  }
+  // The unordered entry point gives the same values.
+  std::vector<double> u = d;
+  apply_winding_sign(wn, pts, u);
+  EXPECT_EQ(u, v);
+}
+
+TEST(SurfaceSdfSign, InheritedSignsAreTheWindingNumbersOwn) {
+  constexpr auto kHalf = WindingNumber::Decision::kHalf, kParity = WindingNumber::Decision::kParity;
+  expect_inherited_signs(bumpy_torus(96, 40), kHalf, true);
+  expect_inherited_signs(folded_spike(), kHalf, true);
+  const TriangleSurface balls = join(sphere({-0.4, 0, 0}, 1), sphere({0.4, 0, 0}, 1));
+  expect_inherited_signs(balls, kHalf, true);
+  expect_inherited_signs(balls, kParity, true);
+  expect_inherited_signs(join(sphere({}, 1.2), sphere({}, 0.6, true)), kParity, true);
+  TriangleSurface flipped = folded_spike();
+  for (auto& t : flipped.triangles) {
+    if ((flipped.vertices[t[0]].z + flipped.vertices[t[1]].z + flipped.vertices[t[2]].z) / 3 < -0.5)
+      std::swap(t[1], t[2]);
+  }
+  expect_inherited_signs(flipped, kHalf, false);
+}
+
 }  // namespace
 }  // namespace mchex

@@ -36,6 +36,11 @@ inline Vec3 normalized(Vec3 a) {
 constexpr double triple(Vec3 a, Vec3 b, Vec3 c) { return dot(a, cross(b, c)); }
 inline bool is_finite(Vec3 a) { return std::isfinite(a.x) && std::isfinite(a.y) && std::isfinite(a.z); }
 
+// Two doubles in one SSE2 register (a GCC and Clang vector extension; elsewhere two scalars). Each
+// operation is the IEEE operation on each lane, so a lane holds what the scalar code computes: for
+// the few loops that run billions of times (certify) and that the compiler does not vectorize.
+using Double2 = double __attribute__((vector_size(16)));
+
 struct Box {
   Vec3 lo{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
           std::numeric_limits<double>::infinity()};

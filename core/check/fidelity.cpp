@@ -115,19 +115,46 @@ std::vector<Vec3> sample_surface(const SignedDistance& solid, const Box& box, do
   // Lattice points within a spacing of the surface, pulled onto it along the SDF gradient
   // (p - f grad f is the closest point for an exact SDF; three rounds absorb the rest).
   const Vec3 size = box.size();
-  const std::size_t nx = std::size_t(std::ceil(size.x / spacing)) + 1,
-                    ny = std::size_t(std::ceil(size.y / spacing)) + 1,
-                    nz = std::size_t(std::ceil(size.z / spacing)) + 1;
-  std::vector<Vec3> lattice;
-  lattice.reserve(nx * ny * nz);
-  for (std::size_t k = 0; k < nz; ++k)
-    for (std::size_t j = 0; j < ny; ++j)
-      for (std::size_t i = 0; i < nx; ++i) lattice.push_back(box.lo + Vec3{i * spacing, j * spacing, k * spacing});
-  std::vector<double> f(lattice.size());
-  solid.evaluate(lattice, f);
+  const std::size_t n[3] = {std::size_t(std::ceil(size.x / spacing)) + 1, std::size_t(std::ceil(size.y / spacing)) + 1,
+                            std::size_t(std::ceil(size.z / spacing)) + 1};
+  auto at = [&](std::size_t i, std::size_t j, std::size_t k) {
+    return box.lo + Vec3{i * spacing, j * spacing, k * spacing};
+  };
+  // The lattice has (400 / sqrt 3)^3 = 12 M points at the usual spacing (370 MB of points and
+  // values, measured): it is visited in blocks of kBlock^3 points, and a block is skipped when a
+  // corner's |f| exceeds the block's diagonal plus the spacing, since every point of the block
+  // then has |f| above the spacing (|f| is 1-Lipschitz). The points kept are those of the whole
+  // lattice, in its order.
+  constexpr std::size_t kBlock = 8;
+  std::size_t blocks[3], corners[3];
+  for (int a = 0; a < 3; ++a) blocks[a] = (n[a] + kBlock - 1) / kBlock, corners[a] = blocks[a] + 1;
+  auto corner_index = [&](std::size_t c, int a) { return std::min(c * kBlock, n[a] - 1); };
+  std::vector<Vec3> cp(corners[0] * corners[1] * corners[2]);
+  parallel_for(cp.size(), [&](std::size_t c) {
+    cp[c] = at(corner_index(c % corners[0], 0), corner_index((c / corners[0]) % corners[1], 1),
+               corner_index(c / (corners[0] * corners[1]), 2));
+  });
+  std::vector<double> cf(cp.size());
+  solid.evaluate(cp, cf);
+  const double reach = std::sqrt(3.0) * double(kBlock) * spacing + spacing;
+  std::vector<uint8_t> near(blocks[0] * blocks[1] * blocks[2], 1);
+  parallel_for(near.size(), [&](std::size_t b) {
+    const std::size_t bi = b % blocks[0], bj = (b / blocks[0]) % blocks[1], bk = b / (blocks[0] * blocks[1]);
+    for (int c = 0; c < 8; ++c) {
+      const std::size_t i = bi + (c & 1), j = bj + ((c >> 1) & 1), k = bk + (c >> 2);
+      if (std::abs(cf[i + corners[0] * (j + corners[1] * k)]) > reach) near[b] = 0;
+    }
+  });
+  std::vector<Vec3> candidates;
+  for (std::size_t k = 0; k < n[2]; ++k)
+    for (std::size_t j = 0; j < n[1]; ++j)
+      for (std::size_t i = 0; i < n[0]; ++i)
+        if (near[i / kBlock + blocks[0] * (j / kBlock + blocks[1] * (k / kBlock))]) candidates.push_back(at(i, j, k));
+  std::vector<double> f(candidates.size());
+  solid.evaluate(candidates, f);
   std::vector<Vec3> pts;
-  for (std::size_t i = 0; i < lattice.size(); ++i)
-    if (std::abs(f[i]) < spacing) pts.push_back(lattice[i]);
+  for (std::size_t i = 0; i < candidates.size(); ++i)
+    if (std::abs(f[i]) < spacing) pts.push_back(candidates[i]);
   const double h = 1e-6 * box.diagonal();
   std::vector<Vec3> probes(7 * pts.size());
   std::vector<double> values(probes.size());
@@ -151,26 +178,60 @@ std::vector<Vec3> sample_surface(const SignedDistance& solid, const Box& box, do
   return pts;
 }
 
+namespace {
+
+// The lattice's geometry: its step and its cell-centred samples.
+struct Lattice {
+  Vec3 lo, step;
+  std::size_t n;
+  Lattice(const Box& box, std::size_t lattice)
+      : lo(box.lo), step{box.size().x / lattice, box.size().y / lattice, box.size().z / lattice}, n(lattice) {}
+  Vec3 sample(std::size_t i, std::size_t j, std::size_t k) const {
+    return Vec3{lo.x + (i + 0.5) * step.x, lo.y + (j + 0.5) * step.y, lo.z + (k + 0.5) * step.z};
+  }
+  Vec3 sample(std::size_t s) const { return sample(s % n, (s / n) % n, s / (n * n)); }
+};
+
+}  // namespace
+
+FidelityReference fidelity_reference(const SignedDistance& solid, std::vector<Vec3> surface_samples,
+                                     const Box& lattice_box, std::size_t lattice, double spacing,
+                                     bool distance_bounds_sign) {
+  FidelityReference ref;
+  ref.surface_samples = std::move(surface_samples);
+  ref.lattice_box = lattice_box;
+  ref.lattice = lattice;
+  ref.spacing = spacing;
+  const Lattice grid(lattice_box, lattice);
+  const std::size_t count = lattice * lattice * lattice;
+  std::vector<Vec3> points(count);
+  parallel_for(count, [&](std::size_t s) { points[s] = grid.sample(s); });
+  ref.lattice_values.resize(count);
+  if (distance_bounds_sign) solid_on_lattice(solid, points, lattice, grid.step, ref.lattice_values);
+  else solid.evaluate(points, ref.lattice_values);
+  return ref;
+}
+
 Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, std::span<const Vec3> surface_samples,
                           const Box& lattice_box, std::size_t lattice, double spacing, const SurfaceDistance& distance,
                           bool distance_bounds_sign, double far_tolerance) {
-  Fidelity fid;
-  fid.lattice = lattice;
-  const Vec3 lo = lattice_box.lo, size = lattice_box.size();
-  const Vec3 step{size.x / lattice, size.y / lattice, size.z / lattice};
-  auto sample = [&](std::size_t i, std::size_t j, std::size_t k) {
-    return Vec3{lo.x + (i + 0.5) * step.x, lo.y + (j + 0.5) * step.y, lo.z + (k + 0.5) * step.z};
-  };
-  const std::size_t count = lattice * lattice * lattice;
+  const FidelityReference ref =
+      fidelity_reference(solid, std::vector<Vec3>(surface_samples.begin(), surface_samples.end()), lattice_box, lattice,
+                         spacing, distance_bounds_sign);
+  return measure_fidelity(inside, solid, ref, distance, far_tolerance);
+}
 
-  // The solid on the lattice.
-  std::vector<Vec3> points(count);
-  parallel_for(
-      count, [&](std::size_t s) { points[s] = sample(s % lattice, (s / lattice) % lattice, s / (lattice * lattice)); });
-  std::vector<double> f(count);
-  if (distance_bounds_sign) solid_on_lattice(solid, points, lattice, step, f);
-  else solid.evaluate(points, f);
-  points = {};
+Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, const FidelityReference& reference,
+                          const SurfaceDistance& distance, double far_tolerance) {
+  Fidelity fid;
+  const std::size_t lattice = reference.lattice;
+  fid.lattice = lattice;
+  const Lattice grid(reference.lattice_box, lattice);
+  const Vec3 lo = grid.lo, step = grid.step;
+  const std::size_t count = lattice * lattice * lattice;
+  const std::span<const double> f = reference.lattice_values;
+  const std::span<const Vec3> surface_samples = reference.surface_samples;
+  const double spacing = reference.spacing;
 
   // The mesh on the lattice: each hex marks the samples it contains (bit 0), and the samples in its
   // box where inverting its map failed (bit 1). A sample counts as unresolved when no hex contains
@@ -198,7 +259,7 @@ Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, st
           const std::size_t s = i + lattice * (j + lattice * k);
           if (covered[s].load(std::memory_order_relaxed) & kCovered) continue;
           bool in = false;
-          if (!invert_trilinear(x, sample(i, j, k), &in)) {
+          if (!invert_trilinear(x, grid.sample(i, j, k), &in)) {
             covered[s].fetch_or(kFailed, std::memory_order_relaxed);
             continue;
           }
@@ -218,7 +279,7 @@ Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, st
   if (far_tolerance > 0)
     for (std::size_t s = 0; s < count; ++s)
       if (((covered[s].load(std::memory_order_relaxed) & kCovered) != 0) != (f[s] > 0))
-        fid.misclassified_points.push_back(sample(s % lattice, (s / lattice) % lattice, s / (lattice * lattice)));
+        fid.misclassified_points.push_back(grid.sample(s));
   const double cell_volume = step.x * step.y * step.z;
   fid.iou = either ? double(both) / double(either) : 1.0;
   fid.mesh_volume = mesh_n * cell_volume;
@@ -230,12 +291,22 @@ Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, st
   // than the spacing, the common case on a fine grid), so the maximum is over the same points.
   const auto quads = boundary_quads(inside);
   std::vector<Vec3> mesh_samples;
+  // The boundary as triangles over its own points only (the inside mesh's are mostly interior):
+  // boundary points in ascending order, then a centre per quad.
+  constexpr uint32_t kInterior = std::numeric_limits<uint32_t>::max();
+  std::vector<uint32_t> boundary_id(inside.points.size(), kInterior);
+  for (const auto& q : quads)
+    for (uint32_t v : q) boundary_id[v] = 0;
   TriangleSurface boundary;
-  boundary.vertices = inside.points;
-  std::vector<bool> on_boundary(inside.points.size(), false);
+  for (std::size_t p = 0; p < boundary_id.size(); ++p)
+    if (boundary_id[p] != kInterior) {
+      boundary_id[p] = uint32_t(boundary.vertices.size());
+      boundary.vertices.push_back(inside.points[p]);
+    }
+  boundary.vertices.reserve(boundary.vertices.size() + quads.size());
+  boundary.triangles.reserve(4 * quads.size());
   for (const auto& q : quads) {
     const Vec3 c[4] = {inside.points[q[0]], inside.points[q[1]], inside.points[q[2]], inside.points[q[3]]};
-    for (int e = 0; e < 4; ++e) on_boundary[q[e]] = true;
     const double longest = std::max({norm(c[1] - c[0]), norm(c[2] - c[1]), norm(c[3] - c[2]), norm(c[0] - c[3])});
     const int k = std::max(1, int(std::ceil(longest / spacing)));
     for (int a = 0; a <= k; ++a)
@@ -247,10 +318,10 @@ Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, st
     // Four triangles through the bilinear centre stand in for the quad on the other side.
     const uint32_t centre = uint32_t(boundary.vertices.size());
     boundary.vertices.push_back(0.25 * (c[0] + c[1] + c[2] + c[3]));
-    for (int e = 0; e < 4; ++e) boundary.triangles.push_back({q[e], q[(e + 1) % 4], centre});
+    for (int e = 0; e < 4; ++e) boundary.triangles.push_back({boundary_id[q[e]], boundary_id[q[(e + 1) % 4]], centre});
   }
-  for (std::size_t p = 0; p < on_boundary.size(); ++p)
-    if (on_boundary[p]) mesh_samples.push_back(inside.points[p]);
+  for (std::size_t p = 0; p < boundary_id.size(); ++p)
+    if (boundary_id[p] != kInterior) mesh_samples.push_back(inside.points[p]);
   std::vector<double> d(mesh_samples.size());
   if (distance) {
     distance(mesh_samples, d);

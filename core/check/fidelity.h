@@ -37,17 +37,39 @@ struct Fidelity {
 
 // Points on the reference surface at about the given spacing.
 std::vector<Vec3> sample_surface(const TriangleSurface& surface, double spacing);
+// The same from an SDF whose |f| is 1-Lipschitz (every SDF here: exact distances, or the
+// two-holed solid's tube radius less a minimum of distances): the box's lattice points within a
+// spacing of the surface, pulled onto it.
 std::vector<Vec3> sample_surface(const SignedDistance& solid, const Box& box, double spacing);
 
 // The unsigned distance to the input surface at each point (what |f| of the solid's SDF gives,
 // without its sign: under the winding-number rule the sign is most of an evaluation's cost).
 using SurfaceDistance = std::function<void(std::span<const Vec3> points, std::span<double> distances)>;
 
-// `distance` (optional) measures the mesh side of the Hausdorff distance; |solid| when empty.
+// The input's side of the measures, the same for every mesh measured against one solid on one
+// lattice: the fitted grid's rounds measure several meshes of a run against it, so it is made once.
+struct FidelityReference {
+  std::vector<Vec3> surface_samples;  // on the input surface, about `spacing` apart
+  Box lattice_box;
+  std::size_t lattice = 0;  // samples per axis
+  double spacing = 0;       // of the surface samples and the mesh-boundary samples
+  // The solid's SDF at the lattice's cell-centred samples (x fastest), or at least its sign (the
+  // IoU reads only the sign).
+  std::vector<double> lattice_values;
+};
+
 // distance_bounds_sign: |f| is at most the distance to any point where f changes sign (a closed,
 // consistently oriented surface, whose winding number changes only across it; an analytic
-// shape), so the IoU lattice evaluates the SDF only in blocks near the surface; the result is
+// shape), so the IoU lattice evaluates the SDF only in blocks near the surface; the signs are
 // the same (an open surface's winding-number sign can change away from it: leave it false).
+FidelityReference fidelity_reference(const SignedDistance& solid, std::vector<Vec3> surface_samples,
+                                     const Box& lattice_box, std::size_t lattice, double spacing,
+                                     bool distance_bounds_sign = false);
+
+// `distance` (optional) measures the mesh side of the Hausdorff distance; |solid| when empty.
+Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, const FidelityReference& reference,
+                          const SurfaceDistance& distance = {}, double far_tolerance = 0);
+// The same with the reference made for this one measure.
 Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, std::span<const Vec3> surface_samples,
                           const Box& lattice_box, std::size_t lattice, double spacing,
                           const SurfaceDistance& distance = {}, bool distance_bounds_sign = false,

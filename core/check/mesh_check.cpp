@@ -177,9 +177,10 @@ struct HexPass {
 
 // Structural checks and quality of every hex. `valid[h]` is set for hexes with 8 distinct
 // in-range indices and finite corners: only those take part in the face checks.
-HexPass check_hexes(const HexMesh& mesh, const std::string& name, std::size_t max_messages,
-                    std::vector<uint8_t>& valid) {
+HexPass check_hexes(const HexMesh& mesh, const std::string& name, std::size_t max_messages, std::vector<uint8_t>& valid,
+                    std::vector<double>* scaled_jacobians) {
   valid.assign(mesh.hexes.size(), 0);
+  if (scaled_jacobians) scaled_jacobians->assign(mesh.hexes.size(), std::numeric_limits<double>::quiet_NaN());
   const std::size_t np = mesh.points.size();
   const bool labelled = mesh.region.size() == mesh.hexes.size();
   const HexPass proto(max_messages);
@@ -209,6 +210,7 @@ HexPass check_hexes(const HexMesh& mesh, const std::string& name, std::size_t ma
       if (!std::all_of(c.begin(), c.end(), [](Vec3 p) { return is_finite(p); })) continue;
       valid[h] = 1;
       const HexQuality q = hex_quality(c);
+      if (scaled_jacobians) (*scaled_jacobians)[h] = q.scaled_jacobian;
       if (!(q.min_corner_jacobian > 0)) {
         ++acc.inverted;
         acc.messages.add(h, [&] {
@@ -524,7 +526,8 @@ MeshResult check_one(const HexMesh& mesh, const std::string& name, const CheckOp
   s.nonfinite_points = points.nonfinite;
   points.messages.append_sorted_to(messages);
 
-  HexPass hexes = check_hexes(mesh, name, options.max_messages, r.valid);
+  HexPass hexes = check_hexes(mesh, name, options.max_messages, r.valid,
+                              options.keep_scaled_jacobians ? &s.scaled_jacobians : nullptr);
   s.bad_index_hexes = hexes.bad_index;
   s.repeated_vertex_hexes = hexes.repeated;
   s.inverted_hexes = hexes.inverted;

@@ -43,6 +43,9 @@ struct CheckOptions {
   // has none, which callers accept by setting this to false (a wrong non-zero size stays an
   // error either way).
   bool require_regions = true;
+  // Keep each hex's scaled Jacobian (MeshStats::scaled_jacobians): the .vtu writer's cell field,
+  // which it would otherwise compute again (8 bytes per hex while the meshes are written).
+  bool keep_scaled_jacobians = false;
 };
 
 // Counts of one per-hex measure in fixed bins, the same for every mesh so that histograms of
@@ -122,6 +125,9 @@ struct MeshStats {
   std::vector<RegionQuality> regions;
   bool too_many_regions = false;
   BoundaryStats boundary;
+  // With CheckOptions::keep_scaled_jacobians: per hex, its scaled Jacobian (HexQuality::
+  // scaled_jacobian, the min over the 9 points), NaN for a hex with bad indices or corners.
+  std::vector<double> scaled_jacobians;
 };
 
 // Checks on the inside/outside pair together.

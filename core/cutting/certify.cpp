@@ -8,6 +8,7 @@
 #include <limits>
 #include <random>
 #include <string>
+#include <string_view>
 #include <unordered_set>
 
 #include <fmt/format.h>
@@ -80,34 +81,44 @@ std::vector<Pattern> patterns(std::uint64_t seed) {
   return out;
 }
 
+// What a cell's cut and its certificate depend on: the cell's corners and its clamped class (the
+// sign pattern, the face and interior outcomes and the crossings; the regions follow from those).
+// Different sampled values often give the same leaf cells (crossings clamped to eps or 1 - eps,
+// the same corner magnitudes behind a refined cell's inner points), whose hexes are the same.
+// Compared and hashed as its bytes (no padding), in place: no string per cell.
+struct CutKey {
+  HexCorners cell;
+  std::array<double, 12> crossing;
+  std::array<std::uint8_t, 8> tail;
+};
+static_assert(sizeof(CutKey) == sizeof(HexCorners) + sizeof(double) * 12 + 8);
+
+CutKey cut_key(const HexCorners& cell, const CellClass& c) {
+  return {cell,
+          c.crossing,
+          {c.sign_mask, static_cast<std::uint8_t>(c.subcase), c.face_joins, static_cast<std::uint8_t>(c.tunnel),
+           c.symmetry, static_cast<std::uint8_t>(c.inverted), static_cast<std::uint8_t>(c.cut_edges & 0xFF),
+           static_cast<std::uint8_t>(c.cut_edges >> 8)}};
+}
+
+// Byte equality (a NaN crossing equals itself, as it should) and a hash of the bytes.
+struct CutKeyBytes {
+  bool operator()(const CutKey& a, const CutKey& b) const { return std::memcmp(&a, &b, sizeof(CutKey)) == 0; }
+  std::size_t operator()(const CutKey& k) const {
+    return std::hash<std::string_view>()(std::string_view(reinterpret_cast<const char*>(&k), sizeof(CutKey)));
+  }
+};
+
 struct TaskResult {
   std::size_t hexes = 0, failed = 0, moved_centres = 0;
   std::size_t repeated_cells = 0;  // cells cut before in this task (same corners and class): skipped
   double min_coefficient = std::numeric_limits<double>::infinity();
   std::optional<CertifyFailure> failure;
-  std::unordered_set<std::string> cut;  // cut_key of every cell cut so far in this task
+  std::unordered_set<CutKey, CutKeyBytes, CutKeyBytes> cut;  // every cell cut so far in this task
+  // Scratch for each cell's polyhedra and their hexes, reused by the task's cells.
+  std::vector<Polyhedron> polys;
+  MappedSubdivision mapped;
 };
-
-// What a cell's cut and its certificate depend on: the cell's corners and its clamped class (the
-// sign pattern, the face and interior outcomes and the crossings; the regions follow from those).
-// Different sampled values often give the same leaf cells (crossings clamped to eps or 1 - eps,
-// the same corner magnitudes behind a refined cell's inner points), whose hexes are the same.
-std::string cut_key(const HexCorners& cell, const CellClass& c) {
-  std::string key(sizeof(cell) + sizeof(c.crossing) + 8, '\0');
-  char* out = key.data();
-  std::memcpy(out, cell.data(), sizeof(cell));
-  std::memcpy(out + sizeof(cell), c.crossing.data(), sizeof(c.crossing));
-  const std::uint8_t tail[8] = {c.sign_mask,
-                                static_cast<std::uint8_t>(c.subcase),
-                                c.face_joins,
-                                static_cast<std::uint8_t>(c.tunnel),
-                                c.symmetry,
-                                static_cast<std::uint8_t>(c.inverted),
-                                static_cast<std::uint8_t>(c.cut_edges & 0xFF),
-                                static_cast<std::uint8_t>(c.cut_edges >> 8)};
-  std::memcpy(out + sizeof(cell) + sizeof(c.crossing), tail, sizeof(tail));
-  return key;
-}
 
 // The cells of one pattern to cut: corner values with the pattern's signs and magnitudes drawn
 // at random, at the ends (every corner at 1 or at 1e-6, which puts the crossings at the clamp
@@ -207,8 +218,10 @@ void cut_and_check(const HexCorners& cell, const CellClass& c, CertifyFailure wh
     ++tr.repeated_cells;
     return;
   }
-  for (const Polyhedron& poly : cut_cell(kUnitCubeCorners, c)) {
-    const MappedSubdivision ms = subdivide_in_cell(poly, cell);
+  MappedSubdivision& ms = tr.mapped;
+  cut_cell(kUnitCubeCorners, c, tr.polys);
+  for (const Polyhedron& poly : tr.polys) {
+    subdivide_in_cell(poly, cell, ms);
     tr.moved_centres += ms.centre_moved;
     for (const double scaled : ms.hex_min_scaled) {
       ++tr.hexes;
@@ -291,6 +304,8 @@ void certify_repelled(const std::vector<Pattern>& pats, const CertifyOptions& o,
         route_as_the_mesher(corners, smp, o.eps, check);
       }
       tr.cut = {};
+      tr.polys = {};
+      tr.mapped = {};
     }
   });
   for (std::size_t task = 0; task < results.size(); ++task) {
@@ -370,6 +385,8 @@ CertifyResult certify(const CertifyOptions& o) {
           }
         }
         tr.cut = {};  // the task's keys are done with; they would hold gigabytes to the end
+        tr.polys = {};
+        tr.mapped = {};
         ran[task] = 1;
       }
     });

@@ -516,6 +516,9 @@ MeshPair mesh_mchex(const HexComplex& cx, std::span<const double> values, double
   std::vector<Hex> inside, outside;
   inside.reserve(num_in);
   outside.reserve(num_out);
+  std::size_t num_locals = 0;
+  for (const ChunkOutput& ch : chunks) num_locals += ch.locals.size();
+  points.reserve(points.size() + num_locals);
   for (ChunkOutput& ch : chunks) {
     if (points.size() + ch.locals.size() >= kLocal) throw ResourceError("mesh_mchex: more than 2^31 points");
     const auto base = static_cast<std::uint32_t>(points.size());
@@ -530,7 +533,6 @@ MeshPair mesh_mchex(const HexComplex& cx, std::span<const double> values, double
     ch = ChunkOutput{};
   }
 
-  MeshPair out{compact_mesh(points, inside, kInside), compact_mesh(points, outside, kOutside)};
   // Distinct points of both meshes: the interface points are counted once.
   {
     std::vector<bool> used(points.size());
@@ -539,6 +541,9 @@ MeshPair mesh_mchex(const HexComplex& cx, std::span<const double> values, double
         for (std::uint32_t v : h) used[v] = true;
     stats.points = static_cast<std::size_t>(std::count(used.begin(), used.end(), true));
   }
+  MeshPair out;
+  out.inside = compact_mesh(points, std::move(inside), kInside);
+  out.outside = compact_mesh(points, std::move(outside), kOutside);
   stats.seconds_assembly = since(t0);
   if (stats_out) *stats_out = stats;
   return out;

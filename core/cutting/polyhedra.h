@@ -47,6 +47,9 @@ struct TunnelSubcaseError : std::domain_error {
 // tunnel subcase and std::logic_error if the classification is inconsistent with itself (a face
 // piece whose corners lie in two regions, a chord that does not close into a loop).
 std::vector<Polyhedron> cut_cell(const std::array<Vec3, 8>& corners, const CellClass& c);
+// The same into `out`, whose vectors keep their storage (certify cuts millions of cells); on a
+// throw its contents are unspecified.
+void cut_cell(const std::array<Vec3, 8>& corners, const CellClass& c, std::vector<Polyhedron>& out);
 
 // Signed volume enclosed by the faces (divergence theorem, each face fanned from the mean of its
 // vertices, which is exact for planar faces and a consistent choice for warped ones: neighbouring

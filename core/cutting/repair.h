@@ -42,6 +42,10 @@ struct MappedSubdivision {
 // order). Throws what midpoint_subdivide throws.
 MappedSubdivision subdivide_in_cell(const Polyhedron& parametric, const HexCorners& cell);
 
+// The same into `out`, whose vectors keep their storage (certify subdivides millions of
+// polyhedra).
+void subdivide_in_cell(const Polyhedron& parametric, const HexCorners& cell, MappedSubdivision& out);
+
 // True when the cell's midpoint subdivision is certified without computing it: an uncut cell
 // (its one polyhedron is the cell) that is a right-handed parallelepiped. Its 8 hexes are then
 // the images of the unit cube's octants under the cell's affine map, so det J is the constant

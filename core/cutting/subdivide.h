@@ -41,5 +41,8 @@ struct SubdivisionHex {
 // the VTK hex). Throws std::invalid_argument if a vertex does not have exactly 3 faces with
 // consistent orientation around it (Theorem 4.1 needs 3-regularity).
 std::vector<SubdivisionHex> midpoint_subdivide(const Polyhedron& p);
+// The same into `hexes`, which keeps its storage (certify subdivides millions of polyhedra); on
+// a throw its contents are unspecified.
+void midpoint_subdivide(const Polyhedron& p, std::vector<SubdivisionHex>& hexes);
 
 }  // namespace mchex

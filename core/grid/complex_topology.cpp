@@ -87,6 +87,15 @@ ComplexTopology build_topology(const HexComplex& complex) {
   sort_by_lowest_point(edges, complex.points.size(), [](const EdgeEntry& e) { return e.key >> 32; });
   sort_by_lowest_point(faces, complex.points.size(), [](const FaceEntry& f) { return f.sorted[0]; });
 
+  // Sized once: grown entry by entry the arrays would be faulted in and copied several times.
+  std::size_t num_edges = 0, num_faces = 0;
+  for (std::size_t i = 0; i < edges.size(); ++i) num_edges += i == 0 || edges[i].key != edges[i - 1].key;
+  for (std::size_t i = 0; i < faces.size(); ++i) num_faces += i == 0 || faces[i].sorted != faces[i - 1].sorted;
+  t.edge_points.reserve(num_edges);
+  t.edge_owner.reserve(num_edges);
+  t.face_points.reserve(num_faces);
+  t.face_owner.reserve(num_faces);
+  t.face_cells.reserve(num_faces);
   for (std::size_t i = 0; i < edges.size();) {
     const auto id = static_cast<std::uint32_t>(t.edge_points.size());
     t.edge_points.push_back({static_cast<std::uint32_t>(edges[i].key >> 32), static_cast<std::uint32_t>(edges[i].key)});

@@ -29,6 +29,7 @@
 #include "core/io/format_error.h"
 #include "core/io/mesh_formats.h"
 #include "core/io/record_writer.h"
+#include "core/io/region_groups.h"
 #include "core/io/text_numbers.h"
 
 namespace mchex::io_detail {
@@ -68,9 +69,11 @@ bool region_of_elset(std::string_view name, int32_t& region) {
 }
 
 // A coordinate in at most kField characters (see the file comment).
-void put_coordinate(std::string& s, double v) {
+char* put_coordinate(char* p, double v) {
+  char* const end = put_real(p, v);
+  if (static_cast<std::size_t>(end - p) <= kField) return end;
   char buf[32];
-  auto r = std::to_chars(buf, buf + sizeof buf, v);
+  std::to_chars_result r{buf + sizeof buf, std::errc()};
   for (int digits = 16; static_cast<std::size_t>(r.ptr - buf) > kField && digits > 0; --digits) {
     r = std::to_chars(buf, buf + sizeof buf, v, std::chars_format::general, digits);
     double back = 0;
@@ -79,7 +82,8 @@ void put_coordinate(std::string& s, double v) {
         parse_real({buf, static_cast<std::size_t>(r.ptr - buf)}, back) != RealParse::kOk)
       r.ptr = buf + sizeof buf;
   }
-  s.append(buf, r.ptr);
+  std::memcpy(p, buf, static_cast<std::size_t>(r.ptr - buf));
+  return p + (r.ptr - buf);
 }
 
 class AbaqusReader {
@@ -316,41 +320,16 @@ class AbaqusReader {
 
 }  // namespace
 
-void write_abaqus(const HexMesh& mesh, AtomicFile& out) {
-  std::string s = "*HEADING\nmchex-gpu all-hex mesh: C3D8 elements, one ELSET per region\n";
-  if (!mesh.points.empty()) s += "*NODE\n";
-  out.write(s);
-  write_records(out, mesh.points.size(), [&](std::size_t begin, std::size_t end, std::string& text) {
-    text.reserve((end - begin) * 72);
-    for (std::size_t i = begin; i < end; ++i) {
-      put_number(text, i + 1);
-      for (int a = 0; a < 3; ++a) {
-        text += ',';
-        put_coordinate(text, mesh.points[i][a]);
-      }
-      text += '\n';
-    }
-  });
-  // One *ELEMENT block of every hex in order, then one *ELSET per region: a GENERATE range when
-  // its hexes are consecutive, else their numbers, 10 to a line (a 132-character line holds 10
-  // of CalculiX's 10-digit integers; meshio reads one GENERATE line and whole lists).
-  if (mesh.hexes.empty()) return;
-  out.write("*ELEMENT, TYPE=C3D8\n");
-  write_records(out, mesh.hexes.size(), [&](std::size_t begin, std::size_t end, std::string& text) {
-    text.reserve((end - begin) * 96);
-    for (std::size_t k = begin; k < end; ++k) {
-      put_number(text, k + 1);
-      for (const uint32_t v : mesh.hexes[k]) {
-        text += ',';
-        put_number(text, std::uint64_t{v} + 1);
-      }
-      text += '\n';
-    }
-  });
-  // Hexes grouped by region value, each group in hex order.
+namespace {
+
+// A hex number in an element set and its separator.
+constexpr std::size_t kElsetNumberBytes = 21;
+
+// The element sets of a mesh with more region values than region_groups lists: the hexes sorted
+// by (region, hex), which is unique, so the order is the same on every library.
+void write_elsets_sorted(const HexMesh& mesh, AtomicFile& out) {
   std::vector<std::size_t> order(mesh.hexes.size());
   std::iota(order.begin(), order.end(), std::size_t{0});
-  // (region, hex) is unique, so the order is the same on every library.
   parallel_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
     return mesh.region[a] != mesh.region[b] ? mesh.region[a] < mesh.region[b] : a < b;
   });
@@ -375,6 +354,74 @@ void write_abaqus(const HexMesh& mesh, AtomicFile& out) {
     g = e;
   }
   out.write(text);
+}
+
+}  // namespace
+
+void write_abaqus(const HexMesh& mesh, AtomicFile& out) {
+  std::string s = "*HEADING\nmchex-gpu all-hex mesh: C3D8 elements, one ELSET per region\n";
+  if (!mesh.points.empty()) s += "*NODE\n";
+  out.write(s);
+  // A node: its number (at most 10 digits) and three fields of at most kField characters.
+  write_records(out, mesh.points.size(), 11 + 3 * (kField + 1), [&](std::size_t begin, std::size_t end, char* p) {
+    for (std::size_t i = begin; i < end; ++i) {
+      p = put_decimal(p, i + 1);
+      for (int a = 0; a < 3; ++a) {
+        *p++ = ',';
+        p = put_coordinate(p, mesh.points[i][a]);
+      }
+      *p++ = '\n';
+    }
+    return p;
+  });
+  // One *ELEMENT block of every hex in order, then one *ELSET per region: a GENERATE range when
+  // its hexes are consecutive, else their numbers, 10 to a line (a 132-character line holds 10
+  // of CalculiX's 10-digit integers; meshio reads one GENERATE line and whole lists).
+  if (mesh.hexes.empty()) return;
+  out.write("*ELEMENT, TYPE=C3D8\n");
+  write_records(out, mesh.hexes.size(), 9 * 21, [&](std::size_t begin, std::size_t end, char* p) {
+    for (std::size_t k = begin; k < end; ++k) {
+      p = put_decimal(p, k + 1);
+      for (const uint32_t v : mesh.hexes[k]) {
+        *p++ = ',';
+        p = put_decimal(p, std::uint64_t{v} + 1);
+      }
+      *p++ = '\n';
+    }
+    return p;
+  });
+  const RegionGroups regions = region_groups(mesh.region);
+  if (regions.many) {
+    write_elsets_sorted(mesh, out);
+    return;
+  }
+  for (const RegionGroup& g : regions.groups) {
+    std::string head = "*ELSET, ELSET=" + elset_name(g.region);
+    if (g.last - g.first + 1 == g.count) {
+      out.write(head + ", GENERATE\n" + std::to_string(g.first + 1) + "," + std::to_string(g.last + 1) + ",1\n");
+      continue;
+    }
+    out.write(head + "\n");
+    // The group's hexes are numbered in hex order; chunk c starts at the group's before[c]-th.
+    const std::size_t span = g.last - g.first + 1;
+    const std::size_t per_chunk = records_per_chunk(kElsetNumberBytes);
+    std::vector<std::size_t> before((span + per_chunk - 1) / per_chunk + 1, 0);
+    parallel_for(before.size() - 1, [&](std::size_t c) {
+      const std::size_t b = g.first + c * per_chunk, e = std::min(g.last + 1, b + per_chunk);
+      before[c + 1] = static_cast<std::size_t>(std::count(mesh.region.begin() + b, mesh.region.begin() + e, g.region));
+    });
+    std::partial_sum(before.begin(), before.end(), before.begin());
+    write_records(out, span, kElsetNumberBytes, [&](std::size_t begin, std::size_t end, char* p) {
+      std::size_t k = before[begin / per_chunk];
+      for (std::size_t h = g.first + begin; h < g.first + end; ++h) {
+        if (mesh.region[h] != g.region) continue;
+        p = put_decimal(p, h + 1);
+        ++k;
+        *p++ = k % 10 == 0 || k == g.count ? '\n' : ',';
+      }
+      return p;
+    });
+  }
 }
 
 HexMesh read_abaqus(std::string_view text) { return AbaqusReader(text).read(); }

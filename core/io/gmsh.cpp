@@ -566,37 +566,38 @@ void write_gmsh(const HexMesh& mesh, AtomicFile& out, bool binary) {
       put_binary<std::uint64_t>(s, n);
     }
     out.write(s);
-    write_records(out, n, [](std::size_t begin, std::size_t end, std::string& text) {
-      text.resize((end - begin) * 8);
-      for (std::size_t i = begin; i < end; ++i) {
+    write_records(out, n, 8, [](std::size_t begin, std::size_t end, char* p) {
+      for (std::size_t i = begin; i < end; ++i, p += 8) {
         const std::uint64_t tag = i + 1;
-        std::memcpy(text.data() + 8 * (i - begin), &tag, 8);
+        std::memcpy(p, &tag, 8);
       }
+      return p;
     });
-    write_records(out, n, [&](std::size_t begin, std::size_t end, std::string& text) {
-      text.assign(reinterpret_cast<const char*>(mesh.points.data() + begin), (end - begin) * sizeof(Vec3));
-    });
+    out.write(mesh.points.data(), n * sizeof(Vec3));
     s = "\n$EndNodes\n$Elements\n";
     const std::uint64_t any_hex = m == 0 ? 0 : 1;
     for (const std::uint64_t c : {std::uint64_t{runs.size()}, std::uint64_t{m}, any_hex, std::uint64_t{m}})
       put_binary(s, c);
     out.write(s);
-    write_records(out, m, [&](std::size_t begin, std::size_t end, std::string& text) {
-      text.reserve((end - begin) * 72 + 64);
+    // A record: the element tag and 8 node tags; a block's first record has its 20-byte header.
+    write_records(out, m, 20 + 72, [&](std::size_t begin, std::size_t end, char* p) {
       std::size_t r = run_at(begin);
       for (std::size_t h = begin; h < end; ++h) {
         if (h == runs[r].end) ++r;
         if (h == runs[r].begin) {
-          put_binary<int32_t>(text, 3);
-          put_binary<int32_t>(text, static_cast<int32_t>(entity_of(runs[r].region)));
-          put_binary<int32_t>(text, 5);
-          put_binary<std::uint64_t>(text, runs[r].end - runs[r].begin);
+          const int32_t header[3] = {3, static_cast<int32_t>(entity_of(runs[r].region)), 5};
+          const std::uint64_t size = runs[r].end - runs[r].begin;
+          std::memcpy(p, header, 12);
+          std::memcpy(p + 12, &size, 8);
+          p += 20;
         }
         std::uint64_t record[9];
         record[0] = h + 1;
         for (int c = 0; c < 8; ++c) record[c + 1] = std::uint64_t{mesh.hexes[h][c]} + 1;
-        text.append(reinterpret_cast<const char*>(record), sizeof record);
+        std::memcpy(p, record, sizeof record);
+        p += sizeof record;
       }
+      return p;
     });
     out.write("\n$EndElements\n");
     return;
@@ -625,37 +626,38 @@ void write_gmsh(const HexMesh& mesh, AtomicFile& out, bool binary) {
   if (n != 0)
     put_line<int64_t>(s, {3, bare_nodes ? int64_t{1} : entity_of(values.front()), 0, static_cast<int64_t>(n)});
   out.write(s);
-  write_records(out, n, [](std::size_t begin, std::size_t end, std::string& text) {
-    text.reserve((end - begin) * 12);
+  write_records(out, n, 21, [](std::size_t begin, std::size_t end, char* p) {
     for (std::size_t i = begin; i < end; ++i) {
-      put_number(text, i + 1);
-      text += '\n';
+      p = put_decimal(p, i + 1);
+      *p++ = '\n';
     }
+    return p;
   });
   write_points_text(out, mesh.points, "\n");
 
   s = "$EndNodes\n$Elements\n";
   put_line(s, {runs.size(), m, m == 0 ? std::size_t{0} : std::size_t{1}, m});
   out.write(s);
-  write_records(out, m, [&](std::size_t begin, std::size_t end, std::string& text) {
-    text.reserve((end - begin) * 90);
+  // A record: 9 tags (at most 20 digits); a block's first record has its header line too.
+  write_records(out, m, 38 + 9 * 21, [&](std::size_t begin, std::size_t end, char* p) {
     std::size_t r = run_at(begin);
     for (std::size_t h = begin; h < end; ++h) {
       if (h == runs[r].end) ++r;
       if (h == runs[r].begin) {
-        text += "3 ";
-        put_number(text, entity_of(runs[r].region));
-        text += " 5 ";
-        put_number(text, runs[r].end - runs[r].begin);
-        text += '\n';
+        std::memcpy(p, "3 ", 2);
+        p = put_decimal(p + 2, entity_of(runs[r].region));
+        std::memcpy(p, " 5 ", 3);
+        p = put_decimal(p + 3, runs[r].end - runs[r].begin);
+        *p++ = '\n';
       }
-      put_number(text, h + 1);
+      p = put_decimal(p, h + 1);
       for (const uint32_t v : mesh.hexes[h]) {
-        text += ' ';
-        put_number(text, std::uint64_t{v} + 1);
+        *p++ = ' ';
+        p = put_decimal(p, std::uint64_t{v} + 1);
       }
-      text += '\n';
+      *p++ = '\n';
     }
+    return p;
   });
   out.write("$EndElements\n");
 }

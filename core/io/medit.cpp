@@ -73,16 +73,17 @@ void write_medit(const HexMesh& mesh, AtomicFile& out) {
     put_number(section, mesh.hexes.size());
     section += '\n';
     out.write(section);
-    write_records(out, mesh.hexes.size(), [&](std::size_t begin, std::size_t end, std::string& s) {
-      s.reserve((end - begin) * 80);
+    // Eight 1-based indices (at most 10 digits: 32-bit indices) and the reference (11 characters).
+    write_records(out, mesh.hexes.size(), 8 * 11 + 12, [&](std::size_t begin, std::size_t end, char* p) {
       for (std::size_t h = begin; h < end; ++h) {
         for (const uint32_t v : mesh.hexes[h]) {
-          put_number(s, std::uint64_t{v} + 1);
-          s += ' ';
+          p = put_decimal(p, std::uint64_t{v} + 1);
+          *p++ = ' ';
         }
-        put_number(s, mesh.region[h]);
-        s += '\n';
+        p = put_decimal(p, mesh.region[h]);
+        *p++ = '\n';
       }
+      return p;
     });
   }
   out.write("\nEnd\n");

@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <limits>
+#include <span>
 #include <string_view>
 
 #include "core/io/atomic_file.h"
@@ -21,7 +22,8 @@ namespace mchex::io_detail {
 inline constexpr std::uint64_t kMaxPoints = std::uint64_t{std::numeric_limits<uint32_t>::max()} + 1;
 
 void write_medit(const HexMesh& mesh, AtomicFile& out);
-void write_vtu(const HexMesh& mesh, AtomicFile& out);
+// `scaled_jacobians`: one per hex, written as given; empty: computed here.
+void write_vtu(const HexMesh& mesh, AtomicFile& out, std::span<const double> scaled_jacobians = {});
 // `binary`: Gmsh 4.1 binary (file-type 1) instead of ascii.
 void write_gmsh(const HexMesh& mesh, AtomicFile& out, bool binary = false);
 void write_meshb(const HexMesh& mesh, AtomicFile& out);

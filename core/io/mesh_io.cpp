@@ -59,10 +59,13 @@ void write_hex_mesh(const HexMesh& mesh, const std::filesystem::path& path, cons
   const MeshFormat format = mesh_format(path);
   try {
     check_writable(mesh);
+    if (!options.scaled_jacobians.empty() && options.scaled_jacobians.size() != mesh.hexes.size())
+      throw FormatError(std::to_string(options.scaled_jacobians.size()) + " scaled Jacobians given for " +
+                        std::to_string(mesh.hexes.size()) + " hexes");
     AtomicFile out(path);
     switch (format) {
       case MeshFormat::kMedit: io_detail::write_medit(mesh, out); break;
-      case MeshFormat::kVtu: io_detail::write_vtu(mesh, out); break;
+      case MeshFormat::kVtu: io_detail::write_vtu(mesh, out, options.scaled_jacobians); break;
       case MeshFormat::kGmsh: io_detail::write_gmsh(mesh, out, options.binary); break;
       case MeshFormat::kMeditBinary: io_detail::write_meshb(mesh, out); break;
       case MeshFormat::kExodus: io_detail::write_exodus(mesh, out); break;

@@ -44,6 +44,7 @@
 #pragma once
 
 #include <filesystem>
+#include <span>
 
 #include "core/mesh/hex_mesh.h"
 
@@ -53,6 +54,12 @@ enum class MeshFormat { kMedit, kMeditBinary, kVtu, kGmsh, kExodus, kAbaqus };
 
 struct MeshWriteOptions {
   bool binary = false;  // .msh as Gmsh 4.1 binary; the other formats have one form each
+  // .vtu: each hex's scaled Jacobian for the "scaled_jacobian" cell array, in hex order, as the
+  // caller already has them (HexQuality::scaled_jacobian of core/mesh/quality.h, bit for bit what
+  // scaled_jacobian(mesh.corners(h)) gives); empty: the writer computes them, which is most of a
+  // .vtu write's time. Must hold one value per hex (InputError otherwise); ignored by the other
+  // formats. The values are not checked against the mesh.
+  std::span<const double> scaled_jacobians = {};
 };
 
 // The format named by the extension of `path`; InputError when it names none, so that a caller can

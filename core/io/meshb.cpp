@@ -235,36 +235,34 @@ void write_meshb(const HexMesh& mesh, AtomicFile& out) {
   };
   keyword(kVertices, n, vertex_bytes);
   out.write(s);
-  write_records(out, n, [&](std::size_t begin, std::size_t end, std::string& text) {
-    text.resize((end - begin) * vertex_bytes);
-    char* p = text.data();
+  write_records(out, n, vertex_bytes, [&](std::size_t begin, std::size_t end, char* p) {
     for (std::size_t i = begin; i < end; ++i) {
       std::memcpy(p, &mesh.points[i], 24);
       std::memset(p + 24, 0, int_size);  // reference 0
       p += vertex_bytes;
     }
+    return p;
   });
   if (m != 0) {
     s.clear();
     keyword(kHexahedra, m, hex_bytes);
     out.write(s);
-    write_records(out, m, [&](std::size_t begin, std::size_t end, std::string& text) {
-      text.resize((end - begin) * hex_bytes);
-      char* p = text.data();
-      for (std::size_t h = begin; h < end; ++h) {
-        if (wide) {
-          std::int64_t record[9];
-          for (int c = 0; c < 8; ++c) record[c] = std::int64_t{mesh.hexes[h][c]} + 1;
+    write_records(out, m, hex_bytes, [&](std::size_t begin, std::size_t end, char* p) {
+      auto put_records = [&]<class Int>(Int) {
+        for (std::size_t h = begin; h < end; ++h) {
+          Int record[9];
+          for (int c = 0; c < 8; ++c) record[c] = static_cast<Int>(std::int64_t{mesh.hexes[h][c]} + 1);
           record[8] = mesh.region[h];
           std::memcpy(p, record, sizeof record);
-        } else {
-          int32_t record[9];
-          for (int c = 0; c < 8; ++c) record[c] = static_cast<int32_t>(mesh.hexes[h][c] + 1);
-          record[8] = mesh.region[h];
-          std::memcpy(p, record, sizeof record);
+          p += sizeof record;
         }
-        p += hex_bytes;
+      };
+      if (wide) {
+        put_records(std::int64_t{});
+      } else {
+        put_records(int32_t{});
       }
+      return p;
     });
   }
   s.clear();

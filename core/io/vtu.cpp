@@ -2,9 +2,10 @@
 //
 // Written: Float64 points, Int64 connectivity and offsets, UInt8 types (VTK_HEXAHEDRON, 12), an
 // Int32 CellData "region" and a Float64 CellData "scaled_jacobian" (each hex's minimum over the 9
-// points, core/mesh/quality.h, so that ParaView can colour by it without a filter of its own), as
-// raw appended little-endian data with UInt64 block headers, so that the large arrays go from
-// memory to the file without formatting. Read: one Piece, ascii, base64 "binary" or appended (raw
+// points, core/mesh/quality.h, so that ParaView can colour by it without a filter of its own;
+// computed here unless the caller passes the values, MeshWriteOptions), as raw appended
+// little-endian data with UInt64 block headers, so that the large arrays go from memory to the
+// file without formatting. Read: one Piece, ascii, base64 "binary" or appended (raw
 // or base64) DataArrays, uncompressed, either byte order, UInt32 or UInt64 headers, any integer
 // type for indices, other cell arrays ignored; every offset and block size is checked against the
 // file before it is used, so a truncated or corrupt file is an error and never a read past its
@@ -16,6 +17,7 @@
 #include <cstring>
 #include <limits>
 #include <optional>
+#include <span>
 #include <string>
 #include <string_view>
 #include <type_traits>
@@ -26,6 +28,7 @@
 #include "core/io/base64.h"
 #include "core/io/format_error.h"
 #include "core/io/mesh_formats.h"
+#include "core/io/record_writer.h"
 #include "core/io/scanner.h"
 #include "core/io/text_numbers.h"
 #include "core/io/vtk_xml.h"
@@ -336,7 +339,7 @@ class VtuReader {
 
 }  // namespace
 
-void write_vtu(const HexMesh& mesh, AtomicFile& out) {
+void write_vtu(const HexMesh& mesh, AtomicFile& out, std::span<const double> scaled_jacobians) {
   const std::uint64_t n = mesh.points.size();
   const std::uint64_t m = mesh.hexes.size();
   constexpr std::uint8_t kVtkHexahedron = 12;
@@ -375,47 +378,50 @@ void write_vtu(const HexMesh& mesh, AtomicFile& out) {
   out.write(xml);
 
   auto block_header = [&](std::uint64_t size) { out.write(&size, sizeof size); };
-  constexpr std::size_t kChunk = std::size_t{1} << 16;
-  std::vector<int64_t> buffer;
 
   block_header(bytes[0]);
   out.write(mesh.points.data(), bytes[0]);
 
   block_header(bytes[1]);
-  for (std::size_t begin = 0; begin < m; begin += kChunk) {
-    const std::size_t end = std::min<std::size_t>(m, begin + kChunk);
-    buffer.clear();
-    for (std::size_t h = begin; h < end; ++h)
-      for (const uint32_t v : mesh.hexes[h]) buffer.push_back(v);
-    out.write(buffer.data(), buffer.size() * sizeof(int64_t));
-  }
+  write_records(out, m, 8 * sizeof(int64_t), [&](std::size_t begin, std::size_t end, char* p) {
+    for (std::size_t h = begin; h < end; ++h, p += 8 * sizeof(int64_t)) {
+      int64_t record[8];
+      for (int c = 0; c < 8; ++c) record[c] = mesh.hexes[h][c];
+      std::memcpy(p, record, sizeof record);
+    }
+    return p;
+  });
 
   block_header(bytes[2]);
-  for (std::size_t begin = 0; begin < m; begin += kChunk) {
-    const std::size_t end = std::min<std::size_t>(m, begin + kChunk);
-    buffer.clear();
-    for (std::size_t h = begin; h < end; ++h) buffer.push_back(static_cast<int64_t>(8 * (h + 1)));
-    out.write(buffer.data(), buffer.size() * sizeof(int64_t));
-  }
+  write_records(out, m, sizeof(int64_t), [&](std::size_t begin, std::size_t end, char* p) {
+    for (std::size_t h = begin; h < end; ++h, p += sizeof(int64_t)) {
+      const auto offset = static_cast<int64_t>(8 * (h + 1));
+      std::memcpy(p, &offset, sizeof offset);
+    }
+    return p;
+  });
 
   block_header(bytes[3]);
-  const std::vector<std::uint8_t> types(std::min<std::size_t>(m, kChunk), kVtkHexahedron);
-  for (std::size_t begin = 0; begin < m; begin += kChunk)
-    out.write(types.data(), std::min<std::size_t>(m - begin, kChunk));
+  write_records(out, m, 1, [&](std::size_t begin, std::size_t end, char* p) {
+    std::memset(p, kVtkHexahedron, end - begin);
+    return p + (end - begin);
+  });
 
   block_header(bytes[4]);
   out.write(mesh.region.data(), bytes[4]);
 
-  // Computed a chunk at a time, in parallel: no array of m values held beside the mesh.
   block_header(bytes[5]);
-  std::vector<double> quality;
-  for (std::size_t begin = 0; begin < m; begin += kChunk) {
-    const std::size_t end = std::min<std::size_t>(m, begin + kChunk);
-    quality.resize(end - begin);
-    parallel_chunks(end - begin, 1024, [&](std::size_t b, std::size_t e) {
-      for (std::size_t i = b; i < e; ++i) quality[i] = scaled_jacobian(mesh.corners(begin + i));
+  if (!scaled_jacobians.empty()) {
+    out.write(scaled_jacobians.data(), bytes[5]);
+  } else {
+    // Computed chunk by chunk on all threads as it is written: no array of m values beside the mesh.
+    write_records(out, m, sizeof(double), [&](std::size_t begin, std::size_t end, char* p) {
+      for (std::size_t h = begin; h < end; ++h, p += sizeof(double)) {
+        const double q = scaled_jacobian(mesh.corners(h));
+        std::memcpy(p, &q, sizeof q);
+      }
+      return p;
     });
-    out.write(quality.data(), quality.size() * sizeof(double));
   }
 
   out.write("\n  </AppendedData>\n</VTKFile>\n");

@@ -39,5 +39,7 @@ struct MeshPair {
 // Splits a set of hexes over shared points into a compact mesh of those hexes only (points
 // renumbered in first-use order, so the result is deterministic).
 HexMesh compact_mesh(std::span<const Vec3> points, std::span<const Hex> hexes, int32_t region);
+// The same, renumbering `hexes` in place: the mesher's largest arrays are not copied again.
+HexMesh compact_mesh(std::span<const Vec3> points, std::vector<Hex>&& hexes, int32_t region);
 
 }  // namespace mchex

@@ -6,9 +6,23 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <utility>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 namespace mchex {
 namespace {
+
+// The correctly rounded square root of each lane, as std::sqrt gives it (SSE2 has it as one
+// instruction for both lanes).
+Double2 sqrt2(Double2 v) {
+#if defined(__SSE2__)
+  return Double2(_mm_sqrt_pd(__m128d(v)));
+#else
+  return Double2{std::sqrt(v[0]), std::sqrt(v[1])};
+#endif
+}
 
 // Corner index of reference vertex (a, b, c), a, b, c in {0,1}, in the Eq. 8 / VTK order.
 constexpr int corner_index(int a, int b, int c) { return 4 * c + (b == 0 ? a : 3 - a); }
@@ -57,8 +71,16 @@ struct Edges {
       }
       return l;
     }
+    // norm() of each edge, two per operation (the same products and sums on each lane).
+    std::array<Vec3, 12> v;
     int n = 0;
-    for_each([&](Vec3 v) { l[n++] = norm(v); });
+    for_each([&](Vec3 e) { v[n++] = e; });
+    for (int i = 0; i < 12; i += 2) {
+      const Double2 x{v[i].x, v[i + 1].x}, y{v[i].y, v[i + 1].y}, z{v[i].z, v[i + 1].z};
+      const Double2 root = sqrt2(x * x + y * y + z * z);
+      l[i] = root[0];
+      l[i + 1] = root[1];
+    }
     return l;
   }
 
@@ -94,8 +116,9 @@ Vec3 bilinear(const Vec3 e[2][2], double s, double t) {
 // products of actual edge vectors, with no cancellation between large monomial terms. For an
 // affine element all 64 triple products equal det A, so every coefficient is det A.
 // Which of the 64 triples each coefficient averages, in the order the sum takes them (a, then b,
-// then c, ascending), as indices ((((a * 2 + a') * 2 + b) * 2 + b') * 2 + c) * 2 + c' into the
-// triples below: a fixed table, so the per-hex work is 64 dot products and 64 additions.
+// then c, ascending), as indices into the triples below: a fixed table, so the per-hex work is 64
+// dot products and 64 additions. The triple of xi[b][c], eta[a][c'], zeta[a'][b'] sits at
+// 16 * (b * 2 + c) + 4 * (a * 2 + c') + (a' * 2 + b'): the 16 triples of one xi edge together.
 struct TripleTerms {
   std::array<std::array<std::uint8_t, 8>, 27> index{};
   std::array<std::uint8_t, 27> count{};
@@ -111,7 +134,7 @@ constexpr TripleTerms make_triple_terms() {
           for (int b = j == 2 ? 1 : 0; b <= (j == 0 ? 0 : 1); ++b)
             for (int c = k == 2 ? 1 : 0; c <= (k == 0 ? 0 : 1); ++c)
               t.index[n][t.count[n]++] =
-                  static_cast<std::uint8_t>(((((a * 2 + (i - a)) * 2 + b) * 2 + (j - b)) * 2 + c) * 2 + (k - c));
+                  static_cast<std::uint8_t>(16 * (b * 2 + c) + 4 * (a * 2 + (k - c)) + ((i - a) * 2 + (j - b)));
       }
   return t;
 }
@@ -124,18 +147,24 @@ double mean_of_sum(double sum, int terms) {
   return sum * (terms == 1 ? 1.0 : terms == 2 ? 0.5 : terms == 4 ? 0.25 : 0.125);
 }
 
-BernsteinCoefficients bernstein_from_triples(const std::array<double, 64>& triples) {
-  BernsteinCoefficients beta{};
-  for (int n = 0; n < 27; ++n) {
-    double sum = 0;
-    for (int t = 0; t < kTripleTerms.count[n]; ++t) sum += triples[kTripleTerms.index[n][t]];
-    beta[n] = mean_of_sum(sum, kTripleTerms.count[n]);
-  }
+// Coefficient N: the sum from 0 in the table's order, with the table and the term count known at
+// compile time (the loop unrolls; certify computes billions of these).
+template <int N>
+void coefficient_from_triples(const std::array<double, 64>& triples, BernsteinCoefficients& beta) {
+  constexpr int terms = kTripleTerms.count[N];
+  double sum = 0;
+  for (int t = 0; t < terms; ++t) sum += triples[kTripleTerms.index[N][t]];
+  beta[N] = mean_of_sum(sum, terms);
+}
+
+template <int... N>
+BernsteinCoefficients bernstein_from_triples(const std::array<double, 64>& triples, std::integer_sequence<int, N...>) {
+  BernsteinCoefficients beta;
+  (coefficient_from_triples<N>(triples, beta), ...);
   return beta;
 }
 
 BernsteinCoefficients bernstein_from_edges(const Edges& e) {
-  std::array<double, 64> triples;
   if (e.parallel) {
     // Every cross product below is cross(eta, zeta) and every triple the same dot t, so a
     // coefficient depends only on how many triples it averages: the sum of that many t's, in
@@ -152,20 +181,37 @@ BernsteinCoefficients bernstein_from_edges(const Edges& e) {
     return beta;
   }
   // triple(x, y, z) = dot(x, cross(y, z)): the 16 cross products of an eta and a zeta edge, each
-  // used by four of the 64 triples, computed once (the same operations, so the same doubles).
-  Vec3 eta_zeta[2][2][2][2];  // [a][c'][a'][b']
-  for (int a = 0; a < 2; ++a)
-    for (int c = 0; c < 2; ++c)
-      for (int a2 = 0; a2 < 2; ++a2)
-        for (int b = 0; b < 2; ++b) eta_zeta[a][c][a2][b] = cross(e.eta[a][c], e.zeta[a2][b]);
-  for (int a = 0; a < 2; ++a)
-    for (int a2 = 0; a2 < 2; ++a2)
-      for (int b = 0; b < 2; ++b)
-        for (int b2 = 0; b2 < 2; ++b2)
-          for (int c = 0; c < 2; ++c)
-            for (int c2 = 0; c2 < 2; ++c2)
-              triples[((((a * 2 + a2) * 2 + b) * 2 + b2) * 2 + c) * 2 + c2] = dot(e.xi[b][c], eta_zeta[a][c2][a2][b2]);
-  return bernstein_from_triples(triples);
+  // used by four of the 64 triples, computed once. In components, two values per operation (the
+  // compiler does not find this layout itself); every value is the same double as cross() and
+  // dot() give, the same products summed in the same order on each lane.
+  auto flat = [](const Vec3(&v)[2][2], int i) { return v[i >> 1][i & 1]; };
+  auto both = [](double v) { return Double2{v, v}; };
+  Double2 zx[2], zy[2], zz[2];  // zeta[a'][b'] at a' * 2 + b', two per value
+  for (int h = 0; h < 2; ++h) {
+    const Vec3 z0 = flat(e.zeta, 2 * h), z1 = flat(e.zeta, 2 * h + 1);
+    zx[h] = Double2{z0.x, z1.x};
+    zy[h] = Double2{z0.y, z1.y};
+    zz[h] = Double2{z0.z, z1.z};
+  }
+  Double2 cx[8], cy[8], cz[8];  // cross(eta[a][c'], zeta[a'][b']) at 4 * (a * 2 + c') + a' * 2 + b'
+  for (int i = 0; i < 4; ++i) {
+    const Vec3 y = flat(e.eta, i);
+    const Double2 yx = both(y.x), yy = both(y.y), yz = both(y.z);
+    for (int h = 0; h < 2; ++h) {
+      cx[2 * i + h] = yy * zz[h] - yz * zy[h];
+      cy[2 * i + h] = yz * zx[h] - yx * zz[h];
+      cz[2 * i + h] = yx * zy[h] - yy * zx[h];
+    }
+  }
+  Double2 pairs[32];
+  for (int i = 0; i < 4; ++i) {
+    const Vec3 x = flat(e.xi, i);  // xi[b][c] at b * 2 + c
+    const Double2 xx = both(x.x), xy = both(x.y), xz = both(x.z);
+    for (int k = 0; k < 8; ++k) pairs[8 * i + k] = xx * cx[k] + xy * cy[k] + xz * cz[k];
+  }
+  std::array<double, 64> triples;
+  std::memcpy(triples.data(), pairs, sizeof pairs);
+  return bernstein_from_triples(triples, std::make_integer_sequence<int, 27>());
 }
 
 // Certificate. Each B_i^2(xi) B_j^2(eta) B_k^2(zeta) is >= 0 on [0,1]^3 and together they sum
@@ -407,6 +453,12 @@ double min_bernstein_scaled(const HexCorners& c) {
 }
 
 double mean_edge_length(const HexCorners& c) { return mean_edge(Edges(c)); }
+
+BernsteinCoefficients bernstein_jacobian(const HexCorners& c, double& mean_length) {
+  const Edges e(c);
+  mean_length = mean_edge(e);
+  return bernstein_from_edges(e);
+}
 
 double edge_ratio(const HexCorners& c) { return ratio_of_edges(Edges(c)); }
 

@@ -59,6 +59,9 @@ double min_bernstein_scaled(const HexCorners& c);
 
 // Mean of the 12 edge lengths.
 double mean_edge_length(const HexCorners& c);
+// bernstein_jacobian(c), and mean_edge_length(c) in `mean_length`, from one pass over the edges:
+// the same doubles as the two calls, for callers that check millions of hexes (certify).
+BernsteinCoefficients bernstein_jacobian(const HexCorners& c, double& mean_length);
 // max / min of the 12 edge lengths; +inf when an edge has zero length.
 double edge_ratio(const HexCorners& c);
 // Exact volume of the trilinear element: the integral of det J over [0,1]^3.

@@ -241,6 +241,9 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
       });
     };
     auto run_method = [&](const auto& where) {
+      // The meshes of an earlier grid (a fit round, the remedy) are not needed any more: freed
+      // before the new ones are made rather than after, which would hold both at the peak.
+      run.meshes = MeshPair{};
       if (o.method != "mchex") return run.clock.run("ro", [&] { return mesh_remove_outside(where, mesh_values); });
       return run.clock.run("mchex", [&] {
         run.mchex = {};
@@ -358,7 +361,10 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
       return label_regions(run.meshes, run.uniform ? uniform_points : run.adaptive->complex.points, *regions, &stats);
     });
   }
-  run.check = run.clock.run("check", [&] { return check_mesh(run.meshes.inside, &run.meshes.outside, &run.cube); });
+  CheckOptions check_options;
+  check_options.keep_scaled_jacobians = o.keep_scaled_jacobians;
+  run.check = run.clock.run(
+      "check", [&] { return check_mesh(run.meshes.inside, &run.meshes.outside, &run.cube, check_options); });
   if (o.fidelity && !run.fidelity)
     run.fidelity = run.clock.run("fidelity", [&] { return solid.fidelity(run.meshes.inside, run.cube, o.lattice); });
   run.peak_memory_bytes = peak_memory_bytes();
@@ -372,12 +378,14 @@ MeshRun run_pipeline(const MeshRequest& request) {
   std::vector<TriangleSurface> shells;  // --shells-as-regions: alive while the regions use them
   std::vector<SolidSource> sources = request.regions;
   if (request.shells_as_regions) {
-    if (request.solid.path.empty() || !sources.empty())
+    const SolidSource& one = request.solid;
+    if ((one.path.empty() && !one.surface) || !sources.empty())
       throw InputError("--shells-as-regions splits one INPUT file into its shells");
-    const std::string file = std::filesystem::path(request.solid.path).filename().string();
-    shells = clock.run("read", [&] { return split_shells(read_surface(request.solid.path)); });
+    const std::string file = one.surface ? one.surface_name : std::filesystem::path(one.path).filename().string();
+    shells = clock.run("read", [&] { return split_shells(one.surface ? *one.surface : read_surface(one.path)); });
     if (shells.size() < 2)
-      throw InputError(request.solid.path + ": one shell, so one region; --shells-as-regions needs two or more");
+      throw InputError((one.surface ? one.surface_name : one.path) +
+                       ": one shell, so one region; --shells-as-regions needs two or more");
     for (std::size_t i = 0; i < shells.size(); ++i)
       sources.push_back(SolidSource::in_memory(shells[i], fmt::format("{} shell {}", file, i + 1)));
   }
@@ -402,9 +410,15 @@ void write_meshes(MeshRun& run, const std::filesystem::path& inside, const std::
                   const MeshWriteOptions& write) {
   if (!run.check.ok) throw std::logic_error("write_meshes: the mesh fails its own check");
   run.clock.run("write", [&] {
-    write_hex_mesh(run.meshes.inside, inside, write);
-    write_hex_mesh(run.meshes.outside, outside, write);
+    // The check's scaled Jacobians are those of these very meshes (nothing moves them after it).
+    MeshWriteOptions in = write, out = write;
+    in.scaled_jacobians = run.check.inside.scaled_jacobians;
+    if (run.check.outside) out.scaled_jacobians = run.check.outside->scaled_jacobians;
+    write_hex_mesh(run.meshes.inside, inside, in);
+    write_hex_mesh(run.meshes.outside, outside, out);
   });
+  run.check.inside.scaled_jacobians = {};
+  if (run.check.outside) run.check.outside->scaled_jacobians = {};
   run.peak_memory_bytes = peak_memory_bytes();
 }
 

@@ -70,6 +70,9 @@ struct MeshOptions {
   // on the input surface, every hex still Bernstein-certified.
   bool optimize = false;
   OptimizeOptions optimize_options;
+  // The check keeps each hex's scaled Jacobian for write_meshes (a .vtu output's cell field,
+  // which its writer would otherwise compute again): 8 bytes per hex.
+  bool keep_scaled_jacobians = false;
   bool adaptive() const { return threshold > 0 || hausdorff > 0; }
 };
 
@@ -151,7 +154,8 @@ MeshRun run_pipeline(const MeshRequest& request);
 MeshRun run_pipeline(const MeshRequest& request, const Solid& solid);
 
 // Both meshes written (core/io/mesh_io.h, atomically; the format follows each extension) as the
-// run's stage "write", the peak memory updated. A mesh that fails its check is never written:
+// run's stage "write", the peak memory updated; a .vtu takes the scaled Jacobians the check kept
+// (MeshOptions::keep_scaled_jacobians), which are then released. A mesh that fails its check is never written:
 // std::logic_error if run.check is not ok.
 void write_meshes(MeshRun& run, const std::filesystem::path& inside, const std::filesystem::path& outside,
                   const MeshWriteOptions& write = {});

@@ -63,16 +63,21 @@ SdfSource Solid::sdf_source() const {
 }
 
 Fidelity Solid::fidelity(const HexMesh& inside, const Box& box, std::size_t lattice, double far_tolerance) const {
-  const double spacing = box.diagonal() / 400;
-  const std::vector<Vec3> samples =
-      surface_ ? sample_surface(*surface_, spacing) : sample_surface(*sdf_, padded_cube(sdf_->bounds(), 0.05), spacing);
+  const FidelityReference* ref = fidelity_reference_ ? &*fidelity_reference_ : nullptr;
+  if (!ref || ref->lattice != lattice || ref->lattice_box.lo != box.lo || ref->lattice_box.hi != box.hi) {
+    const double spacing = box.diagonal() / 400;
+    std::vector<Vec3> samples = surface_ ? sample_surface(*surface_, spacing)
+                                         : sample_surface(*sdf_, padded_cube(sdf_->bounds(), 0.05), spacing);
+    const bool bounds_sign = !surface_ || (facts_.surface.closed && facts_.surface.consistently_oriented);
+    ref =
+        &fidelity_reference_.emplace(fidelity_reference(*sdf_, std::move(samples), box, lattice, spacing, bounds_sign));
+  }
   SurfaceDistance distance;
   if (surface_)
     distance = [&sdf = static_cast<const SurfaceSdf&>(*sdf_)](std::span<const Vec3> p, std::span<double> d) {
       sdf.distance(p, d);
     };
-  const bool bounds_sign = !surface_ || (facts_.surface.closed && facts_.surface.consistently_oriented);
-  return measure_fidelity(inside, *sdf_, samples, box, lattice, spacing, distance, bounds_sign, far_tolerance);
+  return measure_fidelity(inside, *sdf_, *ref, distance, far_tolerance);
 }
 
 }  // namespace mchex

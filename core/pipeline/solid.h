@@ -103,9 +103,13 @@ class Solid {
   // The paper's Section 6 measures of an inside mesh against this solid (core/check/fidelity.h):
   // reference samples at 1/400 of the box diagonal, IoU on a lattice^3 lattice over the box.
   // far_tolerance: Fidelity::far_points.
+  // The input's side of the measure (its surface samples and the solid on the lattice) is made
+  // at the first call for a box and lattice and kept: the fitted grid's rounds measure one mesh
+  // after another against it.
   Fidelity fidelity(const HexMesh& inside, const Box& box, std::size_t lattice, double far_tolerance = 0) const;
 
  private:
+  mutable std::optional<FidelityReference> fidelity_reference_;
   SolidFacts facts_;
   std::optional<TriangleSurface> read_;  // a surface read from its file
   const TriangleSurface* surface_ = nullptr;

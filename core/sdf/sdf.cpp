@@ -5,6 +5,7 @@
 #include <bit>
 #include <cmath>
 #include <limits>
+#include <mutex>
 #include <numbers>
 #include <numeric>
 #include <optional>
@@ -128,7 +129,6 @@ inline float round_up(double x) {
 
 struct SurfaceSdf::Impl {
   TriangleSurface surface;
-  Pseudonormals normals;
   TriangleBvh bvh;
   SearchTree tree;
   std::vector<std::array<Vec3, 3>> leaf_corners;  // corners of each leaf slot's triangle, for locality
@@ -136,9 +136,17 @@ struct SurfaceSdf::Impl {
   double scale = 0;  // largest coordinate magnitude of the surface
   SignRule sign;
   std::optional<WindingNumber> winding;  // under SignRule::kWindingNumber and kWindingParity
+  // Made at the first query signed by the pseudonormal rule: a surface measured only for its
+  // distances (the fidelity's mesh boundary, rebuilt for every mesh) never needs them.
+  mutable std::once_flag normals_once;
+  mutable std::optional<Pseudonormals> normals_made;
+  const Pseudonormals& normals() const {
+    std::call_once(normals_once, [this] { normals_made.emplace(surface); });
+    return *normals_made;
+  }
 
   Impl(const TriangleSurface& s, SignRule rule)
-      : surface(s), normals(s), bvh(TriangleBvh::build(s)), tree(s, bvh), box(s.bounds()), sign(rule) {
+      : surface(s), bvh(TriangleBvh::build(s)), tree(s, bvh), box(s.bounds()), sign(rule) {
     if (sign == SignRule::kWindingNumber) winding.emplace(s, bvh);
     if (sign == SignRule::kWindingParity) winding.emplace(s, bvh, WindingNumber::Decision::kParity);
     if (bvh.leaf_triangles.size() >= (1u << 29)) throw std::length_error("too many triangles for the SDF search tree");
@@ -271,23 +279,32 @@ struct SurfaceSdf::Impl {
 
   template <class Out>
   void run(std::span<const Vec3> points, std::span<double> values, Out out) const {
+    run(points, morton_order(points), values, out);
+  }
+  // The same with the points' Morton order given (the caller reuses it).
+  template <class Out>
+  void run(std::span<const Vec3> points, std::span<const uint32_t> order, std::span<double> values, Out out) const {
     if (points.size() != values.size()) throw std::invalid_argument("SDF batch size mismatch");
     if (surface.triangles.empty()) {
       std::fill(values.begin(), values.end(), -std::numeric_limits<double>::infinity());
       return;
     }
-    search(points, [&](std::size_t i, Vec3 p, const Query& q) { values[i] = out(p, q); });
+    search(points, order, [&](std::size_t i, Vec3 p, const Query& q) { values[i] = out(p, q); });
   }
 
   // Every point's nearest triangle, handed to sink(index, point, query) (each index once, on any
   // thread). The surface has triangles.
   template <class Sink>
   void search(std::span<const Vec3> points, Sink sink) const {
-    // The points are searched in Morton order whatever order they come in: consecutive points
-    // are then neighbours in all three directions, so a packet is a compact group (its walk
-    // shared best), each candidate is a near neighbour's answer, and successive searches touch
-    // the same nodes while they are in cache. On grid rows this is 1.6x faster than row order.
-    const std::vector<uint32_t> order = morton_order(points);
+    search(points, morton_order(points), sink);
+  }
+  // The same in a given order. The points are searched in Morton order whatever order they come
+  // in: consecutive points are then neighbours in all three directions, so a packet is a compact
+  // group (its walk shared best), each candidate is a near neighbour's answer, and successive
+  // searches touch the same nodes while they are in cache. On grid rows this is 1.6x faster than
+  // row order.
+  template <class Sink>
+  void search(std::span<const Vec3> points, std::span<const uint32_t> order, Sink sink) const {
     parallel_chunks(points.size(), 256, [&](std::size_t b, std::size_t e) {
       // Each point's candidate: the triangle of the previous packet's closest point nearest to it
       // (a surface point near p bounds p's distance, and its triangle is usually near p's
@@ -341,10 +358,11 @@ const WindingNumber* SurfaceSdf::winding() const { return impl_->winding ? &*imp
 void SurfaceSdf::evaluate(std::span<const Vec3> points, std::span<double> values) const {
   const Impl& m = *impl_;
   if (m.winding) {
-    m.run(points, values, [&m](Vec3 p, const Impl::Query& q) {
-      const double d = std::sqrt(q.best.squared_distance);
-      return d == 0 ? 0 : m.winding->inside(p) ? d : -d;
-    });
+    // Distances first, then the signs in the same Morton order, where most points far from the
+    // surface inherit a neighbour's (apply_winding_sign).
+    const std::vector<uint32_t> order = morton_order(points);
+    m.run(points, order, values, [](Vec3, const Impl::Query& q) { return std::sqrt(q.best.squared_distance); });
+    if (!m.surface.triangles.empty()) apply_winding_sign(*m.winding, points, order, values);
     return;
   }
   evaluate_pseudonormal(points, values);
@@ -352,8 +370,9 @@ void SurfaceSdf::evaluate(std::span<const Vec3> points, std::span<double> values
 
 void SurfaceSdf::evaluate_pseudonormal(std::span<const Vec3> points, std::span<double> values) const {
   const Impl& m = *impl_;
-  m.run(points, values, [&m](Vec3 p, const Impl::Query& q) {
-    return signed_value(p, q.best, m.normals.of(q.best_triangle, q.best.region, m.surface));
+  const Pseudonormals& normals = m.normals();
+  m.run(points, values, [&m, &normals](Vec3 p, const Impl::Query& q) {
+    return signed_value(p, q.best, normals.of(q.best_triangle, q.best.region, m.surface));
   });
 }
 

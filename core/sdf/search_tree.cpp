@@ -12,26 +12,15 @@ namespace mchex {
 
 namespace {
 
-// The box of a group of triangles. Frame: the group's mean normal when the group is nearly flat,
+// The box of a group of triangles, from their distinct corners and the sums of their area
+// vectors (`normal`) and areas. Frame: the group's mean normal when the group is nearly flat,
 // with the in-plane axes of least area (a box is only as tight sideways as its rectangle fits the
-// piece), else the coordinate axes. `seen` (one entry per surface vertex, never equal to `stamp`
-// on entry) lets each vertex be visited once (a closed mesh's vertex is in about six triangles).
-OrientedBox bound_triangles(const TriangleSurface& s, std::span<const uint32_t> triangles, std::vector<uint32_t>& seen,
-                            uint32_t stamp) {
-  Vec3 normal{};
-  double area = 0;
-  std::vector<Vec3> corners;
-  corners.reserve(triangles.size() + 2);
-  for (uint32_t t : triangles) {
-    const auto& v = s.triangles[t];
-    const Vec3 c = cross(s.vertices[v[1]] - s.vertices[v[0]], s.vertices[v[2]] - s.vertices[v[0]]);
-    normal += c;
-    area += norm(c);
-    for (uint32_t i : v)
-      if (seen[i] != stamp) seen[i] = stamp, corners.push_back(s.vertices[i]);
-  }
+// piece), else the coordinate axes.
+bool nearly_flat(Vec3 normal, double area) { return norm(normal) > 0.5 * area && area > 0; }
+
+OrientedBox bound_corners(std::span<const Vec3> corners, Vec3 normal, double area) {
   Vec3 a0{0, 0, 1}, a1{1, 0, 0};
-  if (norm(normal) > 0.5 * area && area > 0) {  // a nearly flat piece: its own frame
+  if (nearly_flat(normal, area)) {  // a nearly flat piece: its own frame
     a0 = normalized(normal);
     // The in-plane axes of least area (the thickness along a0 does not depend on them): eight
     // turns over a quarter turn, then eight finer turns around the best of them.
@@ -137,18 +126,19 @@ SearchTree::SearchTree(const TriangleSurface& s, const TriangleBvh& bvh) {
   const auto slots = bvh.subtree_slots();
   const std::span<const uint32_t> all(bvh.leaf_triangles);
   auto subtree = [&](uint32_t n) { return all.subspan(slots[n].first, slots[n].second - slots[n].first); };
-  std::vector<OrientedBox> boxes(bvh.nodes.size());
-  parallel_chunks(bvh.nodes.size(), 1024, [&](std::size_t b, std::size_t e) {
-    std::vector<uint32_t> seen(s.vertices.size(), UINT32_MAX);
-    for (std::size_t n = b; n < e; ++n) boxes[n] = bound_triangles(s, subtree(uint32_t(n)), seen, uint32_t(n));
-  });
 
-  auto leaf = [&](uint32_t n) {
-    const BvhNode& node = bvh.nodes[n];
-    if (node.count > 4) throw std::logic_error("SDF search tree: a leaf holds more than four triangles");
-    leaves.emplace_back(s, all.subspan(node.index, node.count), node.index);
-    return uint32_t(leaves.size() - 1);
+  // The collapse: each wide node takes its two children and keeps opening the inner one holding
+  // the most triangles until it has four. Only the binary nodes that end up as a wide node's
+  // children need a box (about half of them), so the topology comes first and the boxes after.
+  struct Lane {
+    uint32_t wide, lane, node;  // wide node, its lane, the binary node there
   };
+  std::vector<Lane> lanes;
+  std::vector<uint32_t> leaf_nodes;  // the binary leaf of each TriangleLeaf
+  // Sized up front: growing them would fault in and copy each array several times.
+  lanes.reserve(bvh.nodes.size());
+  leaf_nodes.reserve(bvh.nodes.size() / 2 + 1);
+  nodes.reserve(bvh.nodes.size() / 2 + 1);
   auto build = [&](auto&& self, std::vector<uint32_t> kids) -> uint32_t {
     while (kids.size() < 4) {
       int open = -1;
@@ -161,17 +151,88 @@ SearchTree::SearchTree(const TriangleSurface& s, const TriangleBvh& bvh) {
       kids.push_back(bvh.nodes[n].index);
     }
     const uint32_t self_index = uint32_t(nodes.size());
-    nodes.emplace_back();
-    WideNode w = WideNode::empty();
+    nodes.push_back(WideNode::empty());
     for (int c = 0; c < int(kids.size()); ++c) {
       const BvhNode& node = bvh.nodes[kids[c]];
-      w.set(c, boxes[kids[c]], node.count ? leaf(kids[c]) : self(self, {kids[c] + 1, node.index}), node.count);
+      if (node.count > 4) throw std::logic_error("SDF search tree: a leaf holds more than four triangles");
+      uint32_t child;
+      if (node.count) {
+        child = uint32_t(leaf_nodes.size());
+        leaf_nodes.push_back(kids[c]);
+      } else {
+        child = self(self, {kids[c] + 1, node.index});
+      }
+      nodes[self_index].child[c] = child;
+      nodes[self_index].count[c] = node.count;
+      lanes.push_back({self_index, uint32_t(c), kids[c]});
     }
-    nodes[self_index] = w;
     return self_index;
   };
   if (bvh.nodes[0].count) build(build, {0});  // a single leaf
   else build(build, {1, bvh.nodes[0].index});
+
+  // Each binary node's area-vector and area sums and corner box, bottom up (children follow
+  // their parent in the hierarchy's order): what decides a node's frame, and a curved node's
+  // whole box, without visiting its triangles again at every level.
+  struct Sums {
+    Vec3 normal{};
+    double area = 0;
+    Box box;
+  };
+  std::vector<Sums> sums(bvh.nodes.size());
+  for (std::size_t n = bvh.nodes.size(); n-- > 0;) {
+    const BvhNode& node = bvh.nodes[n];
+    Sums& out = sums[n];
+    if (node.count) {
+      for (uint32_t t : all.subspan(node.index, node.count)) {
+        const auto& v = s.triangles[t];
+        const Vec3 c = cross(s.vertices[v[1]] - s.vertices[v[0]], s.vertices[v[2]] - s.vertices[v[0]]);
+        out.normal += c;
+        out.area += norm(c);
+        for (uint32_t i : v) out.box.extend(s.vertices[i]);
+      }
+    } else {
+      const Sums &l = sums[n + 1], &r = sums[node.index];
+      out.normal = l.normal + r.normal;
+      out.area = l.area + r.area;
+      out.box = l.box;
+      out.box.extend(r.box.lo);
+      out.box.extend(r.box.hi);
+    }
+  }
+
+  // The boxes: a nearly flat node gets its own frame from its distinct corners; any other the
+  // coordinate axes, whose extents are its corner box.
+  std::vector<OrientedBox> boxes(lanes.size());
+  parallel_chunks(lanes.size(), 64, [&](std::size_t b, std::size_t e) {
+    std::vector<uint32_t> ids;
+    std::vector<Vec3> corners;
+    for (std::size_t k = b; k < e; ++k) {
+      const Lane& l = lanes[k];
+      const Sums& sum = sums[l.node];
+      ids.clear();
+      corners.clear();
+      if (nearly_flat(sum.normal, sum.area)) {
+        for (uint32_t t : subtree(l.node))
+          for (uint32_t i : s.triangles[t]) ids.push_back(i);
+        std::sort(ids.begin(), ids.end());
+        ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+        for (uint32_t i : ids) corners.push_back(s.vertices[i]);
+      } else {
+        corners = {sum.box.lo, sum.box.hi};
+      }
+      boxes[k] = bound_corners(corners, sum.normal, sum.area);
+    }
+  });
+  // Set on one thread: lanes of one wide node share its vectors and its leaf mask.
+  for (std::size_t k = 0; k < lanes.size(); ++k) {
+    WideNode& w = nodes[lanes[k].wide];
+    const int c = int(lanes[k].lane);
+    w.set(c, boxes[k], w.child[c], w.count[c]);
+  }
+  leaves.reserve(leaf_nodes.size());
+  for (uint32_t n : leaf_nodes)
+    leaves.emplace_back(s, all.subspan(bvh.nodes[n].index, bvh.nodes[n].count), bvh.nodes[n].index);
 }
 
 }  // namespace mchex

@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "core/base/parallel.h"
+#include "core/sdf/sdf.h"
 
 namespace mchex {
 
@@ -70,6 +71,28 @@ TriangleSurface split_long_triangles(const TriangleSurface& s) {
   return out;
 }
 
+// Whether every edge is used as often in each direction (edges of a zero-length side skipped: a
+// degenerate triangle bounds nothing). Directed edges as (low, high) keys with the sign of their
+// direction, sorted, summed per key.
+bool is_two_cycle(const TriangleSurface& s) {
+  if (s.triangles.empty()) return false;
+  std::vector<std::pair<uint64_t, int>> edges;
+  edges.reserve(3 * s.triangles.size());
+  for (const auto& t : s.triangles)
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t a = t[k], b = t[(k + 1) % 3];
+      if (a != b) edges.push_back({uint64_t(std::min(a, b)) << 32 | std::max(a, b), a < b ? 1 : -1});
+    }
+  parallel_sort(edges.begin(), edges.end());
+  for (std::size_t i = 0; i < edges.size();) {
+    int sum = 0;
+    const uint64_t key = edges[i].first;
+    for (; i < edges.size() && edges[i].first == key; ++i) sum += edges[i].second;
+    if (sum != 0) return false;
+  }
+  return true;
+}
+
 }  // namespace
 
 double winding_number_exact(const TriangleSurface& s, Vec3 p) {
@@ -78,13 +101,14 @@ double winding_number_exact(const TriangleSurface& s, Vec3 p) {
   return w;
 }
 
-WindingNumber::WindingNumber(const TriangleSurface& surface, Decision decision) : decision_(decision) {
+WindingNumber::WindingNumber(const TriangleSurface& surface, Decision decision)
+    : decision_(decision), constant_off_surface_(is_two_cycle(surface)) {
   const TriangleSurface split = split_long_triangles(surface);
   const TriangleSurface& s = split.triangles.empty() ? surface : split;
   build(s, TriangleBvh::build(s));
 }
 WindingNumber::WindingNumber(const TriangleSurface& surface, const TriangleBvh& bvh, Decision decision)
-    : decision_(decision) {
+    : decision_(decision), constant_off_surface_(is_two_cycle(surface)) {
   const TriangleSurface split = split_long_triangles(surface);
   if (split.triangles.empty()) {
     build(surface, bvh);
@@ -240,11 +264,64 @@ void WindingNumber::at(std::span<const Vec3> points, std::span<double> values) c
 
 void apply_winding_sign(const WindingNumber& winding, std::span<const Vec3> points, std::span<double> values) {
   if (points.size() != values.size()) throw std::invalid_argument("winding sign batch size mismatch");
+  if (winding.constant_off_surface()) {
+    apply_winding_sign(winding, points, morton_order(points), values);
+    return;
+  }
   parallel_for(points.size(), [&](std::size_t i) {
     const double v = values[i];
     if (v == 0) return;
     values[i] = winding.inside(points[i]) ? std::abs(v) : -std::abs(v);
   });
+}
+
+std::size_t apply_winding_sign(const WindingNumber& winding, std::span<const Vec3> points,
+                               std::span<const uint32_t> order, std::span<double> values) {
+  if (points.size() != values.size() || order.size() != points.size())
+    throw std::invalid_argument("winding sign batch size mismatch");
+  const bool inherit = winding.constant_off_surface();
+  // A ball's radius is a computed distance: shrunk by far more than its rounding (and than a
+  // device's float distance refined on the host would differ by), so that p is truly inside it.
+  constexpr double kShrink = 1 - 1e-6;
+  // The first point of a chunk has nothing to inherit from; 1024 keeps that to a few per mille.
+  constexpr std::size_t kChunk = 1024;
+  // One chunk of the order, on one thread; returns its queries.
+  auto sign_chunk = [&](std::size_t c) {
+    std::size_t queries = 0;
+    // Two balls to fall in: the previous point's (its neighbour along the curve) and the largest
+    // seen in the chunk (far from the surface it covers runs of points).
+    Vec3 last{}, big{};
+    double last_f = 0, big_f = 0;
+    auto within = [](Vec3 p, Vec3 q, double f) { return std::isfinite(f) && norm(p - q) < std::abs(f) * kShrink; };
+    for (std::size_t k = c * kChunk; k < std::min(points.size(), (c + 1) * kChunk); ++k) {
+      const uint32_t i = order[k];
+      const Vec3 p = points[i];
+      const double d = std::abs(values[i]);
+      if (d == 0) {
+        values[i] = 0;
+        continue;
+      }
+      bool in;
+      if (inherit && within(p, last, last_f)) {
+        in = last_f > 0;
+      } else if (inherit && within(p, big, big_f)) {
+        in = big_f > 0;
+      } else {
+        in = winding.inside(p);
+        ++queries;
+      }
+      values[i] = in ? d : -d;
+      last = p, last_f = values[i];
+      if (!(d <= std::abs(big_f))) big = p, big_f = values[i];
+    }
+    return queries;
+  };
+  return parallel_reduce((points.size() + kChunk - 1) / kChunk, 1, std::size_t(0),
+                         [&](std::size_t cb, std::size_t ce, std::size_t queries) {
+                           for (std::size_t c = cb; c < ce; ++c) queries += sign_chunk(c);
+                           return queries;
+                         },
+                         std::plus<>());
 }
 
 }  // namespace mchex

@@ -142,6 +142,8 @@ int run_mesh(const MeshCommand& o, bool quiet) {
   if (fs::weakly_canonical(inside_path) == fs::weakly_canonical(outside_path))
     throw InputError("the inside and outside meshes need different file names");
   MeshRequest request = mesh_request(o, quiet);
+  request.options.keep_scaled_jacobians =
+      mesh_format(inside_path) == MeshFormat::kVtu || mesh_format(outside_path) == MeshFormat::kVtu;
   // The span every other event of the trace lies in: the run and the meshes' writing.
   std::optional<trace::Span> whole;
   if (!o.trace.empty()) whole.emplace("mesh", "run");

@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <deque>
 #include <filesystem>
 #include <limits>
 #include <optional>
@@ -192,35 +193,48 @@ HexMesh to_mesh(const py::tuple& arrays, const std::string& what, std::int32_t d
   return mesh;
 }
 
-py::dict mesh(const std::string& path, const py::object& vertices, const py::object& triangles,
-              const std::string& shape, const std::string& name, const py::dict& kwargs, int threads, bool quiet) {
+// `sources`: one surface (a path, or a (vertices, triangles) pair), or several: the regions of one
+// mesh, as several INPUT files are on the command line.
+py::dict mesh(const py::list& sources, const std::string& shape, const std::string& name, const py::dict& kwargs,
+              int threads, bool quiet) {
   CLI::App app{"mchex.mesh"};
   app.set_help_flag();
   cli::MeshCli options(app);
-  // Inputs, outputs and the trace are mchex.mesh's own parameters or Result.write's; the region
-  // options need several inputs, which mchex.mesh does not take (docs/python.md).
+  // Inputs, outputs and the trace are mchex.mesh's own parameters or Result.write's.
   parse(app, option_words(app, kwargs,
-                          {"--shape", "--output", "--outside", "--binary", "--report", "--trace", "--region-order",
-                           "--region-files", "--shells-as-regions"},
+                          {"--shape", "--output", "--outside", "--binary", "--report", "--trace", "--region-files"},
                           "mesh"));
   options.finish();
   cli::MeshCommand& command = options.command;
-  if (!path.empty()) command.inputs = {path};
   command.shape = shape;
-  std::optional<TriangleSurface> surface;
-  if (!vertices.is_none()) {
-    surface.emplace();
-    surface->vertices = read_points(vertices, "vertices");
-    surface->triangles = read_indices<3>(triangles, surface->vertices.size(), "triangles");
-    if (surface->triangles.empty()) throw InputError("triangles: the surface has no triangles");
+  // Arrays become surfaces of their own (a deque: the request points at them), named `name`, or
+  // "NAME I" for the I-th of several sources; files go by their paths.
+  std::deque<TriangleSurface> surfaces;
+  std::vector<const TriangleSurface*> arrays(sources.size(), nullptr);
+  for (std::size_t i = 0; i < sources.size(); ++i) {
+    const py::handle source = sources[i];
+    if (py::isinstance<py::str>(source)) {
+      command.inputs.push_back(source.cast<std::string>());
+      continue;
+    }
+    const py::tuple pair = source.cast<py::tuple>();
+    TriangleSurface& surface = surfaces.emplace_back();
+    surface.vertices = read_points(pair[0], "vertices");
+    surface.triangles = read_indices<3>(pair[1], surface.vertices.size(), "triangles");
+    if (surface.triangles.empty()) throw InputError("triangles: the surface has no triangles");
     // As a file's are: a triangle soup's repeated corners become shared vertices.
-    weld_vertices(*surface);
+    weld_vertices(surface);
+    arrays[i] = &surface;
+    command.inputs.push_back(sources.size() == 1 ? name : fmt::format("{} {}", name, i + 1));
   }
+  if (!surfaces.empty() && !command.shape.empty()) throw InputError("give either a surface or a shape, not both");
   MeshRequest request = cli::mesh_request(command, quiet);
-  if (surface) {
-    if (!command.shape.empty()) throw InputError("give either a surface or a shape, not both");
-    request.solid.surface = &*surface;
-    request.solid.surface_name = name;
+  // The request names array sources as files; it meshes the arrays themselves.
+  for (std::size_t i = 0; i < arrays.size(); ++i) {
+    if (!arrays[i]) continue;
+    const SolidSource source = SolidSource::in_memory(*arrays[i], command.inputs[i]);
+    if (arrays.size() == 1) request.solid = source;
+    else request.regions[i] = source;
   }
   std::optional<MeshRun> run;
   {
@@ -360,8 +374,8 @@ PYBIND11_MODULE(_mchex, m) {
   m.doc() = "mchex-gpu's pipeline (the extension under the mchex package; use mchex, docs/python.md)";
   py::register_exception<mchex::InputError>(m, "InputError", PyExc_ValueError);
   py::register_exception<mchex::ResourceError>(m, "ResourceError", PyExc_RuntimeError);
-  m.def("mesh", &mesh, py::arg("path"), py::arg("vertices"), py::arg("triangles"), py::arg("shape"), py::arg("name"),
-        py::arg("options"), py::arg("threads"), py::arg("quiet"));
+  m.def("mesh", &mesh, py::arg("sources"), py::arg("shape"), py::arg("name"), py::arg("options"), py::arg("threads"),
+        py::arg("quiet"));
   m.def("check", &check, py::arg("inside"), py::arg("outside"), py::arg("input"), py::arg("options"), py::arg("quiet"));
   m.def("write", &write_meshes, py::arg("inside"), py::arg("outside"), py::arg("inside_path"), py::arg("outside_path"),
         py::arg("binary"));

@@ -37,7 +37,8 @@ class CheckError(RuntimeError):
 
 class Mesh:
     """An all-hex mesh: points (float64 N x 3), hexes (int64 M x 8, VTK_HEXAHEDRON corner order)
-    and region (int32 M: 1 inside, 2 outside, as the files' cell data)."""
+    and region (int32 M: 1 inside, 2 outside, or 1..k and k + 1 with k regions, as the files'
+    cell data)."""
 
     def __init__(self, points, hexes, region=None):
         self.points = np.ascontiguousarray(points, dtype=np.float64)
@@ -101,28 +102,39 @@ def _mesh_of(arrays):
     return Mesh(points, hexes, region)
 
 
+def _surface_source(source):
+    """A surface for _mchex.mesh: a path (str) or a (vertices, triangles) pair."""
+    if isinstance(source, (str, os.PathLike)):
+        return os.fspath(source)
+    if isinstance(source, (tuple, list)):
+        if len(source) != 2:
+            raise InputError("source: expected a file name or a (vertices, triangles) pair")
+        return tuple(source)
+    raise InputError(f"source: expected a file name or a (vertices, triangles) pair, got {type(source).__name__}")
+
+
 def mesh(source=None, *, shape=None, name="arrays", threads=None, quiet=True, **options):
     """Meshes a surface or a built-in shape; returns a Result.
 
     source: a surface file (str or path-like: STL, OBJ, OFF, PLY), or a (vertices, triangles)
-    pair (float N x 3, integer M x 3; `name` is how the report names it); shape: a built-in
+    pair (float N x 3, integer M x 3; `name` is how the report names it), or a list of them: the
+    regions of one conforming mesh, as several INPUT files of `mchex-gpu mesh` (each hex's region
+    is its source's position, 1..k inside, k + 1 outside; region_order="2,1" and
+    shells_as_regions=True as on the command line; arrays are named "NAME I"); shape: a built-in
     analytic shape (sphere, torus, rounded-box, two-holed); neither: the torus. options: those
     of `mchex-gpu mesh` with '_' for '-': depth, threshold, max_depth, hausdorff, max_hexes,
     method, eps, backend, pad, fidelity, lattice, optimize, sign, repair, max_memory, ...
     threads: worker threads (default all); quiet=False prints the CLI's progress lines and warnings.
     """
-    path, vertices, triangles = "", None, None
-    if isinstance(source, (str, os.PathLike)):
-        path = os.fspath(source)
-    elif isinstance(source, (tuple, list)):
-        if len(source) != 2:
-            raise InputError("source: expected a file name or a (vertices, triangles) pair")
-        vertices, triangles = source
-    elif source is not None:
-        raise InputError(f"source: expected a file name or a (vertices, triangles) pair, got {type(source).__name__}")
+    if isinstance(source, list):
+        if not source:
+            raise InputError("source: an empty list (give one surface, or several: the regions of one mesh)")
+        sources = [_surface_source(s) for s in source]
+    else:
+        sources = [] if source is None else [_surface_source(source)]
     if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or not 1 <= threads <= 1024):
         raise InputError(f"--threads: Value {threads} not in range [1 - 1024]")
-    out = _mchex.mesh(path, vertices, triangles, shape or "", name, options, threads or 0, bool(quiet))
+    out = _mchex.mesh(sources, shape or "", name, options, threads or 0, bool(quiet))
     report = json.loads(out["report"])
     if not out["ok"]:
         raise CheckError("the mesh fails its own check: " + out["error"], report)
