@@ -7,10 +7,11 @@ ratio (both meshes), Bernstein-certified share, IoU and Hausdorff ratio (the rep
 a machine shared with other work distorts less), and where the worst hex is left
 and what holds it. Prints a table and one JSON line per input.
 
-  /usr/bin/python3 perf/bench_optimize.py [--build build] [--threads 2] [--only NAME,...]
+  /usr/bin/python3 perf/bench_optimize.py [--build build] [--threads 2] [--only NAME,...] [--repel]
 
-Inputs: the npm gearwheel and cube (stl-models), the bumpy torus and trefoil tube of
-tests/models.py, and the four analytic shapes."""
+Inputs: the npm gearwheel and cube (stl-models), the npm bunny, the bumpy torus (96 x 48 and
+320 x 84) and trefoil tube of tests/models.py, and the four analytic shapes. --repel meshes both
+runs with `--repel` (docs/repel.md)."""
 import argparse
 import json
 import os
@@ -22,6 +23,9 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "tests"))
 import models  # noqa: E402
 
+sys.path.insert(0, HERE)
+import curves  # noqa: E402
+
 STL = os.path.join(HERE, "..", "tests", "data", "npm", "node_modules", "stl-models")
 
 
@@ -31,7 +35,10 @@ def inputs(tmp):
         path = os.path.join(STL, rel)
         if os.path.exists(path):
             out.append((name, [path]))
-    for name, (v, t) in (("bumpy-torus", models.bumpy_torus(96, 48)), ("trefoil", models.trefoil_tube(192, 24))):
+    if os.path.exists(os.path.join(curves.NPM, "bunny", "index.js")):
+        out.append(("bunny", [curves.bunny_obj(os.path.join(tmp, "bunny.obj"))]))
+    for name, (v, t) in (("bumpy-torus", models.bumpy_torus(96, 48)), ("bumpy-torus-320", models.bumpy_torus(320, 84)),
+                         ("trefoil", models.trefoil_tube(192, 24))):
         path = os.path.join(tmp, name + ".stl")
         models.write_binary_stl(path, v, t)
         out.append((name, [path]))
@@ -40,10 +47,10 @@ def inputs(tmp):
     return out
 
 
-def mesh(exe, args, threads, tmp, tag, optimize):
+def mesh(exe, args, threads, tmp, tag, optimize, extra=()):
     report = os.path.join(tmp, tag + ".json")
     cmd = [exe, "--threads", str(threads), "mesh", *args, "-o", os.path.join(tmp, tag + ".in.mesh"), "--outside",
-           os.path.join(tmp, tag + ".out.mesh"), "--report", report, "--quiet"]
+           os.path.join(tmp, tag + ".out.mesh"), "--report", report, "--quiet", *extra]
     if optimize:
         cmd.append("--optimize")
     r = subprocess.run(cmd, capture_output=True, text=True)
@@ -73,6 +80,7 @@ def main():
     ap.add_argument("--build", default=os.path.join(HERE, "..", "build"))
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--only", default="")
+    ap.add_argument("--repel", action="store_true", help="mesh with --repel (both runs)")
     o = ap.parse_args()
     exe = os.path.join(o.build, "host", "mchex-gpu")
     only = set(filter(None, o.only.split(",")))
@@ -82,8 +90,9 @@ def main():
         for name, args in inputs(tmp):
             if only and name not in only:
                 continue
-            a = quality(mesh(exe, args, o.threads, tmp, name + ".plain", False))
-            rep = mesh(exe, args, o.threads, tmp, name + ".opt", True)
+            extra = ["--repel"] if o.repel else []
+            a = quality(mesh(exe, args, o.threads, tmp, name + ".plain", False, extra))
+            rep = mesh(exe, args, o.threads, tmp, name + ".opt", True, extra)
             b, s = quality(rep), rep["optimize"]
             w = s["worst"]
             print(f"{name:12} {b['hexes']:8d} {a['min_sj']:8.2e}->{b['min_sj']:6.3f} {a['mean_sj']:.3f}->{b['mean_sj']:.3f} "
@@ -93,7 +102,7 @@ def main():
                   f"{w['edge_ratio']:.3g} {w['fixed_corners']}/{w['surface_corners']}/{w['box_corners']} "
                   f"(below 0.3: {s['hexes_below_0_3']['before']}->{s['hexes_below_0_3']['after']}, "
                   f"{s['hexes_below_0_3_touching_fixed']} touch a fixed vertex)")
-            print(json.dumps({"bench": "optimize", "input": name, "threads": o.threads, "without": a, "with": b,
+            print(json.dumps({"bench": "optimize", "input": name, "repel": o.repel, "threads": o.threads, "without": a, "with": b,
                               "optimize": s}), flush=True)
 
 

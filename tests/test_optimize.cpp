@@ -1,11 +1,16 @@
-// The certified optimiser (core/optimize/optimize.h). References: a distorted regular grid (whose
-// optimum, the undistorted grid, has scaled Jacobian 1 everywhere), the analytic sphere |p| = 1,
-// every-triangle closest points, and the mesh checker for certificates and conformity.
+// The certified optimiser (core/optimize/optimize.h) and the input's feature curves (core/mesh/
+// feature_curves.h). References: a distorted regular grid (whose optimum, the undistorted grid,
+// has scaled Jacobian 1 everywhere), the analytic sphere |p| = 1, a box's twelve edges and eight
+// corners, every-triangle closest points, every-segment nearest points, and the mesh checker for
+// certificates and conformity.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <bit>
 #include <cmath>
 #include <map>
 #include <random>
+#include <span>
 #include <tuple>
 #include <vector>
 
@@ -13,6 +18,7 @@
 #include "core/check/mesh_check.h"
 #include "core/cutting/mchex_mesher.h"
 #include "core/grid/grid.h"
+#include "core/mesh/feature_curves.h"
 #include "core/mesh/quality.h"
 #include "core/optimize/optimize.h"
 #include "core/sdf/shapes.h"
@@ -185,6 +191,158 @@ TEST(Optimize, ProjectionLandsOnTheSurface) {
           best, closest_point_on_triangle(p[i], s.vertices[t[0]], s.vertices[t[1]], s.vertices[t[2]]).squared_distance);
     EXPECT_NEAR(squared_norm(q[i] - p[i]), best, 1e-12);
   }
+}
+
+// An axis-aligned box of half sides `half` about `centre`, two triangles a face, outward.
+TriangleSurface box_surface(Vec3 centre, Vec3 half) {
+  TriangleSurface s;
+  for (int k = 0; k < 8; ++k)
+    s.vertices.push_back(centre +
+                         Vec3{(k & 1 ? 1 : -1) * half.x, (k & 2 ? 1 : -1) * half.y, (k & 4 ? 1 : -1) * half.z});
+  // Faces as corner bit patterns, counter-clockwise seen from outside.
+  const int faces[6][4] = {{0, 2, 3, 1}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
+  for (const auto& f : faces) {
+    s.triangles.push_back({uint32_t(f[0]), uint32_t(f[1]), uint32_t(f[2])});
+    s.triangles.push_back({uint32_t(f[0]), uint32_t(f[2]), uint32_t(f[3])});
+  }
+  return s;
+}
+
+TEST(FeatureCurves, BoxHasTwelveEdgesAndEightCornersASphereNone) {
+  const TriangleSurface box = box_surface({0.1, 0.2, 0.3}, {1, 0.75, 0.5});
+  const FeatureCurves f(box, 40);
+  EXPECT_EQ(f.sharp_edges(), 12u);  // the face diagonals are flat
+  EXPECT_EQ(f.corners(), 8u);
+  EXPECT_EQ(f.curves(), 12u);  // every edge ends at two corners
+  // A flipped triangle pair still reads as flat: orientation is taken into account.
+  TriangleSurface flipped = box;
+  std::swap(flipped.triangles[0][1], flipped.triangles[0][2]);
+  std::swap(flipped.triangles[1][1], flipped.triangles[1][2]);
+  EXPECT_EQ(FeatureCurves(flipped, 40).sharp_edges(), 12u);
+  EXPECT_TRUE(FeatureCurves(tessellate(ShapeKind::kSphere, 48), 40).empty());
+  EXPECT_TRUE(FeatureCurves(box, 95).empty());
+}
+
+TEST(FeatureCurves, NearestPointMatchesEverySegment) {
+  const TriangleSurface box = box_surface({0, 0, 0}, {1, 0.75, 0.5});
+  const FeatureCurves f(box, 40);
+  // The box's edges (from the corner bit patterns that differ in one bit).
+  std::vector<std::array<Vec3, 2>> edges;
+  for (int a = 0; a < 8; ++a)
+    for (int b = a + 1; b < 8; ++b)
+      if (std::popcount(unsigned(a ^ b)) == 1) edges.push_back({box.vertices[a], box.vertices[b]});
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> d(-1.5, 1.5);
+  for (int i = 0; i < 300; ++i) {
+    const Vec3 p{d(rng), d(rng), d(rng)};
+    double best = INFINITY;
+    for (const auto& e : edges) {
+      const Vec3 u = e[1] - e[0];
+      const double t = std::clamp(dot(p - e[0], u) / dot(u, u), 0.0, 1.0);
+      best = std::min(best, squared_norm(p - (e[0] + t * u)));
+    }
+    const FeatureCurves::Nearest n = f.nearest(p);
+    ASSERT_NE(n.curve, FeatureCurves::kAnyCurve);
+    EXPECT_NEAR(n.squared_distance, best, 1e-12);
+    EXPECT_NEAR(squared_norm(p - n.point), n.squared_distance, 1e-12);
+    EXPECT_NEAR(std::abs(n.tangent.x) + std::abs(n.tangent.y) + std::abs(n.tangent.z), 1, 1e-12);
+    // On its own curve the point is the same; within a radius below the distance, none.
+    EXPECT_EQ(f.nearest(p, n.curve).point, n.point);
+    EXPECT_EQ(f.nearest(p, FeatureCurves::kAnyCurve, 0.99 * std::sqrt(best)).curve, FeatureCurves::kAnyCurve);
+    double corner = INFINITY;
+    for (const Vec3& c : box.vertices) corner = std::min(corner, squared_norm(p - c));
+    EXPECT_NEAR(f.nearest(p, FeatureCurves::kCorner).squared_distance, corner, 1e-12);
+  }
+}
+
+// A closed surface meshed on a uniform grid at the optimiser's clamp.
+MeshPair surface_pair(const TriangleSurface& surface, int depth) {
+  const SurfaceSdf sdf(surface);
+  const UniformGrid grid(padded_cube(sdf.bounds(), 0.1), depth);
+  const std::vector<Vec3> points = grid.vertices();
+  std::vector<double> v(points.size());
+  sdf.evaluate(points, v);
+  return mesh_mchex(grid, v, kOptimizeEps, nullptr);
+}
+
+// A closed prism over a regular n-gon of radius r, from z = -h to h, outward.
+TriangleSurface prism_surface(int n, double r, double h) {
+  TriangleSurface s;
+  for (int k = 0; k < n; ++k) {
+    const double a = 2 * M_PI * (k + 0.3) / n;
+    s.vertices.push_back({r * std::cos(a), r * std::sin(a), -h});
+    s.vertices.push_back({r * std::cos(a), r * std::sin(a), h});
+  }
+  s.vertices.push_back({0, 0, -h});
+  s.vertices.push_back({0, 0, h});
+  const uint32_t lo = uint32_t(2 * n), hi = lo + 1;
+  for (int k = 0; k < n; ++k) {
+    const uint32_t a0 = uint32_t(2 * k), a1 = a0 + 1, b0 = uint32_t(2 * ((k + 1) % n)), b1 = b0 + 1;
+    s.triangles.push_back({a0, b0, b1});
+    s.triangles.push_back({a0, b1, a1});
+    s.triangles.push_back({lo, b0, a0});
+    s.triangles.push_back({hi, a1, b1});
+  }
+  return s;
+}
+
+// A pentagonal prism on a grid it is not aligned with: its boundary folds along the prism's
+// edges, the input's feature curves (108 and 90 degrees there; the mesh's folds are softer).
+TEST(Optimize, FeatureVerticesApproachAndSlideAlongThePrismEdges) {
+  const TriangleSurface prism = prism_surface(5, 1, 0.6);
+  const SurfaceSdf sdf(prism);
+  MeshPair pair = surface_pair(prism, 3);
+  const MeshPair original = pair;
+  const OptimizeStats s = optimize(pair, &sdf, {}, &prism);
+  EXPECT_EQ(s.feature_edges, 15u);
+  EXPECT_EQ(s.feature_curves, 15u);  // each ends at two of the ten corners
+  EXPECT_GT(s.curve_vertices, 0u);
+  EXPECT_GT(s.snapped_vertices, 0u);
+  EXPECT_EQ(s.fixed_vertices, 8u);  // the corners of the outer box; no boundary vertex
+  EXPECT_GE(s.min_sj_after, s.min_sj_before);
+  EXPECT_EQ(s.certified_after, s.hexes);
+  // Every boundary vertex that moved is on the prism, and at least the snapped ones on an edge.
+  const FeatureCurves f(prism, 40);
+  std::vector<double> distance(1);
+  std::vector<uint8_t> boundary(pair.inside.points.size(), 0);
+  for (const auto& q : boundary_quads(pair.inside))
+    for (uint32_t v : q) boundary[v] = 1;
+  std::size_t moved = 0, on_edges = 0;
+  for (uint32_t v = 0; v < boundary.size(); ++v) {
+    const Vec3 x = pair.inside.points[v];
+    if (!boundary[v] || x == original.inside.points[v]) continue;
+    ++moved;
+    on_edges += f.nearest(x).squared_distance < 1e-24;
+    sdf.distance(std::span<const Vec3>(&x, 1), distance);
+    EXPECT_LT(distance[0], 1e-12);
+  }
+  EXPECT_GT(moved, 0u);
+  EXPECT_GE(on_edges, s.snapped_vertices);
+  // Without the input's triangles there are no features, and no boundary vertex is held.
+  MeshPair plain = original;
+  const OptimizeStats t = optimize(plain, &sdf, {});
+  EXPECT_EQ(t.feature_vertices, 0u);
+  EXPECT_EQ(t.fixed_vertices, 8u);
+}
+
+TEST(Optimize, SameResultOnOneAndTwoThreadsWithFeatures) {
+  const TriangleSurface prism = prism_surface(5, 1, 0.6);
+  const SurfaceSdf sdf(prism);
+  MeshPair a = surface_pair(prism, 3), b = a;
+  OptimizeStats sa, sb;
+  {
+    const ThreadLimit one(1);
+    sa = optimize(a, &sdf, {}, &prism);
+  }
+  {
+    const ThreadLimit two(2);
+    sb = optimize(b, &sdf, {}, &prism);
+  }
+  EXPECT_EQ(sa.moves_accepted, sb.moves_accepted);
+  EXPECT_EQ(sa.curve_vertices, sb.curve_vertices);
+  EXPECT_EQ(sa.snapped_vertices, sb.snapped_vertices);
+  for (std::size_t i = 0; i < a.inside.points.size(); ++i) ASSERT_EQ(a.inside.points[i], b.inside.points[i]) << i;
+  for (std::size_t i = 0; i < a.outside.points.size(); ++i) ASSERT_EQ(a.outside.points[i], b.outside.points[i]) << i;
 }
 
 }  // namespace

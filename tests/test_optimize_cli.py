@@ -9,6 +9,7 @@ import unittest
 import meshio
 import numpy as np
 
+import models
 from harness import ScratchTestCase, run
 
 
@@ -81,6 +82,38 @@ class Optimize(ScratchTestCase):
         with open(report) as f:
             rep = json.load(f)
         self.assertEqual(rep["optimize"]["certified"]["after"], rep["optimize"]["hexes"])
+
+    def test_features_come_from_the_input_in_mesh_and_optimize(self):
+        # A box: its 12 edges are the input's sharp edges (one triangle edge each; the face
+        # diagonals are flat), and boundary vertices represent them, in `mesh --optimize` and in
+        # `optimize --input` alike.
+        corners = np.array([[x, y, z] for z in (-0.3, 0.3) for y in (-0.5, 0.5) for x in (-0.7, 0.7)])
+        quads = [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)]
+        tris = np.array([t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))])
+        self.assertGreater(models.signed_volume(corners, tris), 0)
+        path = os.path.join(self.dir, "box.stl")
+        models.write_binary_stl(path, corners, tris)
+        reports = []
+        plain_in, plain_out, report = (os.path.join(self.dir, n) for n in ("p.in.vtu", "p.out.vtu", "p.json"))
+        r = run("mesh", path, "--depth", 2, "--eps", 0.02, "-o", plain_in, "--outside", plain_out, "--quiet")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        for tag, args in (("mesh", ("mesh", path, "--depth", 2, "--optimize")),
+                          ("optimize", ("optimize", plain_in, "--outside", plain_out, "--input", path,
+                                        "--outside-output", os.path.join(self.dir, "optimize.out.vtu")))):
+            out, report = os.path.join(self.dir, tag + ".in.vtu"), os.path.join(self.dir, tag + ".json")
+            r = run(*args, "-o", out, "--report", report, "--quiet")
+            self.assertEqual(r.returncode, 0, r.stderr)
+            with open(report) as f:
+                s = json.load(f)["optimize"]
+            self.assertEqual(s["input_features"]["sharp_edges"], 12, tag)
+            self.assertEqual(s["input_features"]["curves"], 12, tag)
+            self.assertGreater(s["vertices"]["on_curves"], 0, tag)
+            self.assertGreater(s["vertices"]["at_corners"], 0, tag)
+            self.assertEqual(s["vertices"]["features"], s["vertices"]["on_curves"] + s["vertices"]["at_corners"])
+            self.assertEqual(s["certified"]["after"], s["hexes"], tag)
+            reports.append(s)
+        # The same mesh optimised the same way: the same vertices represent the features.
+        self.assertEqual(reports[0]["vertices"], reports[1]["vertices"])
 
     def assert_one_line_error(self, r, needle):
         self.assertEqual(r.returncode, 1, r.stderr)

@@ -13,6 +13,7 @@
 #include "core/base/parallel.h"
 #include "core/base/stage_clock.h"
 #include "core/check/mesh_check.h"
+#include "core/mesh/feature_curves.h"
 #include "core/mesh/quality.h"
 
 namespace mchex {
@@ -50,14 +51,21 @@ constexpr CornerTable kCorners = make_corner_table();
 // Vertex constraints.
 // kPlaced: a surface vertex that a move has put onto the input surface (the mesher's interface
 // points are only near it: edge crossings of the interpolated field, face and cell centres).
-enum : uint8_t { kOnSurface = 1, kFixed = 2, kPlaced = 4 };
+// kFeature: a surface vertex that represents a feature of the input, a curve or a corner (its
+// `target`): until it lies on it (kSnapped) it moves on the surface, never away from the target;
+// then along the curve (a corner's holds it).
+enum : uint8_t { kOnSurface = 1, kFixed = 2, kPlaced = 4, kFeature = 8, kSnapped = 16 };
 
 // Steps along the ideal-corner and neighbour-mean directions (full, half, quarter), and along the
 // gradient of the worst scaled Jacobian (in units of the vertex's mean edge length: the worst
 // hexes are thin, so the steps that help them are short).
 constexpr int kSteps = 3, kGradientSteps = 6;
-constexpr int kCandidates = 1 + 2 * kSteps + kGradientSteps;  // slot 0: the current point (projected)
-constexpr std::size_t kMaxValence = 48;                       // vertices in more hexes are left fixed
+constexpr int kQualityCandidates = 1 + 2 * kSteps + kGradientSteps;  // slot 0: the current point (projected)
+// A feature vertex not yet on its target has three more: half and a quarter of the way to the
+// nearest point of the target (projected), and that point itself (not projected: it is on the
+// surface).
+constexpr int kApproach = kQualityCandidates, kTarget = kApproach + 2, kCandidates = kTarget + 1;
+constexpr std::size_t kMaxValence = 48;  // vertices in more hexes are left fixed
 
 // The pair as one mesh: inside points first, then the outside points that are not on the
 // interface; hexes of the inside, then of the outside.
@@ -174,22 +182,29 @@ struct Optimizer {
   Joined& j;
   const SignedDistance* surface;
   const OptimizeOptions& o;
+  FeatureCurves features;
   KeyGroups incident;
   std::vector<uint8_t> flags;
-  std::vector<uint8_t> locked;  // bit a: coordinate a is held (box planes)
-  std::vector<Vec3> normal;     // surface vertices: the area-weighted boundary normal
-  std::vector<double> sj;       // per hex, the scaled Jacobian (min over the 9 points)
+  std::vector<uint32_t> target;  // kFeature vertices: their curve or corner (FeatureCurves)
+  double on_target = 0;          // squared distance within which a vertex is on its target
+  std::vector<uint8_t> locked;   // bit a: coordinate a is held (box planes)
+  std::vector<Vec3> normal;      // surface vertices: the area-weighted boundary normal
+  std::vector<double> sj;        // per hex, the scaled Jacobian (min over the 9 points)
+  std::vector<double> ratio;     // per hex, the edge ratio
   std::vector<uint8_t> certified;
   // A vertex is visited again only once a vertex sharing a hex with it has moved (or it moved
   // itself): otherwise its candidates and their scores are those it has already refused.
   std::vector<uint8_t> dirty;
   Box box;
 
-  Optimizer(Joined& joined, const SignedDistance* s, const OptimizeOptions& opt, const HexMesh& inside, bool pair)
+  Optimizer(Joined& joined, const SignedDistance* s, const TriangleSurface* triangles, const OptimizeOptions& opt,
+            const HexMesh& inside, bool pair)
       : j(joined), surface(s), o(opt) {
     const std::size_t nv = j.x.size();
+    if (surface && triangles) features = FeatureCurves(*triangles, o.feature_angle);
     incident = vertex_hexes(nv, j.hexes);
     flags.assign(nv, 0);
+    target.assign(nv, FeatureCurves::kAnyCurve);
     dirty.assign(nv, 1);
     locked.assign(nv, 0);
     normal.assign(nv, Vec3{});
@@ -228,22 +243,44 @@ struct Optimizer {
         largest = std::max(largest, size);
       }
       normal[v] = normalized(sum);
+      if (flags[v] & kFixed || features.empty()) return;
       // Quads far smaller than the largest around the vertex (slivers at clamped crossings)
-      // have normals of little meaning: only the others decide a feature.
-      for (std::size_t p = 0; p < n.size(); ++p)
-        for (std::size_t q = p + 1; q < n.size(); ++q)
-          if (n[p].second >= 0.05 * largest && n[q].second >= 0.05 * largest &&
-              dot(n[p].first, n[q].first) < cos_feature)
-            flags[v] |= kFixed;
+      // have normals of little meaning: only the others say whether the mesh folds here, and
+      // their edges give the vertex's size h.
+      bool folds = false;
+      double h = 0;
+      int edges = 0;
+      for (std::size_t p = 0; p < n.size(); ++p) {
+        if (n[p].second < 0.05 * largest) continue;
+        const auto& q = quads[mine[p] / 4];
+        const int i = int(std::find(q.begin(), q.end(), uint32_t(v)) - q.begin());
+        h += norm(j.x[q[(i + 1) % 4]] - j.x[v]) + norm(j.x[q[(i + 3) % 4]] - j.x[v]);
+        edges += 2;
+        for (std::size_t r = p + 1; r < n.size(); ++r)
+          folds = folds || (n[r].second >= 0.05 * largest && dot(n[p].first, n[r].first) < cos_feature);
+      }
+      if (!folds) return;
+      h /= edges;
+      // A fold is a feature only where the input has a sharp edge within h: the vertex then
+      // represents that curve, or a corner of the input within h.
+      const FeatureCurves::Nearest on = features.nearest(j.x[v], FeatureCurves::kAnyCurve, h);
+      if (on.curve == FeatureCurves::kAnyCurve) return;
+      const FeatureCurves::Nearest corner = features.nearest(j.x[v], FeatureCurves::kCorner, h);
+      flags[v] |= kFeature;
+      target[v] = corner.curve != FeatureCurves::kAnyCurve ? corner.curve : on.curve;
     });
+    const double diagonal = box.diagonal();
+    on_target = 1e-24 * diagonal * diagonal;
     parallel_for(nv, [&](std::size_t v) {
       if (incident.start[v + 1] - incident.start[v] > kMaxValence) flags[v] |= kFixed;
     });
     sj.resize(j.hexes.size());
+    ratio.resize(j.hexes.size());
     certified.resize(j.hexes.size());
     parallel_for(j.hexes.size(), [&](std::size_t h) {
       const HexQuality q = hex_quality(corners_of(j.x, j.hexes[h]));
       sj[h] = q.scaled_jacobian;
+      ratio[h] = q.edge_ratio;
       certified[h] = q.certified();
     });
   }
@@ -280,14 +317,23 @@ struct Optimizer {
     double min = kInf, sum = 0, max_ratio = 0;
   };
 
+  // A vertex's hexes where it is, measured once per visit (by candidates, for try_move): their
+  // minimum and sum, the offset of the worst hex and its worst point.
+  struct Visit {
+    Local now;
+    uint32_t worst = 0;
+    int point = 0;
+  };
+
   // The scaled Jacobians of v's hexes with v at y (the certificate and the edge ratio, given a
   // finite ratio_cap, are apart: they are asked only of the candidate chosen); stops early
   // (min = -inf) as soon as a hex falls below `floor` or passes `ratio_cap`.
   // `first` (an offset into v's incident hexes) is measured first: the worst hex at the current
   // point, which rejects most candidates that fall below the floor at once. `worst` returns the
-  // offset of the worst hex, `worst_point` its worst of the 9 points.
+  // offset of the worst hex, `worst_point` its worst of the 9 points; `mins`, if given, each
+  // hex's scaled Jacobian (by offset), as hex_quality has it (the same operations).
   Local evaluate(uint32_t v, Vec3 y, double floor, double ratio_cap, uint32_t first = 0, uint32_t* worst = nullptr,
-                 int* worst_point = nullptr) const {
+                 int* worst_point = nullptr, double* mins = nullptr) const {
     Local l;
     const uint32_t b = incident.start[v], n = incident.start[v + 1] - b;
     for (uint32_t i = 0; i < n; ++i) {
@@ -303,6 +349,7 @@ struct Optimizer {
         l.min = -kInf;
         return l;
       }
+      if (mins) mins[off] = *lowest;
       if (*lowest < l.min) {
         l.min = *lowest;
         if (worst) *worst = off, *worst_point = int(lowest - s.begin());
@@ -325,17 +372,32 @@ struct Optimizer {
     return true;
   }
 
+  bool snapped(uint32_t v) const { return (flags[v] & (kFeature | kSnapped)) == (kFeature | kSnapped); }
+  bool snapping(uint32_t v) const { return (flags[v] & (kFeature | kSnapped)) == kFeature; }
+
   // Keeps only the motion a vertex may make: in the plane or along the line of its box face or
-  // edge, or in the tangent plane of the surface (the projection then puts it back on it).
-  Vec3 constrain(uint32_t v, Vec3 d) const {
+  // edge, along its feature curve (`tangent`, 0 at a corner), or in the tangent plane of the
+  // surface (the projection then puts it back on the curve or the surface).
+  Vec3 constrain(uint32_t v, Vec3 d, Vec3 tangent) const {
     for (int a = 0; a < 3; ++a)
       if (locked[v] >> a & 1) d[a] = 0;
+    if (snapped(v)) return dot(d, tangent) * tangent;
     if (flags[v] & kOnSurface) d -= dot(d, normal[v]) * normal[v];
     return d;
   }
 
-  // The candidate positions of v (slot 0: where it is), before projection.
-  void candidates(uint32_t v, Vec3* out) const {
+  bool unplaced(uint32_t v) const { return surface && (flags[v] & (kOnSurface | kPlaced)) == kOnSurface; }
+
+  // How many of v's candidates the surface projection takes (a snapping vertex's target is on
+  // the surface already, a snapped vertex's are on its curve).
+  int projected_count(uint32_t v) const {
+    if (!surface || !(flags[v] & kOnSurface) || snapped(v)) return 0;
+    return snapping(v) ? kTarget : kQualityCandidates;
+  }
+
+  // The candidate positions of v (slot 0: where it is), before projection onto the surface; a
+  // snapped vertex's are projected onto its curve here.
+  void candidates(uint32_t v, Vec3* out, Visit& visit) const {
     const Vec3 x = j.x[v];
     Vec3 ideal{}, mean{};
     double length = 0;
@@ -357,10 +419,10 @@ struct Optimizer {
     mean = mean / (3.0 * count);
     length /= 3.0 * count;
     // Gradient of the worst scaled Jacobian at v (central differences on that one point).
-    uint32_t worst_offset = 0;
-    int worst_point = 0;
-    const Local now = evaluate(v, x, -kInf, kInf, 0, &worst_offset, &worst_point);
-    const std::size_t worst_hex = incident.items[incident.start[v] + worst_offset] / 8;
+    visit.now = evaluate(v, x, -kInf, kInf, 0, &visit.worst, &visit.point);
+    const Local& now = visit.now;
+    const int worst_point = visit.point;
+    const std::size_t worst_hex = incident.items[incident.start[v] + visit.worst] / 8;
     Vec3 gradient{};
     if (now.min > -kInf) {
       const Hex& h = j.hexes[worst_hex];
@@ -377,15 +439,23 @@ struct Optimizer {
         gradient[a] = (up - down) / (2 * step);
       }
     }
-    const Vec3 dirs[2] = {constrain(v, ideal - x), constrain(v, mean - x)};
+    const FeatureCurves::Nearest on = flags[v] & kFeature ? features.nearest(x, target[v]) : FeatureCurves::Nearest{};
+    const Vec3 dirs[2] = {constrain(v, ideal - x, on.tangent), constrain(v, mean - x, on.tangent)};
     out[0] = x;
     for (int d = 0; d < 2; ++d) {
       double t = 1;
       for (int s = 0; s < kSteps; ++s, t *= 0.5) out[1 + d * kSteps + s] = x + t * dirs[d];
     }
-    const Vec3 g = length * normalized(constrain(v, gradient));
+    const Vec3 g = length * normalized(constrain(v, gradient, on.tangent));
     double t = 0.5;
     for (int s = 0; s < kGradientSteps; ++s, t *= 0.5) out[1 + 2 * kSteps + s] = x + t * g;
+    if (snapped(v))
+      for (int k = 0; k < kQualityCandidates; ++k) out[k] = features.nearest(out[k], target[v]).point;
+    if (snapping(v)) {
+      out[kApproach] = x + 0.5 * (on.point - x);
+      out[kApproach + 1] = x + 0.25 * (on.point - x);
+      out[kTarget] = on.point;
+    }
   }
 
   // One sweep; returns the vertices moved.
@@ -393,9 +463,9 @@ struct Optimizer {
     std::size_t moved = 0;
     std::vector<uint32_t> active;
     std::vector<Vec3> cand;
-    std::vector<uint32_t> on_surface;
     std::vector<Vec3> to_project;
     std::vector<uint8_t> accepted;
+    std::vector<Visit> visits;
     for (const std::vector<uint32_t>& cls : classes) {
       active.clear();
       for (uint32_t v : cls) {
@@ -403,32 +473,34 @@ struct Optimizer {
         double lo = kInf;
         for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k)
           lo = std::min(lo, sj[incident.items[k] / 8]);
-        // A surface vertex not yet on the surface is visited until a move puts it there.
-        const bool unplaced = surface && (flags[v] & kOnSurface) && !(flags[v] & kPlaced);
-        if (lo < o.active_below || unplaced) active.push_back(v);
+        // A surface vertex not yet on the surface, or a feature vertex not yet on its target, is
+        // visited until a move puts it there.
+        if (lo < o.active_below || unplaced(v) || snapping(v)) active.push_back(v);
       }
       if (active.empty()) continue;
       cand.resize(active.size() * kCandidates);
+      visits.resize(active.size());
       parallel_chunks(active.size(), 16, [&](std::size_t b, std::size_t e) {
-        for (std::size_t a = b; a < e; ++a) candidates(active[a], &cand[a * kCandidates]);
+        for (std::size_t a = b; a < e; ++a) candidates(active[a], &cand[a * kCandidates], visits[a]);
       });
       // Surface vertices' candidates onto the surface, in one batch.
-      if (surface) {
-        on_surface.clear();
-        for (std::size_t a = 0; a < active.size(); ++a)
-          if (flags[active[a]] & kOnSurface) on_surface.push_back(uint32_t(a));
-        if (!on_surface.empty()) {
-          to_project.resize(on_surface.size() * kCandidates);
-          for (std::size_t s = 0; s < on_surface.size(); ++s)
-            std::copy_n(&cand[on_surface[s] * kCandidates], kCandidates, &to_project[s * kCandidates]);
-          project_to_surface(*surface, to_project);
-          for (std::size_t s = 0; s < on_surface.size(); ++s)
-            std::copy_n(&to_project[s * kCandidates], kCandidates, &cand[on_surface[s] * kCandidates]);
+      to_project.clear();
+      for (std::size_t a = 0; a < active.size(); ++a) {
+        const int n = projected_count(active[a]);
+        to_project.insert(to_project.end(), &cand[a * kCandidates], &cand[a * kCandidates] + n);
+      }
+      if (!to_project.empty()) {
+        project_to_surface(*surface, to_project);
+        std::size_t next = 0;
+        for (std::size_t a = 0; a < active.size(); ++a) {
+          const int n = projected_count(active[a]);
+          std::copy_n(&to_project[next], n, &cand[a * kCandidates]);
+          next += n;
         }
       }
       accepted.assign(active.size(), 0);
       parallel_chunks(active.size(), 16, [&](std::size_t b, std::size_t e) {
-        for (std::size_t a = b; a < e; ++a) accepted[a] = try_move(active[a], &cand[a * kCandidates]);
+        for (std::size_t a = b; a < e; ++a) accepted[a] = try_move(active[a], &cand[a * kCandidates], visits[a]);
       });
       for (std::size_t a = 0; a < active.size(); ++a) {
         const uint32_t v = active[a];
@@ -445,15 +517,30 @@ struct Optimizer {
     return moved;
   }
 
-  bool try_move(uint32_t v, const Vec3* cand) {
+  bool try_move(uint32_t v, const Vec3* cand, const Visit& visit) {
     const Vec3 x = j.x[v];
-    uint32_t worst = 0;
-    int point = 0;
-    const Local now = evaluate(v, x, -kInf, kInf, 0, &worst, &point);
+    const Local& now = visit.now;
+    const uint32_t worst = visit.worst;
+    const uint32_t b = incident.start[v], e = incident.start[v + 1];
     double now_ratio = 0;
-    for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k)
-      now_ratio = std::max(now_ratio, edge_ratio(corners_of(j.x, j.hexes[incident.items[k] / 8])));
+    for (uint32_t k = b; k < e; ++k) now_ratio = std::max(now_ratio, ratio[incident.items[k] / 8]);
     const double cap = std::max(now_ratio, o.max_edge_ratio);
+    // Each hex's scaled Jacobian and edge ratio at the candidate taken, for place().
+    double mins[kQualityCandidates][kMaxValence], ratios[kMaxValence];
+    // A feature vertex not yet on its target first tries to get there (all the way, half, a
+    // quarter): the first step that keeps the minimum, every certificate and the cap is taken.
+    double target_distance = kInf;
+    if (snapping(v)) {
+      for (const int k : {kTarget, kApproach, kApproach + 1}) {
+        const Vec3 y = cand[k];
+        if (!is_finite(y) || y == x || !(evaluate(v, y, now.min, cap, 0, nullptr, nullptr, mins[0]).min > -kInf) ||
+            !keeps_certificates(v, y))
+          continue;
+        place(v, y, k == kTarget, mins[0]);
+        return true;
+      }
+      target_distance = squared_norm(cand[kTarget] - x);
+    }
     // Each candidate is compared with the best so far (a higher minimum, or the same minimum
     // and a higher mean; slot 0, a surface vertex put onto the surface where it is, also when it
     // keeps the minimum; any other move must gain more than rounding), so the options kept are
@@ -462,13 +549,15 @@ struct Optimizer {
       Local l;
       int k;
     };
-    Option options[kCandidates];
+    Option options[kQualityCandidates];
     int n = 0;
     Local best = now;
-    for (int k = 0; k < kCandidates; ++k) {
+    for (int k = 0; k < kQualityCandidates; ++k) {
       const Vec3 y = cand[k];
       if (!is_finite(y) || y == x) continue;
-      const Local l = evaluate(v, y, best.min, kInf, worst);
+      // Never away from the target (the feature would blur).
+      if (target_distance < kInf && features.nearest(y, target[v]).squared_distance > target_distance) continue;
+      const Local l = evaluate(v, y, best.min, kInf, worst, nullptr, nullptr, mins[n]);
       if (l.min == -kInf) continue;
       const bool gain = n == 0 ? l.min - now.min > 1e-12 || (l.min >= now.min && l.sum - now.sum > 1e-9 * (now.sum + 1))
                                : l.min > best.min || (l.min == best.min && l.sum > best.sum);
@@ -477,21 +566,43 @@ struct Optimizer {
         best = l;
       }
     }
-    std::reverse(options, options + n);
-    for (int i = 0; i < n; ++i) {
+    for (int i = n - 1; i >= 0; --i) {
       const Vec3 y = cand[options[i].k];
-      if (!keeps_certificates(v, y) || !(evaluate(v, y, -kInf, cap).min > -kInf)) continue;
-      j.x[v] = y;
-      if (surface && (flags[v] & kOnSurface)) flags[v] |= kPlaced;
-      for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k) {
-        const uint32_t h = incident.items[k] / 8;
-        const HexQuality q = hex_quality(corners_of(j.x, j.hexes[h]));
-        sj[h] = q.scaled_jacobian;
-        certified[h] = q.certified();
-      }
+      if (!keeps_certificates(v, y) || !within_ratio(v, y, cap, ratios)) continue;
+      place(v, y, snapping(v) && features.nearest(y, target[v]).squared_distance <= on_target, mins[i], ratios);
       return true;
     }
     return false;
+  }
+
+  // Whether every hex of v keeps its edge ratio at most `cap` with v at y; `out` gets them.
+  bool within_ratio(uint32_t v, Vec3 y, double cap, double* out) const {
+    const uint32_t b = incident.start[v], n = incident.start[v + 1] - b;
+    for (uint32_t i = 0; i < n; ++i) {
+      const uint32_t h = incident.items[b + i] / 8, corner = incident.items[b + i] % 8;
+      HexCorners c = corners_of(j.x, j.hexes[h]);
+      c[corner] = y;
+      out[i] = edge_ratio(c);
+      if (out[i] > cap) return false;
+    }
+    return true;
+  }
+
+  // Moves v to y (on the surface; on its target, if `reaches_target`) and records its hexes'
+  // scaled Jacobians `mins` and edge ratios `ratios` there (by offset; measured when the move
+  // was chosen, ratios also here when not given). Certified hexes were re-certified before.
+  void place(uint32_t v, Vec3 y, bool reaches_target, const double* mins, const double* ratios = nullptr) {
+    j.x[v] = y;
+    if (surface && (flags[v] & kOnSurface)) flags[v] |= kPlaced;
+    if (reaches_target) flags[v] |= kSnapped;
+    const uint32_t b = incident.start[v], n = incident.start[v + 1] - b;
+    for (uint32_t i = 0; i < n; ++i) {
+      const uint32_t h = incident.items[b + i] / 8;
+      sj[h] = mins[i];
+      if (ratios) ratio[h] = ratios[i];
+      else ratio[h] = edge_ratio(corners_of(j.x, j.hexes[h]));
+      if (!certified[h]) certified[h] = bernstein_certified(corners_of(j.x, j.hexes[h]));
+    }
   }
 
   struct Summary {
@@ -524,7 +635,8 @@ struct Optimizer {
 
 }  // namespace
 
-OptimizeStats optimize(MeshPair& meshes, const SignedDistance* surface, const OptimizeOptions& options) {
+OptimizeStats optimize(MeshPair& meshes, const SignedDistance* surface, const OptimizeOptions& options,
+                       const TriangleSurface* triangles) {
   const double t0 = now();
   OptimizeStats st;
   const bool pair = !meshes.outside.hexes.empty();
@@ -532,13 +644,16 @@ OptimizeStats optimize(MeshPair& meshes, const SignedDistance* surface, const Op
   st.hexes = j.hexes.size();
   st.vertices = j.x.size();
   if (j.hexes.empty()) return st;
-  Optimizer opt(j, surface, options, meshes.inside, pair);
+  Optimizer opt(j, surface, triangles, options, meshes.inside, pair);
+  st.feature_curves = opt.features.curves();
+  st.feature_edges = opt.features.sharp_edges();
   for (std::size_t v = 0; v < j.x.size(); ++v) {
+    if ((opt.flags[v] & (kFeature | kFixed)) == kFeature) {
+      ++st.feature_vertices;
+      ++(opt.features.is_corner(opt.target[v]) ? st.corner_vertices : st.curve_vertices);
+    }
     if (opt.flags[v] & kFixed) {
       ++st.fixed_vertices;
-      if ((opt.flags[v] & kOnSurface) && surface && !opt.locked[v] &&
-          opt.incident.start[v + 1] - opt.incident.start[v] <= kMaxValence)
-        ++st.feature_vertices;
     } else if (opt.flags[v] & kOnSurface) {
       ++st.surface_vertices;
     } else if (opt.locked[v]) {
@@ -578,6 +693,7 @@ OptimizeStats optimize(MeshPair& meshes, const SignedDistance* surface, const Op
   st.max_edge_ratio_after = after.max_ratio;
   st.certified_after = after.certified;
   st.below_0_3_after = after.below;
+  for (std::size_t v = 0; v < j.x.size(); ++v) st.snapped_vertices += opt.snapped(uint32_t(v));
   for (std::size_t h = 0; h < j.hexes.size(); ++h) {
     if (opt.sj[h] >= 0.3) continue;
     bool fixed = false;

@@ -20,9 +20,16 @@
 // Constraints. Vertices on the inside mesh's boundary (the interface) stay on the input surface:
 // each candidate is moved in the tangent plane and projected onto the surface (the exact closest
 // point for a triangle surface, Newton steps on the field for an analytic shape); without a
-// surface they are fixed. Feature vertices (where the normals of the boundary quads around a
-// vertex differ by more than OptimizeOptions::feature_angle) are fixed. Vertices on a face of the
-// outer box move in its plane, on an edge of the box along it; box corners are fixed.
+// surface they are fixed. Features come from the input's own geometry (core/mesh/
+// feature_curves.h: triangle pairs folded by more than OptimizeOptions::feature_angle, chained
+// into curves that meet at corners), not from the mesh: a boundary vertex whose quads fold by
+// that angle represents a feature only where an input sharp edge lies within its size (then the
+// nearest corner within it, else that curve, is its target). Such a vertex moves on the surface,
+// never away from its target, and first tries to reach it; once on it, it slides along the
+// curve (projected onto its polyline) or, at a corner, stays. Where the quads fold but the input
+// is smooth (a thin part a cell or two thick, on a model without sharp edges), the vertex is a
+// plain surface vertex. Vertices on a face of the outer box move in its plane, on an edge of the
+// box along it; box corners are fixed.
 //
 // Guarantees. No hex that was certified loses its certificate; the minimum scaled Jacobian of the
 // pair never falls (each accepted move raises or keeps the minimum of the hexes it changes); the
@@ -35,6 +42,7 @@
 
 #include "core/base/geometry.h"
 #include "core/mesh/hex_mesh.h"
+#include "core/mesh/surface.h"
 #include "core/sdf/sdf.h"
 
 namespace mchex {
@@ -52,7 +60,9 @@ struct OptimizeOptions {
   // A vertex is moved in a sweep when one of its hexes has a scaled Jacobian below this (hexes
   // above it are left as they are: most of a grid's hexes are cubes).
   double active_below = 0.8;
-  double feature_angle = 40;   // degrees between boundary quad normals that make a vertex a feature
+  // Degrees between the normals of two input triangles that make their edge sharp, and between
+  // two boundary quads that make their vertex a fold.
+  double feature_angle = 40;
   double max_edge_ratio = 20;  // a move may not raise a hex's edge ratio past this (or past its own)
   // Stop when a sweep raises the minimum scaled Jacobian by less than this and the mean by less
   // than ten times it.
@@ -66,7 +76,7 @@ struct WorstHex {
   Vec3 centre;
   double scaled_jacobian = 0;
   double edge_ratio = 0;
-  int fixed_corners = 0;    // features, box corners, surface vertices without a surface
+  int fixed_corners = 0;    // box corners, surface vertices without a surface, high valence
   int surface_corners = 0;  // on the input surface (movable along it)
   int box_corners = 0;      // on a face or edge of the box (movable along it)
 };
@@ -75,7 +85,12 @@ struct OptimizeStats {
   int sweeps = 0;
   std::size_t hexes = 0, vertices = 0;  // of the pair, interface vertices counted once
   std::size_t free_vertices = 0, surface_vertices = 0, box_vertices = 0, fixed_vertices = 0;
-  std::size_t feature_vertices = 0;  // among the fixed ones
+  // Surface vertices that represent the input's sharp features (core/mesh/feature_curves.h):
+  // those of a curve and those of a corner; and of them, those that lie on it after the sweeps.
+  std::size_t curve_vertices = 0, corner_vertices = 0;
+  std::size_t feature_vertices = 0;  // the two together
+  std::size_t snapped_vertices = 0;
+  std::size_t feature_curves = 0, feature_edges = 0;  // of the input (angle OptimizeOptions::feature_angle)
   int colours = 0;
   double min_sj_before = 0, min_sj_after = 0, mean_sj_before = 0, mean_sj_after = 0;
   double max_edge_ratio_before = 0, max_edge_ratio_after = 0;
@@ -96,9 +111,12 @@ struct OptimizeStats {
 
 // Optimises the pair in place. `surface` is the solid's field (its zero set is the input
 // surface): a SurfaceSdf gives exact closest points, any other field Newton projection; null
-// fixes the boundary. `meshes.outside` may be empty: then the inside mesh alone is optimised and
-// its boundary kept on the surface.
-OptimizeStats optimize(MeshPair& meshes, const SignedDistance* surface, const OptimizeOptions& options = {});
+// fixes the boundary. `triangles`, the surface the SurfaceSdf was built from, gives the
+// features; without it (an analytic shape, whose built-in kinds are smooth) there are none.
+// `meshes.outside` may be empty: then the inside mesh alone is optimised and its boundary kept
+// on the surface.
+OptimizeStats optimize(MeshPair& meshes, const SignedDistance* surface, const OptimizeOptions& options = {},
+                       const TriangleSurface* triangles = nullptr);
 
 // Projects points onto the zero set of `surface` (what optimize uses; public for the tests).
 void project_to_surface(const SignedDistance& surface, std::span<Vec3> points);

@@ -344,8 +344,8 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
   }
   if (run.fidelity) run.fidelity->far_points = run.fidelity->misclassified_points = {};
   if (o.optimize) {
-    run.optimize =
-        run.clock.run("optimize", [&] { return mchex::optimize(run.meshes, &solid.sdf(), o.optimize_options); });
+    run.optimize = run.clock.run(
+        "optimize", [&] { return mchex::optimize(run.meshes, &solid.sdf(), o.optimize_options, solid.surface()); });
     run.fidelity.reset();  // the rounds measured the mesh before the optimiser moved it
   }
   if (regions) {

@@ -54,7 +54,7 @@ int run_optimize(const OptimizeCommand& o, bool quiet) {
   source.path = o.input;
   source.shape = o.shape;
   const Solid solid(source, clock, quiet, o.solid);
-  const OptimizeStats stats = optimize(meshes, &solid.sdf(), o.options);
+  const OptimizeStats stats = optimize(meshes, &solid.sdf(), o.options, solid.surface());
   const MeshCheck after = check_mesh(meshes.inside, outside_path ? &meshes.outside : nullptr, nullptr, check_options);
   if (!after.ok)
     throw std::runtime_error("the optimised mesh fails its check, so nothing was written: " + first_error(after));
