@@ -76,9 +76,19 @@ void reserve_header(int id, std::size_t bytes) {
     auto* redef = reinterpret_cast<Redef>(dlsym(exodus, "nc_redef"));
     auto* enddef = reinterpret_cast<Enddef>(dlsym(exodus, "nc__enddef"));
     const bool library = exodus != program;
+    // libexodusii's own nc_* calls bind through the global scope first, then its own
+    // dependencies: where the global scope holds another netCDF (a program that linked one), the
+    // files live in that one, and these would act on another library's file numbers. So they are
+    // used only when the global scope has no netCDF (the Python module, loaded locally) or the same.
+    auto same = [](const char* name, void* ours) {
+      void* global = dlsym(RTLD_DEFAULT, name);
+      return global == nullptr || global == ours;
+    };
+    const bool one_netcdf =
+        same("nc_redef", reinterpret_cast<void*>(redef)) && same("nc__enddef", reinterpret_cast<void*>(enddef));
     dlclose(exodus);
     if (program != nullptr) dlclose(program);
-    if (!library || redef == nullptr || enddef == nullptr) return {};
+    if (!library || !one_netcdf || redef == nullptr || enddef == nullptr) return {};
     return {redef, enddef};
   }();
   if (netcdf.first == nullptr || netcdf.first(id) != 0) return;
@@ -106,13 +116,14 @@ RegionGroups block_regions(const std::vector<int32_t>& region) {
 // The Exodus element number (1-based, block order) of the hex of each given face: the first
 // element of its region's block plus the hexes of that region before it. `faces` ascending. One
 // pass over the hexes' labels, in chunks on all threads, each chunk starting from the labels
-// counted in the chunks before it.
+// counted in the chunks before it. A chunk holds at least k hexes, so the per-chunk counts (chunks
+// x k) stay within the hexes' number however many regions there are.
 std::vector<int32_t> element_numbers(const HexMesh& mesh, const RegionGroups& regions,
                                      const std::vector<std::uint64_t>& block_start,
                                      const std::vector<std::uint32_t>& faces) {
-  constexpr std::size_t kChunk = std::size_t{1} << 14;
   const std::size_t m = mesh.hexes.size(), k = regions.groups.size();
-  const std::size_t chunks = (m + kChunk - 1) / kChunk;
+  const std::size_t chunk = std::max<std::size_t>(std::size_t{1} << 14, k);
+  const std::size_t chunks = (m + chunk - 1) / chunk;
   // Labels come in runs: the group of the previous label is tried first.
   auto group_of = [&](int32_t region, std::size_t& cached) {
     if (regions.groups[cached].region != region) cached = regions.index_of(region);
@@ -123,7 +134,7 @@ std::vector<int32_t> element_numbers(const HexMesh& mesh, const RegionGroups& re
     for (std::size_t c = cb; c < ce; ++c) {
       if (c + 1 == chunks) break;  // the last chunk's counts start no chunk
       std::size_t g = 0;
-      for (std::size_t h = c * kChunk; h < (c + 1) * kChunk; ++h) ++before[(c + 1) * k + group_of(mesh.region[h], g)];
+      for (std::size_t h = c * chunk; h < (c + 1) * chunk; ++h) ++before[(c + 1) * k + group_of(mesh.region[h], g)];
     }
   });
   for (std::size_t c = 1; c < chunks; ++c)
@@ -133,13 +144,13 @@ std::vector<int32_t> element_numbers(const HexMesh& mesh, const RegionGroups& re
   parallel_chunks(chunks, 1, [&](std::size_t cb, std::size_t ce) {
     std::vector<std::uint64_t> count(k);
     for (std::size_t c = cb; c < ce; ++c) {
-      const std::uint64_t first_face = 6 * c * kChunk;
+      const std::uint64_t first_face = 6 * c * chunk;
       auto q = static_cast<std::size_t>(std::lower_bound(faces.begin(), faces.end(), first_face) - faces.begin());
-      if (q == faces.size() || faces[q] / 6 >= (c + 1) * kChunk) continue;
+      if (q == faces.size() || faces[q] / 6 >= (c + 1) * chunk) continue;
       std::copy(before.begin() + static_cast<std::ptrdiff_t>(c * k),
                 before.begin() + static_cast<std::ptrdiff_t>((c + 1) * k), count.begin());
       std::size_t g = 0;
-      for (std::size_t h = c * kChunk; h < std::min(m, (c + 1) * kChunk) && q < faces.size(); ++h) {
+      for (std::size_t h = c * chunk; h < std::min(m, (c + 1) * chunk) && q < faces.size(); ++h) {
         const std::size_t group = group_of(mesh.region[h], g);
         for (; q < faces.size() && faces[q] / 6 == h; ++q)
           numbers[q] = static_cast<int32_t>(block_start[group] + count[group] + 1);

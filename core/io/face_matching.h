@@ -1,6 +1,6 @@
 // Which faces of a hex mesh are on its boundary (one hex has them) and which lie between two
 // regions (two hexes of different region labels share them): what the Exodus writer's boundary
-// node set and interface side sets are made of (exodus.cpp).
+// node set and interface side sets are made of (exodus_writer.cpp).
 //
 // A face is its four corner indices, sorted; two faces match when those are equal. The hexes are
 // cut into a fixed number of consecutive slices, matched on all threads: each slice walks its hexes
