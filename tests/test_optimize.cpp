@@ -325,6 +325,26 @@ TEST(Optimize, FeatureVerticesApproachAndSlideAlongThePrismEdges) {
   EXPECT_EQ(t.fixed_vertices, 8u);
 }
 
+// A feature vertex already on its target counts as snapped before any move: the vertices a first
+// run put on the prism's edges and corners are snapped in a second run of no sweeps. (Were they
+// not, the rule that keeps a snapping vertex from moving away from its target would hold them
+// where they are for good.)
+TEST(Optimize, VerticesAlreadyOnTheirFeatureAreSnappedFromTheStart) {
+  const TriangleSurface prism = prism_surface(5, 1, 0.6);
+  const SurfaceSdf sdf(prism);
+  MeshPair pair = surface_pair(prism, 3);
+  const OptimizeStats first = optimize(pair, &sdf, {}, &prism);
+  ASSERT_GT(first.snapped_vertices, 0u);
+  OptimizeOptions none;
+  none.max_sweeps = 0;
+  const MeshPair optimized = pair;
+  const OptimizeStats again = optimize(pair, &sdf, none, &prism);
+  EXPECT_GE(again.snapped_vertices, first.snapped_vertices);
+  EXPECT_LE(again.snapped_vertices, again.feature_vertices);
+  for (std::size_t i = 0; i < pair.inside.points.size(); ++i)
+    ASSERT_EQ(pair.inside.points[i], optimized.inside.points[i]);
+}
+
 TEST(Optimize, SameResultOnOneAndTwoThreadsWithFeatures) {
   const TriangleSurface prism = prism_surface(5, 1, 0.6);
   const SurfaceSdf sdf(prism);

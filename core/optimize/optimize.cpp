@@ -271,6 +271,13 @@ struct Optimizer {
     });
     const double diagonal = box.diagonal();
     on_target = 1e-24 * diagonal * diagonal;
+    // A feature vertex already on its target (a crossing exactly on a sharp edge: a box's edges on
+    // grid lines) is snapped from the start: no move brings it closer, and while snapping the rule
+    // "never away from the target" would refuse every move off that exact point.
+    parallel_for(nv, [&](std::size_t v) {
+      if ((flags[v] & kFeature) && features.nearest(j.x[v], target[v]).squared_distance <= on_target)
+        flags[v] |= kSnapped;
+    });
     parallel_for(nv, [&](std::size_t v) {
       if (incident.start[v + 1] - incident.start[v] > kMaxValence) flags[v] |= kFixed;
     });
@@ -536,7 +543,7 @@ struct Optimizer {
         if (!is_finite(y) || y == x || !(evaluate(v, y, now.min, cap, 0, nullptr, nullptr, mins[0]).min > -kInf) ||
             !keeps_certificates(v, y))
           continue;
-        place(v, y, k == kTarget, mins[0]);
+        place(v, y, features.nearest(y, target[v]).squared_distance <= on_target, mins[0]);
         return true;
       }
       target_distance = squared_norm(cand[kTarget] - x);
