@@ -8,8 +8,9 @@
 // the whole mesh), and per pair of regions a < b that share faces a side set "interface_a_b" of
 // those faces, each as (element of region a, its Exodus side number). HEX8's node order is
 // VTK_HEXAHEDRON's; its side numbering is the Exodus II manual's (docs/formats.md). 32-bit
-// integers in the file (the classic netCDF model every Exodus reader takes), so a mesh over
-// 2^31 - 1 points or hexes is refused.
+// integers in the file (the classic netCDF model every Exodus reader takes) and at most 2^32 - 4
+// bytes per variable (CDF-2), so a mesh over 536870911 points, 357913941 hexes (six faces each
+// numbered in 32 bits) or 134217727 hexes in one region is refused.
 // Read: every element block of a HEX type with 8 nodes per element (blocks of 2D or 1D elements
 // skipped, other 3D elements an error), the region from the block name "region_R" else the block
 // id, the hexes put in the order of the element number map when it is a permutation of 1..m.

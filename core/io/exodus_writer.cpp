@@ -182,6 +182,17 @@ void write_exodus(const HexMesh& mesh, AtomicFile& out) {
     block_start[g + 1] = block_start[g] + regions.groups[g].count;
     block_names.push_back("region_" + std::to_string(regions.groups[g].region));
   }
+  // A CDF-2 (64-bit offset) file holds at most 2^32 - 4 bytes in a fixed-size variable: each
+  // coordinate array (8 bytes per point) and each block's connectivity (32 bytes per hex). Said
+  // here, before the face matching, rather than by libnetcdf when the variable is defined.
+  constexpr std::size_t kVariableBytes = (std::size_t{1} << 32) - 4;
+  if (8 * n > kVariableBytes)
+    throw FormatError("Exodus (netCDF 64-bit offset) files hold at most 536870911 points; this mesh has " +
+                      std::to_string(n));
+  for (const RegionGroup& g : regions.groups)
+    if (32 * g.count > kVariableBytes)
+      throw FormatError("Exodus (netCDF 64-bit offset) files hold at most 134217727 hexes per region; region " +
+                        std::to_string(g.region) + " has " + std::to_string(g.count));
   std::vector<std::uint32_t> order;
   if (k > kMaxRegionGroups) {
     order.resize(m);
