@@ -225,6 +225,8 @@ struct Optimizer {
         },
         [&](uint32_t k) { return quads[k / 4][k % 4]; });
     const double cos_feature = std::cos(o.feature_angle * M_PI / 180);
+    const double diagonal = box.diagonal();
+    on_target = 1e-24 * diagonal * diagonal;
     parallel_for(nv, [&](std::size_t v) {
       const uint32_t b = at.start[v], e = at.start[v + 1];
       if (b == e) return;
@@ -266,17 +268,13 @@ struct Optimizer {
       const FeatureCurves::Nearest on = features.nearest(j.x[v], FeatureCurves::kAnyCurve, h);
       if (on.curve == FeatureCurves::kAnyCurve) return;
       const FeatureCurves::Nearest corner = features.nearest(j.x[v], FeatureCurves::kCorner, h);
+      const FeatureCurves::Nearest& to = corner.curve != FeatureCurves::kAnyCurve ? corner : on;
       flags[v] |= kFeature;
-      target[v] = corner.curve != FeatureCurves::kAnyCurve ? corner.curve : on.curve;
-    });
-    const double diagonal = box.diagonal();
-    on_target = 1e-24 * diagonal * diagonal;
-    // A feature vertex already on its target (a crossing exactly on a sharp edge: a box's edges on
-    // grid lines) is snapped from the start: no move brings it closer, and while snapping the rule
-    // "never away from the target" would refuse every move off that exact point.
-    parallel_for(nv, [&](std::size_t v) {
-      if ((flags[v] & kFeature) && features.nearest(j.x[v], target[v]).squared_distance <= on_target)
-        flags[v] |= kSnapped;
+      target[v] = to.curve;
+      // A vertex already on its target (a crossing exactly on a sharp edge: a box's edges on grid
+      // lines) is snapped from the start: no move brings it closer, and while snapping the rule
+      // "never away from the target" would refuse every move off that exact point.
+      if (to.squared_distance <= on_target) flags[v] |= kSnapped;
     });
     parallel_for(nv, [&](std::size_t v) {
       if (incident.start[v + 1] - incident.start[v] > kMaxValence) flags[v] |= kFixed;
@@ -381,6 +379,10 @@ struct Optimizer {
 
   bool snapped(uint32_t v) const { return (flags[v] & (kFeature | kSnapped)) == (kFeature | kSnapped); }
   bool snapping(uint32_t v) const { return (flags[v] & (kFeature | kSnapped)) == kFeature; }
+  // Whether a snapping vertex at y would be on its target.
+  bool reaches_target(uint32_t v, Vec3 y) const {
+    return snapping(v) && features.nearest(y, target[v]).squared_distance <= on_target;
+  }
 
   // Keeps only the motion a vertex may make: in the plane or along the line of its box face or
   // edge, along its feature curve (`tangent`, 0 at a corner), or in the tangent plane of the
@@ -543,7 +545,7 @@ struct Optimizer {
         if (!is_finite(y) || y == x || !(evaluate(v, y, now.min, cap, 0, nullptr, nullptr, mins[0]).min > -kInf) ||
             !keeps_certificates(v, y))
           continue;
-        place(v, y, features.nearest(y, target[v]).squared_distance <= on_target, mins[0]);
+        place(v, y, reaches_target(v, y), mins[0]);
         return true;
       }
       target_distance = squared_norm(cand[kTarget] - x);
@@ -576,7 +578,7 @@ struct Optimizer {
     for (int i = n - 1; i >= 0; --i) {
       const Vec3 y = cand[options[i].k];
       if (!keeps_certificates(v, y) || !within_ratio(v, y, cap, ratios)) continue;
-      place(v, y, snapping(v) && features.nearest(y, target[v]).squared_distance <= on_target, mins[i], ratios);
+      place(v, y, reaches_target(v, y), mins[i], ratios);
       return true;
     }
     return false;
@@ -595,13 +597,13 @@ struct Optimizer {
     return true;
   }
 
-  // Moves v to y (on the surface; on its target, if `reaches_target`) and records its hexes'
+  // Moves v to y (on the surface; on its target, if `arrives`) and records its hexes'
   // scaled Jacobians `mins` and edge ratios `ratios` there (by offset; measured when the move
   // was chosen, ratios also here when not given). Certified hexes were re-certified before.
-  void place(uint32_t v, Vec3 y, bool reaches_target, const double* mins, const double* ratios = nullptr) {
+  void place(uint32_t v, Vec3 y, bool arrives, const double* mins, const double* ratios = nullptr) {
     j.x[v] = y;
     if (surface && (flags[v] & kOnSurface)) flags[v] |= kPlaced;
-    if (reaches_target) flags[v] |= kSnapped;
+    if (arrives) flags[v] |= kSnapped;
     const uint32_t b = incident.start[v], n = incident.start[v + 1] - b;
     for (uint32_t i = 0; i < n; ++i) {
       const uint32_t h = incident.items[b + i] / 8;
