@@ -259,10 +259,8 @@ void write_exodus(const HexMesh& mesh, AtomicFile& out) {
           "write failed: an interface side set");
   // libexodusii defines the number map with its first write: one entry, written again below.
   if (m > 0) {
-    int first = 0;
-    each_hex_of(0, [&](std::size_t h) {
-      if (first == 0) first = static_cast<int>(h + 1);
-    });
+    // The first hex of the first block (each_hex_of's first).
+    int first = static_cast<int>((order.empty() ? regions.groups[0].first : order[0]) + 1);
     check(ex_put_partial_id_map(id, EX_ELEM_MAP, 1, 1, &first), "write failed: the element number map");
   }
 
