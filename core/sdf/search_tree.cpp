@@ -212,7 +212,8 @@ SearchTree::SearchTree(const TriangleSurface& s, const TriangleBvh& bvh, Frames 
       const Sums& sum = sums[l.node];
       ids.clear();
       corners.clear();
-      if (frames == Frames::kFitted && nearly_flat(sum.normal, sum.area)) {
+      const bool own_frame = frames == Frames::kFitted && nearly_flat(sum.normal, sum.area);
+      if (own_frame) {
         for (uint32_t t : subtree(l.node))
           for (uint32_t i : s.triangles[t]) ids.push_back(i);
         std::sort(ids.begin(), ids.end());
@@ -221,8 +222,7 @@ SearchTree::SearchTree(const TriangleSurface& s, const TriangleBvh& bvh, Frames 
       } else {
         corners = {sum.box.lo, sum.box.hi};
       }
-      boxes[k] =
-          frames == Frames::kFitted ? bound_corners(corners, sum.normal, sum.area) : bound_corners(corners, {}, 0);
+      boxes[k] = own_frame ? bound_corners(corners, sum.normal, sum.area) : bound_corners(corners, {}, 0);
     }
   });
   // Set on one thread: lanes of one wide node share its vectors and its leaf mask.
