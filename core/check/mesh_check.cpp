@@ -16,6 +16,7 @@
 #include "core/base/parallel.h"
 #include "core/mesh/hex_faces.h"
 #include "core/mesh/quality.h"
+#include "core/mesh/surface.h"
 
 namespace mchex {
 namespace {
@@ -390,21 +391,6 @@ FacePass check_faces(const HexMesh& mesh, const std::string& name, const std::ve
 
 // ---------------------------------------------------------------------------------------------
 // Boundary surface of one mesh.
-
-// Union-find with path halving, over vertex ids.
-struct DisjointSets {
-  std::vector<uint32_t> parent;
-  explicit DisjointSets(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0u); }
-  uint32_t find(uint32_t x) {
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
-    return x;
-  }
-  void unite(uint32_t a, uint32_t b) {
-    a = find(a);
-    b = find(b);
-    if (a != b) parent[std::max(a, b)] = std::min(a, b);
-  }
-};
 
 // The quads around one vertex form a single cycle when, seen as edges between the vertex's
 // neighbours (each quad joins its two neighbours of the vertex), every neighbour has degree 2
