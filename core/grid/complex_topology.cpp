@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <limits>
+#include <mutex>
+#include <numeric>
 #include <stdexcept>
 #include <string>
 
@@ -12,120 +14,159 @@
 namespace mchex {
 namespace {
 
-struct EdgeEntry {
-  std::uint64_t key;   // (low point << 32) | high point
-  std::uint64_t slot;  // cell * 12 + local edge: the sort's tie-break puts the lowest cell first
-  bool operator<(const EdgeEntry& o) const { return key != o.key ? key < o.key : slot < o.slot; }
-};
-
-struct FaceEntry {
-  std::array<std::uint32_t, 4> sorted;  // the face's points, ascending: its name
-  std::uint64_t slot;                   // cell * 6 + local face
-  bool operator<(const FaceEntry& o) const {
-    // Element by element (std::array's != is a memcmp call, which cost more than the sort's
-    // own work here); the same lexicographic order.
-    for (int i = 0; i < 4; ++i)
-      if (sorted[i] != o.sorted[i]) return sorted[i] < o.sorted[i];
-    return slot < o.slot;
+// One entry (cell * 12 + local edge, or cell * 6 + local face) with its point set, ascending.
+template <int N>
+struct Named {
+  std::array<std::uint32_t, N> points;
+  std::uint32_t entry;
+  // Within a group points[0] is the same for all: the other points, then the entry (the lowest
+  // cell first).
+  bool operator<(const Named& o) const {
+    for (int i = 1; i < N; ++i)
+      if (points[i] != o.points[i]) return points[i] < o.points[i];
+    return entry < o.entry;
   }
 };
 
-// Sorts v as std::sort would (the entries' own order, every key distinct): grouped by the
-// entry's lowest point, its first sort key (group_by_key), then each group alone. A group holds
-// the few edges or faces that start at one point, so this costs a fraction of a comparison sort
-// over all of them (12 and 6 entries per cell); the group sort also removes the thread-dependent
-// order inside a group.
-template <class Entry, class LowPoint>
-void sort_by_lowest_point(std::vector<Entry>& v, std::size_t num_points, const LowPoint& low) {
-  const KeyGroups g = group_by_key(
-      num_points, [&](auto&& f) { parallel_for(v.size(), [&](std::size_t i) { f(static_cast<std::uint32_t>(i)); }); },
-      [&](std::uint32_t i) { return low(v[i]); });
-  std::vector<Entry> out(v.size());
-  parallel_for(v.size(), [&](std::size_t j) { out[j] = v[g.items[j]]; });
+// Numbers the distinct point sets of the entries 0 .. entries - 1 (points_of(entry): N point
+// ids, ascending). Ids follow the order of (point set, entry), so they depend on the complex alone,
+// never on the thread count. After counting, size(count) is called once; then name(id, first,
+// last) once per set, on any thread, [first, last) its entries ascending (the first names the
+// lowest cell).
+//
+// How: the entries grouped by their lowest point (core/base/parallel.h group_by_key), each group
+// (the edges or faces that start at one point, a few dozen entries) sorted in place. Only the
+// 4-byte entries are stored: the earlier array of 16- or 24-byte sort records, copied by the
+// sort, was most of this function's time, fresh pages costing more than sorting on the
+// development VM.
+template <int N, class PointsOf, class Size, class Name>
+void name_sets(std::size_t entries, std::size_t num_points, const PointsOf& points_of, const Size& size,
+               const Name& name) {
+  KeyGroups g = group_by_key(
+      num_points, [&](auto&& f) { parallel_for(entries, [&](std::size_t i) { f(static_cast<std::uint32_t>(i)); }); },
+      [&](std::uint32_t i) { return points_of(i)[0]; });
+  // first_id[p + 1]: the sets of group p, then their exclusive scan from first_id[0] = 0.
+  std::vector<std::uint32_t> first_id(num_points + 1, 0);
   parallel_chunks(num_points, 4096, [&](std::size_t b, std::size_t e) {
-    for (std::size_t p = b; p < e; ++p) std::sort(out.begin() + g.start[p], out.begin() + g.start[p + 1]);
+    std::vector<Named<N>> named;
+    for (std::size_t p = b; p < e; ++p) {
+      named.clear();
+      for (std::uint32_t i = g.start[p]; i < g.start[p + 1]; ++i) named.push_back({points_of(g.items[i]), g.items[i]});
+      std::sort(named.begin(), named.end());
+      std::uint32_t sets = 0;
+      for (std::size_t i = 0; i < named.size(); ++i) {
+        sets += i == 0 || named[i].points != named[i - 1].points;
+        g.items[g.start[p] + i] = named[i].entry;
+      }
+      first_id[p + 1] = sets;
+    }
   });
-  v = std::move(out);
+  std::inclusive_scan(first_id.begin(), first_id.end(), first_id.begin());
+  size(first_id[num_points]);
+  parallel_chunks(num_points, 4096, [&](std::size_t b, std::size_t e) {
+    for (std::size_t p = b; p < e; ++p) {
+      const std::uint32_t* items = g.items.data();
+      std::uint32_t id = first_id[p];
+      for (std::uint32_t i = g.start[p]; i < g.start[p + 1];) {
+        const auto set = points_of(items[i]);
+        std::uint32_t j = i + 1;
+        while (j < g.start[p + 1] && points_of(items[j]) == set) ++j;
+        name(id++, items + i, items + j);
+        i = j;
+      }
+    }
+  });
 }
 
 }  // namespace
 
 ComplexTopology build_topology(const HexComplex& complex) {
   const std::size_t n = complex.cells.size();
+  const std::size_t num_points = complex.points.size();
   ComplexTopology t;
-  t.cell_edges.resize(n);
-  t.cell_faces.resize(n);
 
   // Entries are numbered in 32 bits (core/base/parallel.h group_by_key).
   if (12 * n > std::numeric_limits<std::uint32_t>::max())
     throw std::length_error("hex complex: " + std::to_string(n) + " cells are over 357,913,941");
-  std::vector<EdgeEntry> edges(12 * n);
-  std::vector<FaceEntry> faces(6 * n);
   parallel_for(n, [&](std::size_t c) {
     const CellCorners& p = complex.cells[c];
     for (int i = 0; i < 8; ++i)
-      if (p[i] >= complex.points.size())
+      if (p[i] >= num_points)
         throw std::invalid_argument("hex complex: cell " + std::to_string(c) + " names point " + std::to_string(p[i]) +
-                                    " of " + std::to_string(complex.points.size()));
+                                    " of " + std::to_string(num_points));
     for (int i = 0; i < 8; ++i)
       for (int j = i + 1; j < 8; ++j)
         if (p[i] == p[j])
           throw std::invalid_argument("hex complex: cell " + std::to_string(c) + " repeats point " +
                                       std::to_string(p[i]));
-    for (int e = 0; e < 12; ++e) {
-      std::uint64_t a = p[kCubeEdges[e][0]], b = p[kCubeEdges[e][1]];
-      if (a > b) std::swap(a, b);
-      edges[12 * c + e] = {(a << 32) | b, 12 * c + e};
-    }
-    for (int f = 0; f < 6; ++f) {
-      std::array<std::uint32_t, 4> q;
-      for (int i = 0; i < 4; ++i) q[i] = p[kHexFaces[f][i]];
-      std::sort(q.begin(), q.end());
-      faces[6 * c + f] = {q, 6 * c + f};
-    }
   });
-  sort_by_lowest_point(edges, complex.points.size(), [](const EdgeEntry& e) { return e.key >> 32; });
-  sort_by_lowest_point(faces, complex.points.size(), [](const FaceEntry& f) { return f.sorted[0]; });
+  t.cell_edges.resize(n);
+  t.cell_faces.resize(n);
 
-  // Sized once: grown entry by entry the arrays would be faulted in and copied several times.
-  std::size_t num_edges = 0, num_faces = 0;
-  for (std::size_t i = 0; i < edges.size(); ++i) num_edges += i == 0 || edges[i].key != edges[i - 1].key;
-  for (std::size_t i = 0; i < faces.size(); ++i) num_faces += i == 0 || faces[i].sorted != faces[i - 1].sorted;
-  t.edge_points.reserve(num_edges);
-  t.edge_owner.reserve(num_edges);
-  t.face_points.reserve(num_faces);
-  t.face_owner.reserve(num_faces);
-  t.face_cells.reserve(num_faces);
-  for (std::size_t i = 0; i < edges.size();) {
-    const auto id = static_cast<std::uint32_t>(t.edge_points.size());
-    t.edge_points.push_back({static_cast<std::uint32_t>(edges[i].key >> 32), static_cast<std::uint32_t>(edges[i].key)});
-    t.edge_owner.push_back(static_cast<std::uint32_t>(edges[i].slot / 12));
-    std::size_t j = i;
-    for (; j < edges.size() && edges[j].key == edges[i].key; ++j)
-      t.cell_edges[edges[j].slot / 12][edges[j].slot % 12] = id;
-    i = j;
-  }
-  for (std::size_t i = 0; i < faces.size();) {
-    const auto id = static_cast<std::uint32_t>(t.face_points.size());
-    const std::uint64_t cell = faces[i].slot / 6;
-    const int local = static_cast<int>(faces[i].slot % 6);
-    // Cyclic order from the owner cell's face, rotated to start at the lowest point and turned
-    // towards its lower neighbour: independent of which cell lists it.
-    std::array<std::uint32_t, 4> q;
-    for (int k = 0; k < 4; ++k) q[k] = complex.cells[cell][kHexFaces[local][k]];
-    std::rotate(q.begin(), std::min_element(q.begin(), q.end()), q.end());
-    if (q[3] < q[1]) std::swap(q[1], q[3]);
-    t.face_points.push_back(q);
-    t.face_owner.push_back(static_cast<std::uint32_t>(cell));
-    std::size_t j = i;
-    for (; j < faces.size() && faces[j].sorted == faces[i].sorted; ++j)
-      t.cell_faces[faces[j].slot / 6][faces[j].slot % 6] = id;
-    if (j - i > 2)
-      throw std::invalid_argument("hex complex: a face is shared by " + std::to_string(j - i) + " cells (point " +
-                                  std::to_string(q[0]) + ")");
-    t.face_cells.push_back(static_cast<std::uint8_t>(j - i));
-    i = j;
-  }
+  name_sets<2>(
+      12 * n, num_points,
+      [&](std::uint32_t entry) {
+        const CellCorners& p = complex.cells[entry / 12];
+        const std::uint32_t a = p[kCubeEdges[entry % 12][0]], b = p[kCubeEdges[entry % 12][1]];
+        return std::array<std::uint32_t, 2>{std::min(a, b), std::max(a, b)};
+      },
+      [&](std::size_t count) {
+        // Sized once: grown entry by entry the arrays would be faulted in and copied several times.
+        t.edge_points.resize(count);
+        t.edge_owner.resize(count);
+      },
+      [&](std::uint32_t id, const std::uint32_t* first, const std::uint32_t* last) {
+        const CellCorners& p = complex.cells[*first / 12];
+        const std::uint32_t a = p[kCubeEdges[*first % 12][0]], b = p[kCubeEdges[*first % 12][1]];
+        t.edge_points[id] = {std::min(a, b), std::max(a, b)};
+        t.edge_owner[id] = *first / 12;
+        for (const std::uint32_t* s = first; s != last; ++s) t.cell_edges[*s / 12][*s % 12] = id;
+      });
+
+  // A face shared by more than two cells is reported by its lowest point, the smallest such
+  // (whichever thread finds it first).
+  std::mutex crowded_mutex;
+  std::uint32_t crowded_point = std::numeric_limits<std::uint32_t>::max();
+  std::size_t crowded_cells = 0;
+  name_sets<4>(
+      6 * n, num_points,
+      [&](std::uint32_t entry) {
+        const CellCorners& p = complex.cells[entry / 6];
+        std::array<std::uint32_t, 4> q;
+        for (int i = 0; i < 4; ++i) q[i] = p[kHexFaces[entry % 6][i]];
+        std::sort(q.begin(), q.end());
+        return q;
+      },
+      [&](std::size_t count) {
+        t.face_points.resize(count);
+        t.face_owner.resize(count);
+        t.face_cells.resize(count);
+      },
+      [&](std::uint32_t id, const std::uint32_t* first, const std::uint32_t* last) {
+        const std::uint32_t cell = *first / 6;
+        const int local = static_cast<int>(*first % 6);
+        // Cyclic order from the owner cell's face, rotated to start at the lowest point and turned
+        // towards its lower neighbour: independent of which cell lists it.
+        std::array<std::uint32_t, 4> q;
+        for (int k = 0; k < 4; ++k) q[k] = complex.cells[cell][kHexFaces[local][k]];
+        std::rotate(q.begin(), std::min_element(q.begin(), q.end()), q.end());
+        if (q[3] < q[1]) std::swap(q[1], q[3]);
+        t.face_points[id] = q;
+        t.face_owner[id] = cell;
+        for (const std::uint32_t* s = first; s != last; ++s) t.cell_faces[*s / 6][*s % 6] = id;
+        const auto cells = static_cast<std::size_t>(last - first);
+        t.face_cells[id] = static_cast<std::uint8_t>(std::min<std::size_t>(cells, 255));
+        if (cells > 2) {
+          const std::lock_guard lock(crowded_mutex);
+          if (q[0] < crowded_point) {
+            crowded_point = q[0];
+            crowded_cells = cells;
+          }
+        }
+      });
+  if (crowded_cells > 0)
+    throw std::invalid_argument("hex complex: a face is shared by " + std::to_string(crowded_cells) + " cells (point " +
+                                std::to_string(crowded_point) + ")");
   return t;
 }
 
