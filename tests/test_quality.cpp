@@ -207,6 +207,58 @@ TEST(quality, ParallelepipedShortcutIsBitIdentical) {
   }
 }
 
+// hex_quality's axis-aligned box path (quality.cpp axis_box_quality) against the general
+// computation with no shortcut, bit for bit, on boxes in every one of the 48 orientations a hex's
+// corner numbering can give them (which axis each reference direction takes, and which way), with
+// random sizes and positions spanning 1e-90 to 1e90; the path must be taken exactly for the
+// positively oriented ones, and never for a box whose edge leaves an axis by an ulp.
+TEST(quality, AxisAlignedBoxesAreBitIdentical) {
+  auto same_bits = [](double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; };
+  std::mt19937_64 rng(29);
+  std::uniform_real_distribution<double> unit(-1, 1);
+  std::uniform_int_distribution<int> exponent(-300, 300);
+  const int perms[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+  int taken = 0;
+  for (int t = 0; t < 40; ++t) {
+    const double scale = std::ldexp(1.0, exponent(rng) % (t < 20 ? 4 : 300));
+    const Vec3 origin{unit(rng) * scale, unit(rng) * scale, unit(rng) * scale};
+    const double size[3] = {(1.5 + unit(rng)) * scale, (1.5 + unit(rng)) * scale * (t % 7 == 0 ? 1e-3 : 1),
+                            (1.5 + unit(rng)) * scale};
+    for (const auto& perm : perms)
+      for (int signs = 0; signs < 8; ++signs) {
+        // Reference direction d runs along axis perm[d], forwards or backwards.
+        HexCorners c;
+        for (int i = 0; i < 8; ++i) {
+          Vec3 p = origin;
+          const double r[3] = {kUnitCube[i].x, kUnitCube[i].y, kUnitCube[i].z};
+          for (int d = 0; d < 3; ++d) p[perm[d]] += (signs >> d & 1 ? -r[d] : r[d]) * size[d];
+          c[i] = p;
+        }
+        const HexQuality q = hex_quality(c), full = detail::hex_quality_without_shortcuts(c);
+        const bool positive = full.min_corner_jacobian > 0;
+        EXPECT_EQ(detail::takes_axis_box_path(c), positive) << t << " " << signs;
+        taken += detail::takes_axis_box_path(c) ? 1 : 0;
+        const double got[] = {q.min_corner_jacobian, q.min_bernstein,       q.min_bernstein_scaled,
+                              q.scaled_jacobian,     q.edge_ratio,          q.volume,
+                              q.min_dihedral_angle,  q.max_dihedral_angle,  q.inverse_condition};
+        const double want[] = {full.min_corner_jacobian, full.min_bernstein,      full.min_bernstein_scaled,
+                               full.scaled_jacobian,     full.edge_ratio,         full.volume,
+                               full.min_dihedral_angle,  full.max_dihedral_angle, full.inverse_condition};
+        for (int k = 0; k < 9; ++k) EXPECT_TRUE(same_bits(got[k], want[k])) << t << " " << signs << " measure " << k;
+        if (positive) {
+          EXPECT_EQ(q.scaled_jacobian, 1.0);
+          EXPECT_EQ(q.min_dihedral_angle, 90.0);
+        }
+        // An edge off its axis by an ulp: no longer a box for the path.
+        HexCorners tilted = c;
+        for (int i = 0; i < 8; ++i)
+          if (kUnitCube[i].x > 0) tilted[i][perm[1]] = std::nextafter(tilted[i][perm[1]], INFINITY);
+        EXPECT_FALSE(detail::takes_axis_box_path(tilted)) << t << " " << signs;
+      }
+  }
+  EXPECT_EQ(taken, 40 * 6 * 4);  // half the orientations are positive
+}
+
 // bernstein_jacobian's coefficients are the means of their triple products (quality.cpp, "Collecting
 // terms"), summed from 0 in the order a, then b, then c ascending, and the mean edge length the mean
 // of norm() of the 12 edges in Edges::for_each order; the library lays both out for speed. Written

@@ -110,6 +110,9 @@ namespace detail {
 // hex_quality computing every product of edge vectors, also where a parallelepiped's are equal
 // (for the test that the shortcut changes no bit).
 HexQuality hex_quality_without_shortcuts(const HexCorners& c);
+// Whether hex_quality takes its axis-aligned box path for these corners (for the test that the
+// path changes no bit and is taken where it should be).
+bool takes_axis_box_path(const HexCorners& c);
 }  // namespace detail
 
 }  // namespace mchex
