@@ -238,9 +238,9 @@ TEST(quality, AxisAlignedBoxesAreBitIdentical) {
         const bool positive = full.min_corner_jacobian > 0;
         EXPECT_EQ(detail::takes_axis_box_path(c), positive) << t << " " << signs;
         taken += detail::takes_axis_box_path(c) ? 1 : 0;
-        const double got[] = {q.min_corner_jacobian, q.min_bernstein,       q.min_bernstein_scaled,
-                              q.scaled_jacobian,     q.edge_ratio,          q.volume,
-                              q.min_dihedral_angle,  q.max_dihedral_angle,  q.inverse_condition};
+        const double got[] = {q.min_corner_jacobian, q.min_bernstein,      q.min_bernstein_scaled,
+                              q.scaled_jacobian,     q.edge_ratio,         q.volume,
+                              q.min_dihedral_angle,  q.max_dihedral_angle, q.inverse_condition};
         const double want[] = {full.min_corner_jacobian, full.min_bernstein,      full.min_bernstein_scaled,
                                full.scaled_jacobian,     full.edge_ratio,         full.volume,
                                full.min_dihedral_angle,  full.max_dihedral_angle, full.inverse_condition};
