@@ -585,5 +585,41 @@ TEST(SurfaceSdfSign, InheritedSignsAreTheWindingNumbersOwn) {
   expect_inherited_signs(flipped, kHalf, false);
 }
 
+// Where the octree samples: only the grid points near the surface (within 1.5 grid steps), where
+// a point is seldom inside a neighbour's surface-free ball. The signs are still the winding
+// number's own, and the rule that lets two overlapping balls decide (and looks back over the
+// last points of the curve, not only the previous one) leaves few queries: on this shell of
+// the bumpy torus (128,160 points) 10.8 %, against 71 % when a point had to lie in the previous
+// point's ball and 41 % with overlapping balls but the previous point only.
+TEST(SurfaceSdfSign, NearTheSurfaceOverlappingBallsDecide) {
+  const TriangleSurface s = bumpy_torus(96, 40);
+  const WindingNumber wn(s);
+  ASSERT_TRUE(wn.constant_off_surface());
+  const SurfaceSdf sdf(s);
+  const Box box = s.bounds();
+  constexpr int n = 96;
+  const std::vector<Vec3> grid = grid_points(box, n);
+  std::vector<double> gd(grid.size());
+  sdf.distance(grid, gd);
+  const double step = 1.2 * std::max({box.size().x, box.size().y, box.size().z}) / (n - 1);
+  std::vector<Vec3> pts;
+  std::vector<double> d;
+  for (std::size_t i = 0; i < grid.size(); ++i)
+    if (gd[i] < 1.5 * step) {
+      pts.push_back(grid[i]);
+      d.push_back(gd[i]);
+    }
+  ASSERT_GT(pts.size(), 10000u);
+  std::vector<double> v = d;
+  const std::size_t queries = apply_winding_sign(wn, pts, morton_order(pts), v);
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    ASSERT_EQ(std::abs(v[i]), d[i]);
+    if (d[i] != 0) {
+      ASSERT_EQ(v[i] > 0, wn.inside(pts[i])) << "point " << i;
+    }
+  }
+  EXPECT_LT(queries, pts.size() / 6) << queries << " of " << pts.size();
+}
+
 }  // namespace
 }  // namespace mchex

@@ -288,11 +288,23 @@ std::size_t apply_winding_sign(const WindingNumber& winding, std::span<const Vec
   // One chunk of the order, on one thread; returns its queries.
   auto sign_chunk = [&](std::size_t c) {
     std::size_t queries = 0;
-    // Two balls to fall in: the previous point's (its neighbour along the curve) and the largest
-    // seen in the chunk (far from the surface it covers runs of points).
-    Vec3 last{}, big{};
-    double last_f = 0, big_f = 0;
-    auto within = [](Vec3 p, Vec3 q, double f) { return std::isfinite(f) && norm(p - q) < std::abs(f) * kShrink; };
+    // The points to inherit from: the last kRecent ones (neighbours along the curve, which
+    // doubles back on itself every few points) and the one farthest from the surface seen in the
+    // chunk (far from the surface its ball covers runs of points). p takes q's side when the open
+    // balls of radius |f| about p and q, which hold no point of the surface, overlap: their union
+    // is connected and holds the segment pq, so p and q lie in one component of the complement.
+    // Near the surface, where the octree samples, a point is rarely inside a neighbour's ball but
+    // the two balls often overlap. Queries at the deepest level of the bumpy torus's fitted
+    // octree (577,796 points): 218,810 when p had to lie in the previous point's ball, 116,708
+    // with overlapping balls, 72,734 / 53,917 / 43,927 looking back over 8 / 32 / 64 points; the
+    // octree stage 1.40 -> 0.57 s, the whole default run 3.64 -> 2.44 s, the mesh the same bytes.
+    constexpr int kRecent = 64;
+    Vec3 recent[kRecent]{}, big{};
+    double recent_f[kRecent]{}, big_f = 0;
+    int next = 0;
+    auto within = [](Vec3 p, double d, Vec3 q, double f) {
+      return f != 0 && std::isfinite(f) && norm(p - q) < (d + std::abs(f)) * kShrink;
+    };
     for (std::size_t k = c * kChunk; k < std::min(points.size(), (c + 1) * kChunk); ++k) {
       const uint32_t i = order[k];
       const Vec3 p = points[i];
@@ -301,17 +313,24 @@ std::size_t apply_winding_sign(const WindingNumber& winding, std::span<const Vec
         values[i] = 0;
         continue;
       }
+      int from = -1;  // 0 .. kRecent - 1: a recent point; kRecent: the big one
+      if (inherit) {
+        for (int r = 1; r <= kRecent && from < 0; ++r) {
+          const int j = (next - r + kRecent) % kRecent;  // the most recent first
+          if (within(p, d, recent[j], recent_f[j])) from = j;
+        }
+        if (from < 0 && within(p, d, big, big_f)) from = kRecent;
+      }
       bool in;
-      if (inherit && within(p, last, last_f)) {
-        in = last_f > 0;
-      } else if (inherit && within(p, big, big_f)) {
-        in = big_f > 0;
+      if (from >= 0) {
+        in = (from == kRecent ? big_f : recent_f[from]) > 0;
       } else {
         in = winding.inside(p);
         ++queries;
       }
       values[i] = in ? d : -d;
-      last = p, last_f = values[i];
+      recent[next] = p, recent_f[next] = values[i];
+      next = (next + 1) % kRecent;
       if (!(d <= std::abs(big_f))) big = p, big_f = values[i];
     }
     return queries;
