@@ -139,20 +139,22 @@ SearchTree::SearchTree(const TriangleSurface& s, const TriangleBvh& bvh, Frames 
   lanes.reserve(bvh.nodes.size());
   leaf_nodes.reserve(bvh.nodes.size() / 2 + 1);
   nodes.reserve(bvh.nodes.size() / 2 + 1);
-  auto build = [&](auto&& self, std::vector<uint32_t> kids) -> uint32_t {
-    while (kids.size() < 4) {
+  // kids: up to four binary nodes, `size` of them set (a fixed array: a vector per wide node was
+  // an allocation per node).
+  auto build = [&](auto&& self, std::array<uint32_t, 4> kids, int size) -> uint32_t {
+    while (size < 4) {
       int open = -1;
-      for (int k = 0; k < int(kids.size()); ++k)
+      for (int k = 0; k < size; ++k)
         if (bvh.nodes[kids[k]].count == 0 && (open < 0 || subtree(kids[k]).size() > subtree(kids[open]).size()))
           open = k;
       if (open < 0) break;
       const uint32_t n = kids[open];
       kids[open] = n + 1;
-      kids.push_back(bvh.nodes[n].index);
+      kids[size++] = bvh.nodes[n].index;
     }
     const uint32_t self_index = uint32_t(nodes.size());
     nodes.push_back(WideNode::empty());
-    for (int c = 0; c < int(kids.size()); ++c) {
+    for (int c = 0; c < size; ++c) {
       const BvhNode& node = bvh.nodes[kids[c]];
       if (node.count > 4) throw std::logic_error("SDF search tree: a leaf holds more than four triangles");
       uint32_t child;
@@ -160,7 +162,7 @@ SearchTree::SearchTree(const TriangleSurface& s, const TriangleBvh& bvh, Frames 
         child = uint32_t(leaf_nodes.size());
         leaf_nodes.push_back(kids[c]);
       } else {
-        child = self(self, {kids[c] + 1, node.index});
+        child = self(self, {kids[c] + 1, node.index, 0, 0}, 2);
       }
       nodes[self_index].child[c] = child;
       nodes[self_index].count[c] = node.count;
@@ -168,8 +170,8 @@ SearchTree::SearchTree(const TriangleSurface& s, const TriangleBvh& bvh, Frames 
     }
     return self_index;
   };
-  if (bvh.nodes[0].count) build(build, {0});  // a single leaf
-  else build(build, {1, bvh.nodes[0].index});
+  if (bvh.nodes[0].count) build(build, {0, 0, 0, 0}, 1);  // a single leaf
+  else build(build, {1, bvh.nodes[0].index, 0, 0}, 2);
 
   // Each binary node's area-vector and area sums and corner box, bottom up (children follow
   // their parent in the hierarchy's order): what decides a node's frame, and a curved node's
@@ -179,18 +181,26 @@ SearchTree::SearchTree(const TriangleSurface& s, const TriangleBvh& bvh, Frames 
     double area = 0;
     Box box;
   };
+  // The leaves' sums (most of the work: every triangle's cross product) in parallel, then the
+  // inner nodes' in one pass up.
   std::vector<Sums> sums(bvh.nodes.size());
+  parallel_for(bvh.nodes.size(), [&](std::size_t n) {
+    const BvhNode& node = bvh.nodes[n];
+    if (!node.count) return;
+    Sums& out = sums[n];
+    for (uint32_t t : all.subspan(node.index, node.count)) {
+      const auto& v = s.triangles[t];
+      const Vec3 c = cross(s.vertices[v[1]] - s.vertices[v[0]], s.vertices[v[2]] - s.vertices[v[0]]);
+      out.normal += c;
+      out.area += norm(c);
+      for (uint32_t i : v) out.box.extend(s.vertices[i]);
+    }
+  });
   for (std::size_t n = bvh.nodes.size(); n-- > 0;) {
     const BvhNode& node = bvh.nodes[n];
     Sums& out = sums[n];
     if (node.count) {
-      for (uint32_t t : all.subspan(node.index, node.count)) {
-        const auto& v = s.triangles[t];
-        const Vec3 c = cross(s.vertices[v[1]] - s.vertices[v[0]], s.vertices[v[2]] - s.vertices[v[0]]);
-        out.normal += c;
-        out.area += norm(c);
-        for (uint32_t i : v) out.box.extend(s.vertices[i]);
-      }
+      continue;
     } else {
       const Sums &l = sums[n + 1], &r = sums[node.index];
       out.normal = l.normal + r.normal;
@@ -231,9 +241,11 @@ SearchTree::SearchTree(const TriangleSurface& s, const TriangleBvh& bvh, Frames 
     const int c = int(lanes[k].lane);
     w.set(c, boxes[k], w.child[c], w.count[c]);
   }
-  leaves.reserve(leaf_nodes.size());
-  for (uint32_t n : leaf_nodes)
-    leaves.emplace_back(s, all.subspan(bvh.nodes[n].index, bvh.nodes[n].count), bvh.nodes[n].index);
+  leaves.resize(leaf_nodes.size());
+  parallel_for(leaf_nodes.size(), [&](std::size_t k) {
+    const BvhNode& n = bvh.nodes[leaf_nodes[k]];
+    leaves[k] = TriangleLeaf(s, all.subspan(n.index, n.count), n.index);
+  });
 }
 
 }  // namespace mchex

@@ -106,6 +106,7 @@ struct alignas(64) TriangleLeaf {
   }
 
   TriangleLeaf(const TriangleSurface& s, std::span<const uint32_t> triangles, uint32_t first_slot);
+  TriangleLeaf() = default;  // to be assigned (the tree makes its leaves in parallel)
 };
 
 // The search tree: wide nodes collapsed from the binary tree (each node takes its two children
