@@ -36,6 +36,18 @@ void* allocate(std::size_t size) noexcept {
   return block;
 }
 
+// Over-aligned types (the SDF search tree's 64-byte nodes and leaves) come through the aligned
+// forms: as libstdc++'s own, aligned_alloc with the size rounded up to the alignment, which its
+// aligned operator delete frees. Without them the search tree over a mesh boundary faulted its
+// leaves in at 4 KiB: 0.1 s of each fidelity round's 0.35 s on the npm bunny.
+void* allocate(std::size_t size, std::align_val_t alignment) noexcept {
+  const auto align = static_cast<std::size_t>(alignment);
+  const std::size_t rounded = ((size ? size : 1) + align - 1) & ~(align - 1);
+  void* block = std::aligned_alloc(align, rounded);
+  if (block && rounded >= kHugeBlock) advise_huge_pages(block, rounded);
+  return block;
+}
+
 }  // namespace
 
 // As the standard's: on failure the new-handler runs and the allocation is tried again.
@@ -51,6 +63,23 @@ void* operator new(std::size_t size) {
 void* operator new(std::size_t size, const std::nothrow_t&) noexcept {
   try {
     return ::operator new(size);
+  } catch (...) {
+    return nullptr;
+  }
+}
+
+void* operator new(std::size_t size, std::align_val_t alignment) {
+  for (;;) {
+    if (void* block = allocate(size, alignment)) return block;
+    const std::new_handler handler = std::get_new_handler();
+    if (!handler) throw std::bad_alloc();
+    handler();
+  }
+}
+
+void* operator new(std::size_t size, std::align_val_t alignment, const std::nothrow_t&) noexcept {
+  try {
+    return ::operator new(size, alignment);
   } catch (...) {
     return nullptr;
   }
