@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <functional>
 #include <limits>
 #include <stdexcept>
@@ -35,6 +36,13 @@ namespace {
 struct UncutCube {
   std::vector<Polyhedron> polys;
   std::vector<SubdivisionHex> hexes;
+  // The hexes' distinct corner keys in order of first appearance (corner by corner, hex by hex),
+  // with their parametric points, and each hex corner's index among them: an affine uncut cell
+  // maps and names each of its 27 points once instead of once per hex corner (64), in the order
+  // the hexes first name them, so that the cell-local points are numbered as before.
+  std::vector<SubdivisionPointKey> point_keys;
+  std::vector<Vec3> point_params;
+  std::vector<std::array<std::uint8_t, 8>> hex_points;
 };
 
 const UncutCube& uncut_cube(bool inside) {
@@ -43,8 +51,25 @@ const UncutCube& uncut_cube(bool inside) {
     for (int in = 0; in < 2; ++in) {
       std::array<double, 8> f;
       f.fill(in ? 1.0 : -1.0);
-      out[in].polys = cut_cell(kUnitCubeCorners, classify(f));
-      out[in].hexes = midpoint_subdivide(out[in].polys.at(0));
+      UncutCube& u = out[in];
+      u.polys = cut_cell(kUnitCubeCorners, classify(f));
+      u.hexes = midpoint_subdivide(u.polys.at(0));
+      for (const SubdivisionHex& h : u.hexes) {
+        std::array<std::uint8_t, 8> points{};
+        for (int c = 0; c < 8; ++c) {
+          const auto seen = std::find(u.point_keys.begin(), u.point_keys.end(), h.keys[c]);
+          if (seen == u.point_keys.end()) {
+            u.point_keys.push_back(h.keys[c]);
+            u.point_params.push_back(h.corners[c]);
+          } else if (std::memcmp(&u.point_params[seen - u.point_keys.begin()], &h.corners[c], sizeof(Vec3)) != 0) {
+            throw std::logic_error("uncut cube: one subdivision point at two parametric places");
+          }
+          points[c] = static_cast<std::uint8_t>(std::find(u.point_keys.begin(), u.point_keys.end(), h.keys[c]) -
+                                                u.point_keys.begin());
+        }
+        u.hex_points.push_back(points);
+      }
+      if (u.point_keys.size() > 32) throw std::logic_error("uncut cube: more than 32 subdivision points");
     }
     return out;
   }();
@@ -361,59 +386,56 @@ struct Mesher {
         }
       }
       auto& target = p.region_sign > 0 ? out.inside : out.outside;
+      // The global or cell-local id of a hex corner (mchex_mesher.h's names), its point x.
+      auto point_id = [&](const SubdivisionPointKey& sk, const Vec3& x) -> std::uint32_t {
+        switch (sk.kind) {
+          case SubdivisionPointKey::Kind::kVertex:
+            return is_corner_key(sk.a) ? corner_point(sk.a, x) : edge_point(key_edge(sk.a), 1, x);
+          case SubdivisionPointKey::Kind::kEdge: {
+            const bool ca = is_corner_key(sk.a), cb = is_corner_key(sk.b);
+            if (ca && cb) return edge_point(cube_edge_of(sk.a, sk.b), 0, x);  // an uncut cell edge
+            if (ca || cb) {                                                   // corner to the crossing on its edge
+              const int corner = ca ? sk.a : sk.b, e = key_edge(ca ? sk.b : sk.a);
+              return edge_point(e, is_lower_end(e, corner) ? 0 : 2, x);
+            }
+            // An isosurface chord across a cell face.
+            const int ea = key_edge(sk.a), eb = key_edge(sk.b);
+            const int q = kEdgePairFace[ea][eb];
+            return face_point(q, 4 + std::min(edge_rank_in_face(q, ea), edge_rank_in_face(q, eb)), x);
+          }
+          case SubdivisionPointKey::Kind::kFace:
+            if (face_cell_face[sk.a] >= 0)
+              return face_point(face_cell_face[sk.a], static_cast<std::uint32_t>(face_slot[sk.a]), x);
+            return locals.get(local_key(kLoopCentroid, fr.piece, static_cast<std::uint64_t>(face_slot[sk.a])), x, out);
+          case SubdivisionPointKey::Kind::kCentre: return locals.get(local_key(kVolumeCentre, fr.piece, pi), x, out);
+        }
+        return 0;  // unreachable: every kind is named above
+      };
+      if (uncut_affine) {
+        // Certified by construction (repair.h), no check needed: each of the cube's subdivision
+        // points mapped into the cell and named once, in the order the hexes first name them.
+        std::array<std::uint32_t, 32> ids{};
+        for (std::size_t k = 0; k < uncut->point_keys.size(); ++k)
+          ids[k] = point_id(uncut->point_keys[k], trilinear_map(xc, uncut->point_params[k]));
+        for (const auto& corners : uncut->hex_points) {
+          Hex hex;
+          for (int c = 0; c < 8; ++c) hex[c] = ids[corners[c]];
+          target.push_back(hex);
+        }
+        continue;
+      }
       // Mapped into the cell, every hex checked, the volume centre moved where one is not
       // certified (core/cutting/repair.h; the centre is this polyhedron's own point).
-      MappedSubdivision mapped;
-      if (uncut_affine) {             // certified by construction (repair.h), no check needed
-        mapped.hexes = uncut->hexes;  // uncut_affine: the cell is uncut
-        for (SubdivisionHex& h : mapped.hexes)
-          for (Vec3& x : h.corners) x = trilinear_map(xc, x);
-      } else {
-        mapped = subdivide_in_cell(p, xc);
-        out.stats.moved_centres += mapped.centre_moved;
-        if (!mapped.certified) {
-          ++out.stats.uncertified_polyhedra;
-          if (out.stats.uncertified_cells.empty() || out.stats.uncertified_cells.back() != cell)
-            out.stats.uncertified_cells.push_back(cell);
-        }
+      const MappedSubdivision mapped = subdivide_in_cell(p, xc);
+      out.stats.moved_centres += mapped.centre_moved;
+      if (!mapped.certified) {
+        ++out.stats.uncertified_polyhedra;
+        if (out.stats.uncertified_cells.empty() || out.stats.uncertified_cells.back() != cell)
+          out.stats.uncertified_cells.push_back(cell);
       }
       for (const SubdivisionHex& h : mapped.hexes) {
         Hex hex;
-        for (int c = 0; c < 8; ++c) {
-          const SubdivisionPointKey& sk = h.keys[c];
-          const Vec3& x = h.corners[c];
-          std::uint32_t id = 0;
-          switch (sk.kind) {
-            case SubdivisionPointKey::Kind::kVertex:
-              id = is_corner_key(sk.a) ? corner_point(sk.a, x) : edge_point(key_edge(sk.a), 1, x);
-              break;
-            case SubdivisionPointKey::Kind::kEdge: {
-              const bool ca = is_corner_key(sk.a), cb = is_corner_key(sk.b);
-              if (ca && cb) {  // an uncut cell edge
-                id = edge_point(cube_edge_of(sk.a, sk.b), 0, x);
-              } else if (ca || cb) {  // corner to the crossing on its edge
-                const int corner = ca ? sk.a : sk.b, e = key_edge(ca ? sk.b : sk.a);
-                id = edge_point(e, is_lower_end(e, corner) ? 0 : 2, x);
-              } else {  // an isosurface chord across a cell face
-                const int ea = key_edge(sk.a), eb = key_edge(sk.b);
-                const int q = kEdgePairFace[ea][eb];
-                id = face_point(q, 4 + std::min(edge_rank_in_face(q, ea), edge_rank_in_face(q, eb)), x);
-              }
-              break;
-            }
-            case SubdivisionPointKey::Kind::kFace:
-              if (face_cell_face[sk.a] >= 0)
-                id = face_point(face_cell_face[sk.a], static_cast<std::uint32_t>(face_slot[sk.a]), x);
-              else
-                id =
-                    locals.get(local_key(kLoopCentroid, fr.piece, static_cast<std::uint64_t>(face_slot[sk.a])), x, out);
-              break;
-            case SubdivisionPointKey::Kind::kCentre:
-              id = locals.get(local_key(kVolumeCentre, fr.piece, pi), x, out);
-              break;
-          }
-          hex[c] = id;
-        }
+        for (int c = 0; c < 8; ++c) hex[c] = point_id(h.keys[c], h.corners[c]);
         target.push_back(hex);
       }
     }
