@@ -123,8 +123,9 @@ ComplexTopology build_topology(const HexComplex& complex) {
         for (const std::uint32_t* s = first; s != last; ++s) t.cell_edges[*s / 12][*s % 12] = id;
       });
 
-  // A face shared by more than two cells is reported by its lowest point, the smallest such
-  // (whichever thread finds it first).
+  // A face shared by more than two cells is reported by its lowest point, the smallest such: a
+  // group is one thread's and is scanned in sorted order, so the report is the same on any
+  // thread count (the first crowded face of the sorted order, as before).
   std::mutex crowded_mutex;
   std::uint32_t crowded_point = std::numeric_limits<std::uint32_t>::max();
   std::size_t crowded_cells = 0;

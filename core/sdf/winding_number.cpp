@@ -281,7 +281,8 @@ std::size_t apply_winding_sign(const WindingNumber& winding, std::span<const Vec
     throw std::invalid_argument("winding sign batch size mismatch");
   const bool inherit = winding.constant_off_surface();
   // A ball's radius is a computed distance: shrunk by far more than its rounding (and than a
-  // device's float distance refined on the host would differ by), so that p is truly inside it.
+  // device's float distance refined on the host would differ by), so that two balls taken to
+  // overlap truly do and neither truly reaches the surface.
   constexpr double kShrink = 1 - 1e-6;
   // The first point of a chunk has nothing to inherit from; 1024 keeps that to a few per mille.
   constexpr std::size_t kChunk = 1024;
@@ -303,7 +304,7 @@ std::size_t apply_winding_sign(const WindingNumber& winding, std::span<const Vec
     double recent_f[kRecent]{}, big_f = 0;
     int next = 0;
     auto within = [](Vec3 p, double d, Vec3 q, double f) {
-      return f != 0 && std::isfinite(f) && norm(p - q) < (d + std::abs(f)) * kShrink;
+      return f != 0 && std::isfinite(f) && std::isfinite(d) && norm(p - q) < (d + std::abs(f)) * kShrink;
     };
     for (std::size_t k = c * kChunk; k < std::min(points.size(), (c + 1) * kChunk); ++k) {
       const uint32_t i = order[k];

@@ -125,11 +125,12 @@ double winding_number_exact(const TriangleSurface& surface, Vec3 p);
 void apply_winding_sign(const WindingNumber& winding, std::span<const Vec3> points, std::span<double> values);
 // The same, visiting the points in `order` (a permutation of their indices, best a Morton order:
 // core/sdf/sdf.h morton_order). Where the winding number is constant off the surface, a point
-// whose surface-free ball (radius |f|) overlaps that of one of the points just before it in its
-// chunk takes that point's sign without a winding-number query: the union of the two open balls
-// is connected and misses the surface. Most grid points are decided so, near the surface too
-// (the winding number was 40 % of a default run). The answer is the winding number's own, point for point, on any thread count. Returns
-// how many points needed a query (for the tests; every nonzero one without the property).
+// whose surface-free ball (radius |f|) overlaps that of one of the 64 points just before it in its
+// chunk, or of the chunk's point farthest from the surface so far, takes that point's sign
+// without a winding-number query: the union of the two open balls is connected and misses the
+// surface. Most grid points are decided so, near the surface too
+// (the winding number was 40 % of a default run). The answer is the winding number's own, point for point, on any
+// thread count. Returns how many points needed a query (for the tests; every nonzero one without the property).
 std::size_t apply_winding_sign(const WindingNumber& winding, std::span<const Vec3> points,
                                std::span<const uint32_t> order, std::span<double> values);
 

@@ -8,12 +8,14 @@
 // default), only ranges advised with MADV_HUGEPAGE get them, so the replaceable global operator
 // new (C++ [new.delete.single]) advises the 2 MiB-aligned inside of every block of at least
 // kHugeBlock bytes, as glibc's own glibc.malloc.hugetlb=1 tunable would for the whole heap. The
-// block still comes from malloc, so the default operator delete (free) releases it; smaller
-// blocks are untouched. Advice is a hint: where it is refused or huge pages are off, nothing
-// changes. Only this executable replaces operator new: the libraries, the Python module and
-// programs that link the installed package keep their own allocator.
+// block still comes from malloc (aligned_alloc for the over-aligned forms, as libstdc++'s own), so
+// the default operator delete (free) releases it; smaller blocks are untouched. Advice is a hint: where it is refused
+// or huge pages are off, nothing changes. Only this executable replaces operator new: the libraries, the Python module
+// and programs that link the installed package keep their own allocator.
+#include <bit>
 #include <cstdint>
 #include <cstdlib>
+#include <limits>
 #include <new>
 
 #include <sys/mman.h>
@@ -42,6 +44,7 @@ void* allocate(std::size_t size) noexcept {
 // leaves in at 4 KiB: 0.1 s of each fidelity round's 0.35 s on the npm bunny.
 void* allocate(std::size_t size, std::align_val_t alignment) noexcept {
   const auto align = static_cast<std::size_t>(alignment);
+  if (size > std::numeric_limits<std::size_t>::max() - (align - 1)) return nullptr;  // no rounding up
   const std::size_t rounded = ((size ? size : 1) + align - 1) & ~(align - 1);
   void* block = std::aligned_alloc(align, rounded);
   if (block && rounded >= kHugeBlock) advise_huge_pages(block, rounded);
@@ -69,6 +72,8 @@ void* operator new(std::size_t size, const std::nothrow_t&) noexcept {
 }
 
 void* operator new(std::size_t size, std::align_val_t alignment) {
+  // As libstdc++'s: an alignment that is not a power of two is an allocation failure, at once.
+  if (!std::has_single_bit(static_cast<std::size_t>(alignment))) throw std::bad_alloc();
   for (;;) {
     if (void* block = allocate(size, alignment)) return block;
     const std::new_handler handler = std::get_new_handler();
