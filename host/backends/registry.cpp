@@ -47,20 +47,22 @@ std::unique_ptr<Backend> make_backend(const std::string& name) {
     not_built(name, "MCHEX_WITH_VULKAN");
 #endif
   }
-  if (name == "auto") {
-    // A GPU with fp64 is worth the transfers; a CPU driver (PoCL, lavapipe) is not faster than
-    // the reference on the same cores, so auto keeps the reference there.
+  if (name == "auto") return make_backend(auto_backend_choice());
+  throw InputError("unknown backend '" + name + "' (known: auto, cpu, opencl, vulkan)");
+}
+
+std::string auto_backend_choice() {
+  // A GPU with fp64 is worth the transfers; a CPU driver (PoCL, lavapipe) is not faster than
+  // the reference on the same cores, so auto keeps the reference there.
 #if MCHEX_WITH_OPENCL
-    for (const DeviceInfo& d : list_opencl_devices())
-      if (d.type == "gpu" && d.fp64) return std::make_unique<OpenclBackend>();
+  for (const DeviceInfo& d : list_opencl_devices())
+    if (d.type == "gpu" && d.fp64) return "opencl";
 #endif
 #if MCHEX_WITH_VULKAN
-    for (const DeviceInfo& d : list_vulkan_devices())
-      if (d.type == "gpu" && d.fp64 && d.note.empty()) return std::make_unique<VulkanBackend>();
+  for (const DeviceInfo& d : list_vulkan_devices())
+    if (d.type == "gpu" && d.fp64 && d.note.empty()) return "vulkan";
 #endif
-    return make_cpu_backend();
-  }
-  throw InputError("unknown backend '" + name + "' (known: auto, cpu, opencl, vulkan)");
+  return "cpu";
 }
 
 std::vector<std::string> built_backend_names() {

@@ -14,6 +14,12 @@ namespace mchex {
 // that has no device here or is not built into this binary.
 std::unique_ptr<Backend> make_backend(const std::string& name);
 
+// What "auto" stands for here: "opencl" or "vulkan" when that backend finds a GPU device with
+// fp64 (OpenCL first), else "cpu". Probing loads the drivers into the calling process (on the
+// development machine PoCL and lavapipe: about 70 MiB and 0.2 s that stay for its lifetime);
+// the command line asks a child process instead (host/cli/mesh_command.cpp).
+std::string auto_backend_choice();
+
 // The names make_backend accepts in this binary: "auto", "cpu", then each device backend it was
 // built with, so that the command line offers only what can run.
 std::vector<std::string> built_backend_names();

@@ -61,6 +61,9 @@ int run_optimize(const OptimizeCommand& command, bool quiet);
 
 // devices: the compute backends and devices found (host/backends/registry.h list_devices).
 int run_devices(bool as_json);
+// `devices --auto-choice` (hidden): prints what --backend auto stands for here (cpu, opencl or
+// vulkan), for run_mesh's probe in a child process.
+int run_auto_choice();
 // The list as `devices --json` prints it: one object per device.
 nlohmann::json devices_json(const std::vector<DeviceInfo>& list);
 

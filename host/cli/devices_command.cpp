@@ -49,4 +49,9 @@ int run_devices(bool as_json) {
   return 0;
 }
 
+int run_auto_choice() {
+  fmt::print("{}\n", auto_backend_choice());
+  return 0;
+}
+
 }  // namespace mchex::cli

@@ -90,6 +90,9 @@ int main(int argc, char** argv) {
   bool devices_json = false;
   auto* devices = app.add_subcommand("devices", "list the compute backends, platforms and devices found");
   devices->add_flag("--json", devices_json, "print the list as JSON");
+  bool devices_auto_choice = false;
+  // Hidden (no group): what `mesh --backend auto` asks a child process (host/cli/mesh_command.cpp).
+  devices->add_flag("--auto-choice", devices_auto_choice, "print the backend --backend auto would use here")->group("");
 
   try {
     app.parse(argc, argv);
@@ -109,7 +112,7 @@ int main(int argc, char** argv) {
       mesh_cli.finish();
       return run_mesh(mesh_cli.command, quiet);
     }
-    if (devices->parsed()) return run_devices(devices_json);
+    if (devices->parsed()) return devices_auto_choice ? run_auto_choice() : run_devices(devices_json);
     if (optimize_cmd->parsed()) {
       const OutputGroup outputs;
       return run_optimize(oo, quiet);
