@@ -124,6 +124,9 @@ class AutoChoice {
     posix_spawn_file_actions_t actions;
     posix_spawn_file_actions_init(&actions);
     posix_spawn_file_actions_adddup2(&actions, fds[1], STDOUT_FILENO);  // the child's copy is not close-on-exec
+    // Whatever the drivers say while probing stays out of this run's stderr, where a bad input's
+    // one line must be the only one; a chosen backend's driver speaks again when it is opened here.
+    posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, "/dev/null", O_WRONLY, 0);
     char exe[] = "/proc/self/exe", command[] = "devices", flag[] = "--auto-choice";
     char* argv[] = {exe, command, flag, nullptr};
     pid_t pid = -1;
