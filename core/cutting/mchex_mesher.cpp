@@ -32,11 +32,10 @@ namespace {
 // An uncut cell (subcase kEmpty, most cells of a grid) is the parametric unit cube whatever its
 // values: one polyhedron, inside or outside, and its midpoint subdivision. Both are made once per
 // sign here instead of once per cell (cut_cell and midpoint_subdivide give the same result for
-// every such cell; the mesh is byte for byte the same).
+// every such cell; the mesh is byte for byte the same); the subdivision is kept as the table below.
 struct UncutCube {
   std::vector<Polyhedron> polys;
-  std::vector<SubdivisionHex> hexes;
-  // The hexes' distinct corner keys in order of first appearance (corner by corner, hex by hex),
+  // The subdivision hexes' distinct corner keys in order of first appearance (corner by corner, hex by hex),
   // with their parametric points, and each hex corner's index among them: an affine uncut cell
   // maps and names each of its 27 points once instead of once per hex corner (64), in the order
   // the hexes first name them, so that the cell-local points are numbered as before.
@@ -53,19 +52,18 @@ const UncutCube& uncut_cube(bool inside) {
       f.fill(in ? 1.0 : -1.0);
       UncutCube& u = out[in];
       u.polys = cut_cell(kUnitCubeCorners, classify(f));
-      u.hexes = midpoint_subdivide(u.polys.at(0));
-      for (const SubdivisionHex& h : u.hexes) {
+      for (const SubdivisionHex& h : midpoint_subdivide(u.polys.at(0))) {
         std::array<std::uint8_t, 8> points{};
         for (int c = 0; c < 8; ++c) {
-          const auto seen = std::find(u.point_keys.begin(), u.point_keys.end(), h.keys[c]);
-          if (seen == u.point_keys.end()) {
+          const auto k = static_cast<std::size_t>(std::find(u.point_keys.begin(), u.point_keys.end(), h.keys[c]) -
+                                                  u.point_keys.begin());
+          if (k == u.point_keys.size()) {
             u.point_keys.push_back(h.keys[c]);
             u.point_params.push_back(h.corners[c]);
-          } else if (std::memcmp(&u.point_params[seen - u.point_keys.begin()], &h.corners[c], sizeof(Vec3)) != 0) {
+          } else if (std::memcmp(&u.point_params[k], &h.corners[c], sizeof(Vec3)) != 0) {
             throw std::logic_error("uncut cube: one subdivision point at two parametric places");
           }
-          points[c] = static_cast<std::uint8_t>(std::find(u.point_keys.begin(), u.point_keys.end(), h.keys[c]) -
-                                                u.point_keys.begin());
+          points[c] = static_cast<std::uint8_t>(k);
         }
         u.hex_points.push_back(points);
       }
