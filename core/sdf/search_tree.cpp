@@ -198,17 +198,14 @@ SearchTree::SearchTree(const TriangleSurface& s, const TriangleBvh& bvh, Frames 
   });
   for (std::size_t n = bvh.nodes.size(); n-- > 0;) {
     const BvhNode& node = bvh.nodes[n];
+    if (node.count) continue;  // a leaf: summed above
     Sums& out = sums[n];
-    if (node.count) {
-      continue;
-    } else {
-      const Sums &l = sums[n + 1], &r = sums[node.index];
-      out.normal = l.normal + r.normal;
-      out.area = l.area + r.area;
-      out.box = l.box;
-      out.box.extend(r.box.lo);
-      out.box.extend(r.box.hi);
-    }
+    const Sums &l = sums[n + 1], &r = sums[node.index];
+    out.normal = l.normal + r.normal;
+    out.area = l.area + r.area;
+    out.box = l.box;
+    out.box.extend(r.box.lo);
+    out.box.extend(r.box.hi);
   }
 
   // The boxes: a nearly flat node gets its own frame from its distinct corners; any other the
