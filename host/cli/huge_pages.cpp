@@ -8,10 +8,11 @@
 // default), only ranges advised with MADV_HUGEPAGE get them, so the replaceable global operator
 // new (C++ [new.delete.single]) advises the 2 MiB-aligned inside of every block of at least
 // kHugeBlock bytes, as glibc's own glibc.malloc.hugetlb=1 tunable would for the whole heap. The
-// block still comes from malloc (aligned_alloc for the over-aligned forms, as libstdc++'s own), so
-// the default operator delete (free) releases it; smaller blocks are untouched. Advice is a hint: where it is refused
-// or huge pages are off, nothing changes. Only this executable replaces operator new: the libraries, the Python module
-// and programs that link the installed package keep their own allocator.
+// block still comes from malloc (aligned_alloc for the over-aligned forms, as libstdc++'s own),
+// so the default operator delete (free) releases it; smaller blocks are untouched. Advice is a
+// hint: where it is refused or huge pages are off, nothing changes. Only this executable replaces
+// operator new: the libraries, the Python module and programs that link the installed package
+// keep their own allocator.
 #include <bit>
 #include <cstdint>
 #include <cstdlib>
@@ -51,16 +52,22 @@ void* allocate(std::size_t size, std::align_val_t alignment) noexcept {
   return block;
 }
 
-}  // namespace
-
-// As the standard's: on failure the new-handler runs and the allocation is tried again.
-void* operator new(std::size_t size) {
+// As the standard's: on failure the new-handler runs and the allocation is tried again; with
+// none, std::bad_alloc.
+template <class Allocate>
+void* allocate_or_throw(const Allocate& allocate_once) {
   for (;;) {
-    if (void* block = allocate(size)) return block;
+    if (void* block = allocate_once()) return block;
     const std::new_handler handler = std::get_new_handler();
     if (!handler) throw std::bad_alloc();
     handler();
   }
+}
+
+}  // namespace
+
+void* operator new(std::size_t size) {
+  return allocate_or_throw([size] { return allocate(size); });
 }
 
 void* operator new(std::size_t size, const std::nothrow_t&) noexcept {
@@ -74,12 +81,7 @@ void* operator new(std::size_t size, const std::nothrow_t&) noexcept {
 void* operator new(std::size_t size, std::align_val_t alignment) {
   // As libstdc++'s: an alignment that is not a power of two is an allocation failure, at once.
   if (!std::has_single_bit(static_cast<std::size_t>(alignment))) throw std::bad_alloc();
-  for (;;) {
-    if (void* block = allocate(size, alignment)) return block;
-    const std::new_handler handler = std::get_new_handler();
-    if (!handler) throw std::bad_alloc();
-    handler();
-  }
+  return allocate_or_throw([size, alignment] { return allocate(size, alignment); });
 }
 
 void* operator new(std::size_t size, std::align_val_t alignment, const std::nothrow_t&) noexcept {
