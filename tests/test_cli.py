@@ -3,12 +3,13 @@ no partial output. Run by ctest with MCHEX_GPU pointing at the binary."""
 import json
 import os
 import struct
+import subprocess
 import unittest
 
 import meshio
 import numpy as np
 
-from harness import ScratchTestCase, run
+from harness import EXE, ScratchTestCase, run
 
 
 
@@ -145,6 +146,38 @@ class MeshCommand(ScratchTestCase):
             r = run(sub, "--help")
             self.assertEqual(r.returncode, 0)
             self.assertIn("--", r.stdout)
+
+
+class HeapTunables(ScratchTestCase):
+    """The command line restarts itself with glibc's heap tunables for huge pages
+    (host/cli/huge_pages.h); a user's own glibc.malloc.hugetlb choice stands, other tunables are
+    kept, and the mesh is the same bytes either way."""
+
+    def mesh(self, name, tunables):
+        env = {k: v for k, v in os.environ.items() if k != "GLIBC_TUNABLES"}
+        if tunables is not None:
+            env["GLIBC_TUNABLES"] = tunables
+        out, rep = (os.path.join(self.dir, f"{name}.{x}") for x in ("meshb", "json"))
+        r = subprocess.run([EXE, "mesh", "--shape", "torus", "--depth", "2", "-o", out, "--report", rep, "--quiet"],
+                           capture_output=True, text=True, stdin=subprocess.DEVNULL, env=env, timeout=600)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        with open(rep) as f, open(out, "rb") as m:
+            return json.load(f)["heap_tunables"], m.read()
+
+    def test_restart_sets_the_heap_up_and_respects_the_users_choice(self):
+        with open("/sys/kernel/mm/transparent_hugepage/enabled") as f:
+            modes = f.read()
+        usable = "[always]" in modes or "[madvise]" in modes
+        ours = ("glibc.malloc.hugetlb=1:glibc.malloc.mmap_threshold=4194304:glibc.malloc.top_pad=67108864:"
+                "glibc.malloc.trim_threshold=1073741824")
+        plain, plain_bytes = self.mesh("plain", None)
+        self.assertEqual(plain, ours if usable else None)
+        kept, kept_bytes = self.mesh("kept", "glibc.malloc.hugetlb=0")
+        self.assertEqual(kept, "glibc.malloc.hugetlb=0")
+        added, added_bytes = self.mesh("added", "glibc.malloc.arena_max=2")
+        self.assertEqual(added, "glibc.malloc.arena_max=2:" + ours if usable else "glibc.malloc.arena_max=2")
+        self.assertEqual(plain_bytes, kept_bytes)
+        self.assertEqual(plain_bytes, added_bytes)
 
 
 if __name__ == "__main__":

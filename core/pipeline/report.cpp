@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <vector>
 
 #include "core/grid/cell_types.h"
@@ -261,6 +262,9 @@ json report_json(const MeshRun& run, const MeshOutputs* outputs) {
   if (run.fidelity) report["fidelity"] = fidelity_json(*run.fidelity);
   report["times"] = run.clock.to_json();
   report["peak_memory_bytes"] = run.peak_memory_bytes;
+  // What the peak was measured under: the CLI sets glibc's heap tunables (host/cli/huge_pages.h).
+  const char* tunables = std::getenv("GLIBC_TUNABLES");
+  report["heap_tunables"] = tunables ? nlohmann::json(tunables) : nlohmann::json(nullptr);
   return report;
 }
 

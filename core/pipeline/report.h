@@ -18,6 +18,8 @@
 //   fidelity  when measured: IoU and Hausdorff distance (the paper's Section 6)
 //   times     the stages' wall seconds (core/base/stage_clock.h) and their total
 //   peak_memory_bytes
+//   heap_tunables  GLIBC_TUNABLES as the run saw it (the CLI sets glibc's heap up for huge pages,
+//             host/cli/huge_pages.h), or null
 #pragma once
 
 #include <string>

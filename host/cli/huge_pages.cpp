@@ -13,13 +13,26 @@
 // hint: where it is refused or huge pages are off, nothing changes. Only this executable replaces
 // operator new: the libraries, the Python module and programs that link the installed package
 // keep their own allocator.
+//
+// Blocks under kHugeBlock come from glibc's heap, which operator new cannot advise in time: malloc
+// has written the chunk headers around a block (faulting those 4 KiB pages in) before it returns,
+// and a 2 MiB range with a 4 KiB page in it is no longer filled by one huge page. Only glibc can
+// advise its heap as it grows, and it reads that choice (the glibc.malloc.hugetlb tunable) from
+// the environment at start-up alone; so restart_with_heap_tunables() sets it and starts the
+// program again (huge_pages.h).
+#include "host/cli/huge_pages.h"
+
 #include <bit>
 #include <cstdint>
 #include <cstdlib>
+#include <cstring>
+#include <fstream>
 #include <limits>
 #include <new>
+#include <string>
 
 #include <sys/mman.h>
+#include <unistd.h>
 
 namespace {
 
@@ -91,3 +104,50 @@ void* operator new(std::size_t size, std::align_val_t alignment, const std::noth
     return nullptr;
   }
 }
+
+namespace mchex::cli {
+
+namespace {
+
+// Whether the kernel gives huge pages to advised ranges ("[always]" or "[madvise]" selected).
+bool transparent_huge_pages_usable() {
+  std::ifstream in("/sys/kernel/mm/transparent_hugepage/enabled");
+  std::string modes;
+  std::getline(in, modes);
+  return modes.find("[always]") != std::string::npos || modes.find("[madvise]") != std::string::npos;
+}
+
+}  // namespace
+
+void restart_with_heap_tunables(char** argv) {
+#ifdef __GLIBC__
+  const char* tunables = std::getenv("GLIBC_TUNABLES");
+  // Set already: by this restart (the process is the restarted one) or by the user, whose choice
+  // stands.
+  if (tunables && std::strstr(tunables, "glibc.malloc.hugetlb")) return;
+  if (!transparent_huge_pages_usable()) return;
+  // hugetlb=1: glibc advises its heap (and aligns its growth) to 2 MiB pages. mmap_threshold:
+  // blocks from kHugeBlock up are mapped on their own (advised by operator new above, returned to
+  // the system when freed); smaller ones come from the heap, whose freed memory top_pad and
+  // trim_threshold keep for the next stage instead of returning it to be faulted in again.
+  // Measured on the bumpy torus at depth 4 (4.36 M hexes, this project's 2-core VM): page faults
+  // 67k -> 13k, system time 1.1-1.5 s -> 0.3-0.5 s, wall 2.9-3.8 s -> 2.3-2.7 s.
+  std::string value = tunables && *tunables ? std::string(tunables) + ":" : std::string();
+  value += "glibc.malloc.hugetlb=1:glibc.malloc.mmap_threshold=" + std::to_string(kHugeBlock) +
+           ":glibc.malloc.top_pad=" + std::to_string(std::size_t(64) << 20) +
+           ":glibc.malloc.trim_threshold=" + std::to_string(std::size_t(1) << 30);
+  if (setenv("GLIBC_TUNABLES", value.c_str(), 1) != 0) return;
+  execv("/proc/self/exe", argv);
+  // Not restarted (no /proc, say): run as we are, and keep the environment as it was for any
+  // child.
+  if (tunables) {
+    setenv("GLIBC_TUNABLES", tunables, 1);
+  } else {
+    unsetenv("GLIBC_TUNABLES");
+  }
+#else
+  (void)argv;
+#endif
+}
+
+}  // namespace mchex::cli

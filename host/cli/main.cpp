@@ -25,12 +25,14 @@
 #include "core/io/atomic_file.h"
 #include "core/io/mesh_io.h"
 #include "host/cli/commands.h"
+#include "host/cli/huge_pages.h"
 #include "host/cli/options.h"
 
 using namespace mchex;
 using namespace mchex::cli;
 
 int main(int argc, char** argv) {
+  restart_with_heap_tunables(argv);
   install_signal_cleanup();
   CLI::App app{"mchex-gpu: all-hex meshes of a solid and of the box around it (MCHex, Tong & Zhang 2025)"};
   app.require_subcommand(1);
