@@ -281,9 +281,14 @@ FaceRec face_rec(const VertexOf& vertex_of, uint32_t ref) {
 // no 16-byte keys.
 //
 // Face references (hex * 6 + face) and vertex ids are 32-bit; check_mesh checks the sizes.
-template <class Acc, class FacesOf, class VertexOf, class Visit>
+//
+// The buckets' faces name hexes all over the mesh, so reading their corners often misses the
+// cache: prefetch_hex(h) asks for hex h's corners kPrefetchAhead faces before they are read (the
+// bucket pass's samples -8 % on the 4.36 M-hex torus check).
+template <class Acc, class FacesOf, class VertexOf, class PrefetchHex, class Visit>
 Acc reduce_face_groups(std::size_t num_hexes, std::size_t num_ids, const FacesOf& faces_of, const VertexOf& vertex_of,
-                       const Acc& proto, const Visit& visit) {
+                       const PrefetchHex& prefetch_hex, const Acc& proto, const Visit& visit) {
+  constexpr uint32_t kPrefetchAhead = 24;
   auto min_id = [&](uint32_t ref) {
     const auto ids = face_ids(vertex_of, ref);
     return *std::min_element(ids.begin(), ids.end());
@@ -300,10 +305,15 @@ Acc reduce_face_groups(std::size_t num_hexes, std::size_t num_ids, const FacesOf
   const KeyGroups buckets = group_by_key(num_ids, for_each_face, min_id);
   return deterministic_reduce(num_ids, 4096, proto, [&](std::size_t b, std::size_t e, Acc& acc) {
     std::vector<FaceRec> recs;
+    const uint32_t last = buckets.start[e];
+    for (uint32_t i = buckets.start[b]; i < std::min(last, buckets.start[b] + kPrefetchAhead); ++i)
+      prefetch_hex(buckets.items[i] / 6);
     for (std::size_t v = b; v < e; ++v) {
       recs.clear();
-      for (uint32_t i = buckets.start[v]; i < buckets.start[v + 1]; ++i)
+      for (uint32_t i = buckets.start[v]; i < buckets.start[v + 1]; ++i) {
+        if (i + kPrefetchAhead < last) prefetch_hex(buckets.items[i + kPrefetchAhead] / 6);
         recs.push_back(face_rec(vertex_of, buckets.items[i]));
+      }
       std::sort(recs.begin(), recs.end());
       for (std::size_t i = 0; i < recs.size();) {
         std::size_t j = i + 1;
@@ -352,7 +362,8 @@ FacePass check_faces(const HexMesh& mesh, const std::string& name, const std::ve
   const auto vertex_of = [&](uint32_t h, int c) { return mesh.hexes[h][c]; };
   const FacePass proto(max_messages);
   FacePass pass = reduce_face_groups(
-      mesh.hexes.size(), mesh.points.size(), [&](uint32_t h) { return valid[h] ? 0x3Fu : 0u; }, vertex_of, proto,
+      mesh.hexes.size(), mesh.points.size(), [&](uint32_t h) { return valid[h] ? 0x3Fu : 0u; }, vertex_of,
+      [&](uint32_t h) { __builtin_prefetch(&mesh.hexes[h]); }, proto,
       [&](const FaceRec* b, const FaceRec* e, FacePass& acc) {
         ++acc.faces;
         const std::size_t n = static_cast<std::size_t>(e - b);
@@ -705,7 +716,7 @@ UnionStats check_union(const HexMesh& in, const HexMesh& out, const MeshResult& 
   const uint32_t first_outside_ref = static_cast<uint32_t>(6 * hin);
   UnionPass pass = reduce_face_groups(
       hin + out.hexes.size(), ni + out.points.size(), [&](uint32_t h) { return unsigned{grouped[h]}; }, vertex_of,
-      UnionPass(options.max_messages),
+      [&](uint32_t h) { __builtin_prefetch(h < hin ? &in.hexes[h] : &out.hexes[h - hin]); }, UnionPass(options.max_messages),
       [&](const FaceRec* b, const FaceRec* e, UnionPass& acc) {
         const std::size_t n = static_cast<std::size_t>(e - b);
         const std::size_t from_inside =
