@@ -576,9 +576,14 @@ class PointIndex {
         if (is_finite(points[i])) insert(static_cast<uint32_t>(i));
       }
     });
+    for (const Vec3& p : points)
+      if (is_finite(p)) box_.extend(p);
   }
 
   uint32_t find(Vec3 p) const {
+    // Most of an outside mesh lies beyond the inside mesh's box: no hashing, no probe (whose
+    // table and points miss the cache) for those. -0 and +0 compare equal here too.
+    if (!box_.contains(p)) return kNone;
     for (std::size_t s = hash(p) & mask_;; s = (s + 1) & mask_) {
       const uint32_t i = slots_[s];
       if (i == kNone || points_[i] == p) return i;
@@ -614,6 +619,7 @@ class PointIndex {
   const std::vector<Vec3>& points_;
   std::vector<uint32_t> slots_;
   std::size_t mask_ = 0;
+  Box box_;  // of the finite points
 };
 
 bool on_box_side(const std::array<Vec3, 4>& p, const Box& box) {
