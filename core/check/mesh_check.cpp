@@ -722,7 +722,8 @@ UnionStats check_union(const HexMesh& in, const HexMesh& out, const MeshResult& 
   const uint32_t first_outside_ref = static_cast<uint32_t>(6 * hin);
   UnionPass pass = reduce_face_groups(
       hin + out.hexes.size(), ni + out.points.size(), [&](uint32_t h) { return unsigned{grouped[h]}; }, vertex_of,
-      [&](uint32_t h) { __builtin_prefetch(h < hin ? &in.hexes[h] : &out.hexes[h - hin]); }, UnionPass(options.max_messages),
+      [&](uint32_t h) { __builtin_prefetch(h < hin ? &in.hexes[h] : &out.hexes[h - hin]); },
+      UnionPass(options.max_messages),
       [&](const FaceRec* b, const FaceRec* e, UnionPass& acc) {
         const std::size_t n = static_cast<std::size_t>(e - b);
         const std::size_t from_inside =
