@@ -499,6 +499,97 @@ double scaled_jacobian(const HexCorners& c) {
   return *std::min_element(s.begin(), s.end());
 }
 
+MovingCorner::MovingCorner(const HexCorners& p, int corner) {
+  c_ = corner >> 2;
+  b_ = (corner & 3) >= 2;
+  a_ = b_ ? 3 - (corner & 3) : corner & 3;
+  const int a = a_, b = b_, k = c_;
+  end_[0] = p[corner_index(1 - a, b, k)];
+  end_[1] = p[corner_index(a, 1 - b, k)];
+  end_[2] = p[corner_index(a, b, 1 - k)];
+  const Edges e(p);
+  // The unit edges as scaled_jacobians has them (normalized_by of lengths() is normalized()).
+  neighbour_[0][0] = normalized(e.eta[1 - a][k]);
+  neighbour_[0][1] = normalized(e.zeta[1 - a][b]);
+  neighbour_[1][0] = normalized(e.xi[1 - b][k]);
+  neighbour_[1][1] = normalized(e.zeta[a][1 - b]);
+  neighbour_[2][0] = normalized(e.xi[b][1 - k]);
+  neighbour_[2][1] = normalized(e.eta[a][1 - k]);
+  fixed_min_ = std::numeric_limits<double>::infinity();
+  for (int z = 0; z < 2; ++z)
+    for (int y = 0; y < 2; ++y)
+      for (int x = 0; x < 2; ++x) {
+        if ((x != a) + (y != b) + (z != k) < 2) continue;
+        const double v = triple(normalized(e.xi[y][z]), normalized(e.eta[x][z]), normalized(e.zeta[x][y]));
+        fixed_[corner_index(x, y, z)] = v;
+        fixed_min_ = std::min(fixed_min_, v);
+      }
+  // bilinear(e, 0.5, 0.5) = 0.5 * (0.5 * e[0][0] + 0.5 * e[0][1]) + 0.5 * (0.5 * e[1][0] + ...):
+  // the moving edge is xi[b][k], eta[a][k], zeta[a][b].
+  partner_[0] = e.xi[b][1 - k];
+  partner_[1] = e.eta[a][1 - k];
+  partner_[2] = e.zeta[a][1 - b];
+  other_pair_[0] = 0.5 * e.xi[1 - b][0] + 0.5 * e.xi[1 - b][1];
+  other_pair_[1] = 0.5 * e.eta[1 - a][0] + 0.5 * e.eta[1 - a][1];
+  other_pair_[2] = 0.5 * e.zeta[1 - a][0] + 0.5 * e.zeta[1 - a][1];
+  short_ = std::numeric_limits<double>::infinity();
+  long_ = 0;
+  for (int u = 0; u < 2; ++u)
+    for (int v = 0; v < 2; ++v) {
+      const double lengths[3] = {u == b && v == k ? -1 : norm(e.xi[u][v]), u == a && v == k ? -1 : norm(e.eta[u][v]),
+                                 u == a && v == b ? -1 : norm(e.zeta[u][v])};
+      for (double l : lengths) {
+        if (l < 0) continue;  // a moving edge
+        short_ = std::min(short_, l);
+        long_ = std::max(long_, l);
+      }
+    }
+}
+
+bool MovingCorner::scaled_jacobians(Vec3 y, double floor, std::array<double, 9>& s) const {
+  if (fixed_min_ < floor) return false;
+  const Vec3 moving[3] = {a_ ? y - end_[0] : end_[0] - y, b_ ? y - end_[1] : end_[1] - y,
+                          c_ ? y - end_[2] : end_[2] - y};
+  const Vec3 u[3] = {normalized(moving[0]), normalized(moving[1]), normalized(moving[2])};
+  const int a = a_, b = b_, k = c_;
+  s = fixed_;
+  double& own = s[corner_index(a, b, k)];
+  own = triple(u[0], u[1], u[2]);
+  if (own < floor) return false;
+  double& along_xi = s[corner_index(1 - a, b, k)];
+  along_xi = triple(u[0], neighbour_[0][0], neighbour_[0][1]);
+  double& along_eta = s[corner_index(a, 1 - b, k)];
+  along_eta = triple(neighbour_[1][0], u[1], neighbour_[1][1]);
+  double& along_zeta = s[corner_index(a, b, 1 - k)];
+  along_zeta = triple(neighbour_[2][0], neighbour_[2][1], u[2]);
+  if (along_xi < floor || along_eta < floor || along_zeta < floor) return false;
+  // The centre's columns, in bilinear's operations: the moving edge at its place in its pair.
+  const int place[3] = {k, k, b}, pair[3] = {b, a, a};
+  Vec3 column[3];
+  for (int d = 0; d < 3; ++d) {
+    Vec3 two[2];
+    two[place[d]] = moving[d];
+    two[1 - place[d]] = partner_[d];
+    Vec3 pairs[2];
+    pairs[pair[d]] = 0.5 * two[0] + 0.5 * two[1];
+    pairs[1 - pair[d]] = other_pair_[d];
+    column[d] = 0.5 * pairs[0] + 0.5 * pairs[1];
+  }
+  s[8] = scaled_triple(column[0], column[1], column[2]);
+  return !(s[8] < floor);
+}
+
+double MovingCorner::edge_ratio(Vec3 y) const {
+  // min and max of the 12 lengths (in any order: they are never NaN), as ratio_of_edges.
+  double lo = short_, hi = long_;
+  for (int d = 0; d < 3; ++d) {
+    const double l = norm(y - end_[d]);
+    lo = std::min(lo, l);
+    hi = std::max(hi, l);
+  }
+  return lo > 0 ? hi / lo : std::numeric_limits<double>::infinity();
+}
+
 std::array<double, 24> dihedral_angles(const HexCorners& c) {
   const Edges e(c, /*shortcuts=*/false);
   const std::array<double, 12> lengths = e.lengths();
