@@ -339,7 +339,7 @@ struct Optimizer {
     const MovingCorner& at(const Joined& j, const KeyGroups& incident, uint32_t v, uint32_t off) {
       if (!(built >> off & 1)) {
         const uint32_t k = incident.start[v] + off;
-        hex[off] = MovingCorner(corners_of(j.x, j.hexes[incident.items[k] / 8]), int(incident.items[k] % 8));
+        std::construct_at(&hex[off], corners_of(j.x, j.hexes[incident.items[k] / 8]), int(incident.items[k] % 8));
         built |= uint64_t(1) << off;
       }
       return hex[off];
