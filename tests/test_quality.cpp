@@ -726,11 +726,16 @@ TEST(quality, MovingCornerIsBitIdentical) {
         const std::array<double, 9> want = scaled_jacobians(moved);
         std::array<double, 9> got{};
         ASSERT_TRUE(moving.scaled_jacobians(y, -std::numeric_limits<double>::infinity(), got)) << t;
-        for (int i = 0; i < 9; ++i) EXPECT_TRUE(same_bits(got[i], want[i])) << t << " " << corner << " " << k << " " << i;
+        for (int i = 0; i < 9; ++i)
+          EXPECT_TRUE(same_bits(got[i], want[i])) << t << " " << corner << " " << k << " " << i;
         EXPECT_TRUE(same_bits(moving.edge_ratio(y), edge_ratio(moved))) << t << " " << corner << " " << k;
         const double lowest = *std::min_element(want.begin(), want.end());
-        for (double floor : {lowest, std::nextafter(lowest, 2.0), lowest - 0.1 * unit(rng), lowest + 0.1 * unit(rng)})
+        for (double floor : {lowest, std::nextafter(lowest, 2.0), lowest - 0.1 * unit(rng), lowest + 0.1 * unit(rng)}) {
           EXPECT_EQ(moving.scaled_jacobians(y, floor, got), !(lowest < floor)) << t << " " << corner << " " << k;
+          const double least = moving.scaled_jacobian(y, floor);
+          EXPECT_TRUE(lowest < floor ? least == -std::numeric_limits<double>::infinity() : same_bits(least, lowest))
+              << t << " " << corner << " " << k;
+        }
       }
     }
   }

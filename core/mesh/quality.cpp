@@ -581,48 +581,50 @@ MovingCorner::MovingCorner(const HexCorners& p, int corner) {
       fixed_min_ = std::min(fixed_min_, value[l]);
     }
   }
-  // bilinear(e, 0.5, 0.5) = 0.5 * (0.5 * e[0][0] + 0.5 * e[0][1]) + 0.5 * (0.5 * e[1][0] + ...):
-  // the moving edge is xi[b][k], eta[a][k], zeta[a][b].
-  partner_[0] = e.xi[b][1 - k];
-  partner_[1] = e.eta[a][1 - k];
-  partner_[2] = e.zeta[a][1 - b];
-  other_pair_[0] = 0.5 * e.xi[1 - b][0] + 0.5 * e.xi[1 - b][1];
-  other_pair_[1] = 0.5 * e.eta[1 - a][0] + 0.5 * e.eta[1 - a][1];
-  other_pair_[2] = 0.5 * e.zeta[1 - a][0] + 0.5 * e.zeta[1 - a][1];
+  // The xi neighbour's triple is dot(moving unit xi, cross of its two fixed columns).
+  xi_cross_ = cross(neighbour_[0][0], neighbour_[0][1]);
+  // bilinear(e, 0.5, 0.5) = 0.5 * (0.5 * e[0][0] + 0.5 * e[0][1]) + 0.5 * (0.5 * e[1][0] + ...)
+  // with the moving edge xi[b][k], eta[a][k], zeta[a][b]: IEEE addition is commutative, so where
+  // the moving edge sits in its sum does not change a bit, and the products of fixed edges by 0.5
+  // are the same computed here.
+  half_partner_[0] = 0.5 * e.xi[b][1 - k];
+  half_partner_[1] = 0.5 * e.eta[a][1 - k];
+  half_partner_[2] = 0.5 * e.zeta[a][1 - b];
+  half_other_[0] = 0.5 * (0.5 * e.xi[1 - b][0] + 0.5 * e.xi[1 - b][1]);
+  half_other_[1] = 0.5 * (0.5 * e.eta[1 - a][0] + 0.5 * e.eta[1 - a][1]);
+  half_other_[2] = 0.5 * (0.5 * e.zeta[1 - a][0] + 0.5 * e.zeta[1 - a][1]);
 }
 
 bool MovingCorner::scaled_jacobians(Vec3 y, double floor, std::array<double, 9>& s) const {
   if (fixed_min_ < floor) return false;
   const int a = a_, b = b_, k = c_;
   const Vec3 moving[3] = {a ? y - end_[0] : end_[0] - y, b ? y - end_[1] : end_[1] - y, k ? y - end_[2] : end_[2] - y};
-  // The centre's columns, in bilinear's operations: the moving edge at its place in its pair.
-  const int place[3] = {k, k, b}, pair[3] = {b, a, a};
-  Vec3 column[3];
-  for (int d = 0; d < 3; ++d) {
-    Vec3 two[2];
-    two[place[d]] = moving[d];
-    two[1 - place[d]] = partner_[d];
-    Vec3 pairs[2];
-    pairs[pair[d]] = 0.5 * two[0] + 0.5 * two[1];
-    pairs[1 - pair[d]] = other_pair_[d];
-    column[d] = 0.5 * pairs[0] + 0.5 * pairs[1];
-  }
+  Vec3 column[3];  // the centre's Jacobian columns
+  for (int d = 0; d < 3; ++d) column[d] = 0.5 * (0.5 * moving[d] + half_partner_[d]) + half_other_[d];
   Vec3 u[3], w[3];
   Double2 length;
   normalized_pair(moving[0], moving[1], u[0], u[1], length);
   normalized_pair(moving[2], column[0], u[2], w[0], length);
   normalized_pair(column[1], column[2], w[1], w[2], length);
   s = fixed_;
-  // The moving corner and its xi neighbour; its eta and zeta neighbours; the centre.
-  const Double2 first = triple_pair({u[0], u[0]}, {u[1], neighbour_[0][0]}, {u[2], neighbour_[0][1]});
-  const Double2 second = triple_pair({neighbour_[1][0], neighbour_[2][0]}, {u[1], neighbour_[2][1]},
-                                     {neighbour_[1][1], u[2]});
-  s[corner_index(a, b, k)] = first[0];
-  s[corner_index(1 - a, b, k)] = first[1];
-  s[corner_index(a, 1 - b, k)] = second[0];
-  s[corner_index(a, b, 1 - k)] = second[1];
+  const double own = triple(u[0], u[1], u[2]), along_xi = dot(u[0], xi_cross_);
+  const double along_eta = triple(neighbour_[1][0], u[1], neighbour_[1][1]);
+  const double along_zeta = triple(neighbour_[2][0], neighbour_[2][1], u[2]);
+  s[corner_index(a, b, k)] = own;
+  s[corner_index(1 - a, b, k)] = along_xi;
+  s[corner_index(a, 1 - b, k)] = along_eta;
+  s[corner_index(a, b, 1 - k)] = along_zeta;
   s[8] = triple(w[0], w[1], w[2]);
-  return !(first[0] < floor || first[1] < floor || second[0] < floor || second[1] < floor || s[8] < floor);
+  return !(own < floor || along_xi < floor || along_eta < floor || along_zeta < floor || s[8] < floor);
+}
+
+double MovingCorner::scaled_jacobian(Vec3 y, double floor) const {
+  std::array<double, 9> s;
+  if (!scaled_jacobians(y, floor, s)) return -std::numeric_limits<double>::infinity();
+  // std::min_element's value: the first of the least (a later value replaces it only if less).
+  double lowest = s[0];
+  for (int i = 1; i < 9; ++i) lowest = std::min(lowest, s[i]);
+  return lowest;
 }
 
 double MovingCorner::edge_ratio(Vec3 y) const {

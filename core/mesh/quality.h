@@ -91,6 +91,8 @@ class MovingCorner {
   // scaled_jacobians(c) with c[corner] = y into `s`; false as soon as one of the 9 is below
   // `floor` (the values are finite for finite corners, so then so is their minimum), `s` unfinished.
   bool scaled_jacobians(Vec3 y, double floor, std::array<double, 9>& s) const;
+  // The least of those 9, as scaled_jacobian(c) has it; -infinity when it is below `floor`.
+  double scaled_jacobian(Vec3 y, double floor) const;
   // edge_ratio(c) with c[corner] = y.
   double edge_ratio(Vec3 y) const;
 
@@ -100,10 +102,11 @@ class MovingCorner {
   // Unit fixed edges of its neighbours along xi, eta, zeta: the two columns that do not touch it,
   // in the order (xi, eta, zeta) with the moving one left out.
   Vec3 neighbour_[3][2];
-  // Per direction, the centre's column is the bilinear mean (0.5, 0.5) of the 4 edges: the edge
-  // paired with the moving one, and the mean of the other pair.
-  Vec3 partner_[3], other_pair_[3];
-  std::array<double, 9> fixed_{};  // the 4 fixed corners' values in place (the others unset)
+  Vec3 xi_cross_;  // cross(neighbour_[0][0], neighbour_[0][1])
+  // Per direction, the centre's column is the bilinear mean (0.5, 0.5) of the 4 edges: half the
+  // edge paired with the moving one, and half the mean of the other pair.
+  Vec3 half_partner_[3], half_other_[3];
+  std::array<double, 9> fixed_{};                // the 4 fixed corners' values in place (the others unset)
   double fixed_min_ = 0, short_ = 0, long_ = 0;  // min of those 4; shortest and longest fixed edge
 };
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -132,6 +133,11 @@ HexCorners corners_of(const std::vector<Vec3>& x, const Hex& h) {
   HexCorners c;
   for (int i = 0; i < 8; ++i) c[i] = x[h[i]];
   return c;
+}
+
+// The same into `c` (a visit's loops reuse one: a fresh HexCorners is zeroed first).
+void gather(const std::vector<Vec3>& x, const Hex& h, HexCorners& c) {
+  for (int i = 0; i < 8; ++i) c[i] = x[h[i]];
 }
 
 // Unit normal of a quad from its diagonals (defined also for a nearly degenerate quad), and its
@@ -336,10 +342,12 @@ struct Optimizer {
   struct Star {
     std::array<MovingCorner, kMaxValence> hex;
     uint64_t built = 0;  // bit per offset
+    HexCorners corners;
     const MovingCorner& at(const Joined& j, const KeyGroups& incident, uint32_t v, uint32_t off) {
       if (!(built >> off & 1)) {
         const uint32_t k = incident.start[v] + off;
-        std::construct_at(&hex[off], corners_of(j.x, j.hexes[incident.items[k] / 8]), int(incident.items[k] % 8));
+        gather(j.x, j.hexes[incident.items[k] / 8], corners);
+        std::construct_at(&hex[off], corners, int(incident.items[k] % 8));
         built |= uint64_t(1) << off;
       }
       return hex[off];
@@ -356,15 +364,14 @@ struct Optimizer {
   Local evaluate(uint32_t v, Vec3 y, double floor, double ratio_cap, uint32_t first, Star& star, double* mins) const {
     Local l;
     const uint32_t n = incident.start[v + 1] - incident.start[v];
-    std::array<double, 9> s;
     for (uint32_t i = 0; i < n; ++i) {
       const uint32_t off = i == 0 ? first : (i <= first ? i - 1 : i);
       const MovingCorner& m = star.at(j, incident, v, off);
-      if (!m.scaled_jacobians(y, floor, s) || (ratio_cap < kInf && m.edge_ratio(y) > ratio_cap)) {
+      const double lowest = m.scaled_jacobian(y, floor);
+      if (lowest == -kInf || (ratio_cap < kInf && m.edge_ratio(y) > ratio_cap)) {
         l.min = -kInf;
         return l;
       }
-      const double lowest = *std::min_element(s.begin(), s.end());
       mins[off] = lowest;
       l.min = std::min(l.min, lowest);
       l.sum += lowest;
@@ -482,6 +489,29 @@ struct Optimizer {
     }
   }
 
+  // Starts the loads of the visits after active[a]: the vertices of a colour lie all over the
+  // mesh, and a visit's reads form a chain (its incident hexes, their corners, the corners'
+  // positions) that otherwise waits on memory at each step. Three visits ahead the incident list,
+  // two ahead the hexes and their measures, one ahead the positions (by then the hexes are in).
+  void prefetch(const std::vector<uint32_t>& active, std::size_t a) const {
+    if (a + 3 < active.size()) __builtin_prefetch(&incident.items[incident.start[active[a + 3]]]);
+    if (a + 2 < active.size()) {
+      const uint32_t v = active[a + 2];
+      for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k) {
+        const uint32_t h = incident.items[k] / 8;
+        __builtin_prefetch(&j.hexes[h]);
+        __builtin_prefetch(&sj[h]);
+        __builtin_prefetch(&ratio[h]);
+        __builtin_prefetch(&certified[h]);
+      }
+    }
+    if (a + 1 < active.size()) {
+      const uint32_t v = active[a + 1];
+      for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k)
+        for (uint32_t w : j.hexes[incident.items[k] / 8]) __builtin_prefetch(&j.x[w]);
+    }
+  }
+
   // One sweep; returns the vertices moved.
   std::size_t sweep(const std::vector<std::vector<uint32_t>>& classes, std::size_t& rejected) {
     std::size_t moved = 0;
@@ -490,22 +520,35 @@ struct Optimizer {
     std::vector<Vec3> to_project;
     std::vector<uint8_t> accepted;
     std::vector<Visit> visits;
+    std::vector<uint8_t> wanted;
     for (const std::vector<uint32_t>& cls : classes) {
+      // Which vertices of the colour to visit, in parallel (each reads only sj and its own flags),
+      // then listed in colour order.
+      wanted.resize(cls.size());
+      parallel_chunks(cls.size(), 256, [&](std::size_t b, std::size_t e) {
+        for (std::size_t i = b; i < e; ++i) {
+          const uint32_t v = cls[i];
+          wanted[i] = 0;
+          if (!dirty[v]) continue;
+          double lo = kInf;
+          for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k)
+            lo = std::min(lo, sj[incident.items[k] / 8]);
+          // A surface vertex not yet on the surface, or a feature vertex not yet on its target, is
+          // visited until a move puts it there.
+          wanted[i] = lo < o.active_below || unplaced(v) || snapping(v);
+        }
+      });
       active.clear();
-      for (uint32_t v : cls) {
-        if (!dirty[v]) continue;
-        double lo = kInf;
-        for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k)
-          lo = std::min(lo, sj[incident.items[k] / 8]);
-        // A surface vertex not yet on the surface, or a feature vertex not yet on its target, is
-        // visited until a move puts it there.
-        if (lo < o.active_below || unplaced(v) || snapping(v)) active.push_back(v);
-      }
+      for (std::size_t i = 0; i < cls.size(); ++i)
+        if (wanted[i]) active.push_back(cls[i]);
       if (active.empty()) continue;
       cand.resize(active.size() * kCandidates);
       visits.resize(active.size());
       parallel_chunks(active.size(), 16, [&](std::size_t b, std::size_t e) {
-        for (std::size_t a = b; a < e; ++a) candidates(active[a], &cand[a * kCandidates], visits[a]);
+        for (std::size_t a = b; a < e; ++a) {
+          prefetch(active, a);
+          candidates(active[a], &cand[a * kCandidates], visits[a]);
+        }
       });
       // Surface vertices' candidates onto the surface, in one batch.
       to_project.clear();
@@ -525,19 +568,27 @@ struct Optimizer {
       accepted.assign(active.size(), 0);
       parallel_chunks(active.size(), 16, [&](std::size_t b, std::size_t e) {
         const auto star = std::make_unique<Star>();
-        for (std::size_t a = b; a < e; ++a) accepted[a] = try_move(active[a], &cand[a * kCandidates], visits[a], *star);
-      });
-      for (std::size_t a = 0; a < active.size(); ++a) {
-        const uint32_t v = active[a];
-        if (!accepted[a]) {
-          ++rejected;
-          dirty[v] = 0;
-          continue;
+        for (std::size_t a = b; a < e; ++a) {
+          prefetch(active, a);
+          accepted[a] = try_move(active[a], &cand[a * kCandidates], visits[a], *star);
         }
-        ++moved;
-        for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k)
-          for (uint32_t w : j.hexes[incident.items[k] / 8]) dirty[w] = 1;
-      }
+      });
+      // A refused vertex waits until a neighbour moves; a move wakes every vertex of its hexes. In
+      // parallel: no vertex of a colour is a corner of another's hexes, so a refused vertex is
+      // written by its own visit alone and the wake-ups all write 1 (the same on any thread).
+      parallel_chunks(active.size(), 64, [&](std::size_t b, std::size_t e) {
+        for (std::size_t a = b; a < e; ++a) {
+          const uint32_t v = active[a];
+          if (!accepted[a]) {
+            dirty[v] = 0;
+            continue;
+          }
+          for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k)
+            for (uint32_t w : j.hexes[incident.items[k] / 8])
+              std::atomic_ref<uint8_t>(dirty[w]).store(1, std::memory_order_relaxed);
+        }
+      });
+      for (std::size_t a = 0; a < active.size(); ++a) (accepted[a] ? moved : rejected) += 1;
     }
     return moved;
   }
