@@ -342,12 +342,20 @@ struct Optimizer {
   struct Star {
     std::array<MovingCorner, kMaxValence> hex;
     uint64_t built = 0;  // bit per offset
-    HexCorners corners;
-    const MovingCorner& at(const Joined& j, const KeyGroups& incident, uint32_t v, uint32_t off) {
+    // The corners of the visit's hexes, copied at its start in one pass: the loads are then
+    // independent and overlap, where a copy per build would wait for each in turn.
+    std::array<HexCorners, kMaxValence> corners;
+    std::array<uint8_t, kMaxValence> corner;
+    void gather(const Joined& j, const KeyGroups& incident, uint32_t v) {
+      built = 0;
+      for (uint32_t k = incident.start[v], off = 0; k < incident.start[v + 1]; ++k, ++off) {
+        mchex::gather(j.x, j.hexes[incident.items[k] / 8], corners[off]);
+        corner[off] = uint8_t(incident.items[k] % 8);
+      }
+    }
+    const MovingCorner& at(uint32_t off) {
       if (!(built >> off & 1)) {
-        const uint32_t k = incident.start[v] + off;
-        gather(j.x, j.hexes[incident.items[k] / 8], corners);
-        std::construct_at(&hex[off], corners, int(incident.items[k] % 8));
+        std::construct_at(&hex[off], corners[off], int(corner[off]));
         built |= uint64_t(1) << off;
       }
       return hex[off];
@@ -366,7 +374,7 @@ struct Optimizer {
     const uint32_t n = incident.start[v + 1] - incident.start[v];
     for (uint32_t i = 0; i < n; ++i) {
       const uint32_t off = i == 0 ? first : (i <= first ? i - 1 : i);
-      const MovingCorner& m = star.at(j, incident, v, off);
+      const MovingCorner& m = star.at(off);
       const double lowest = m.scaled_jacobian(y, floor);
       if (lowest == -kInf || (ratio_cap < kInf && m.edge_ratio(y) > ratio_cap)) {
         l.min = -kInf;
@@ -594,7 +602,7 @@ struct Optimizer {
   }
 
   bool try_move(uint32_t v, const Vec3* cand, const Visit& visit, Star& star) {
-    star.built = 0;
+    star.gather(j, incident, v);
     const Vec3 x = j.x[v];
     const Local& now = visit.now;
     const uint32_t worst = visit.worst;
@@ -656,7 +664,7 @@ struct Optimizer {
   bool within_ratio(uint32_t v, Vec3 y, double cap, Star& star, double* out) const {
     const uint32_t n = incident.start[v + 1] - incident.start[v];
     for (uint32_t i = 0; i < n; ++i) {
-      out[i] = star.at(j, incident, v, i).edge_ratio(y);
+      out[i] = star.at(i).edge_ratio(y);
       if (out[i] > cap) return false;
     }
     return true;
