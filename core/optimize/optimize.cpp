@@ -346,8 +346,10 @@ struct Optimizer {
     // independent and overlap, where a copy per build would wait for each in turn.
     std::array<HexCorners, kMaxValence> corners;
     std::array<uint8_t, kMaxValence> corner;
+    uint32_t refused = kMaxValence;  // the hex that refused the last candidate (evaluate)
     void gather(const Joined& j, const KeyGroups& incident, uint32_t v) {
       built = 0;
+      refused = kMaxValence;
       for (uint32_t k = incident.start[v], off = 0; k < incident.start[v + 1]; ++k, ++off) {
         mchex::gather(j.x, j.hexes[incident.items[k] / 8], corners[off]);
         corner[off] = uint8_t(incident.items[k] % 8);
@@ -366,23 +368,34 @@ struct Optimizer {
   // The scaled Jacobians of v's hexes with v at y (the certificate and the edge ratio, given a
   // finite ratio_cap, are apart: they are asked only of the candidate chosen); stops early
   // (min = -inf) as soon as a point of a hex falls below `floor` or a hex passes `ratio_cap`.
-  // `first` (an offset into v's incident hexes) is measured first: the worst hex at the current
-  // point, which rejects most candidates that fall below the floor at once. `mins` gets each
-  // hex's scaled Jacobian (by offset), as hex_quality has it (the same operations).
+  // `mins` gets each hex's scaled Jacobian (by offset), as hex_quality has it (the same
+  // operations); the minimum and the sum are taken in a fixed order: `first` (an offset into v's
+  // incident hexes, the worst hex at the current point), then the others. Which hex is measured
+  // first changes no result, only how soon a candidate is refused: the hex that refused the
+  // visit's last candidate (it usually refuses the next), else `first`.
   Local evaluate(uint32_t v, Vec3 y, double floor, double ratio_cap, uint32_t first, Star& star, double* mins) const {
-    Local l;
     const uint32_t n = incident.start[v + 1] - incident.start[v];
-    for (uint32_t i = 0; i < n; ++i) {
-      const uint32_t off = i == 0 ? first : (i <= first ? i - 1 : i);
+    auto measure = [&](uint32_t off) {
       const MovingCorner& m = star.at(off);
       const double lowest = m.scaled_jacobian(y, floor);
       if (lowest == -kInf || (ratio_cap < kInf && m.edge_ratio(y) > ratio_cap)) {
-        l.min = -kInf;
-        return l;
+        star.refused = off;
+        return false;
       }
       mins[off] = lowest;
-      l.min = std::min(l.min, lowest);
-      l.sum += lowest;
+      return true;
+    };
+    const uint32_t lead = star.refused < n ? star.refused : first;
+    Local refused;
+    refused.min = -kInf;
+    if (!measure(lead)) return refused;
+    for (uint32_t off = 0; off < n; ++off)
+      if (off != lead && !measure(off)) return refused;
+    Local l;
+    for (uint32_t i = 0; i < n; ++i) {
+      const uint32_t off = i == 0 ? first : (i <= first ? i - 1 : i);
+      l.min = std::min(l.min, mins[off]);
+      l.sum += mins[off];
     }
     return l;
   }
