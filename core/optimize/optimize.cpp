@@ -510,29 +510,6 @@ struct Optimizer {
     }
   }
 
-  // Starts the loads of the visits after active[a]: the vertices of a colour lie all over the
-  // mesh, and a visit's reads form a chain (its incident hexes, their corners, the corners'
-  // positions) that otherwise waits on memory at each step. Three visits ahead the incident list,
-  // two ahead the hexes and their measures, one ahead the positions (by then the hexes are in).
-  void prefetch(const std::vector<uint32_t>& active, std::size_t a) const {
-    if (a + 3 < active.size()) __builtin_prefetch(&incident.items[incident.start[active[a + 3]]]);
-    if (a + 2 < active.size()) {
-      const uint32_t v = active[a + 2];
-      for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k) {
-        const uint32_t h = incident.items[k] / 8;
-        __builtin_prefetch(&j.hexes[h]);
-        __builtin_prefetch(&sj[h]);
-        __builtin_prefetch(&ratio[h]);
-        __builtin_prefetch(&certified[h]);
-      }
-    }
-    if (a + 1 < active.size()) {
-      const uint32_t v = active[a + 1];
-      for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k)
-        for (uint32_t w : j.hexes[incident.items[k] / 8]) __builtin_prefetch(&j.x[w]);
-    }
-  }
-
   // One sweep; returns the vertices moved.
   std::size_t sweep(const std::vector<std::vector<uint32_t>>& classes, std::size_t& rejected) {
     std::size_t moved = 0;
@@ -567,7 +544,6 @@ struct Optimizer {
       visits.resize(active.size());
       parallel_chunks(active.size(), 16, [&](std::size_t b, std::size_t e) {
         for (std::size_t a = b; a < e; ++a) {
-          prefetch(active, a);
           candidates(active[a], &cand[a * kCandidates], visits[a]);
         }
       });
@@ -590,7 +566,6 @@ struct Optimizer {
       parallel_chunks(active.size(), 16, [&](std::size_t b, std::size_t e) {
         const auto star = std::make_unique<Star>();
         for (std::size_t a = b; a < e; ++a) {
-          prefetch(active, a);
           accepted[a] = try_move(active[a], &cand[a * kCandidates], visits[a], *star);
         }
       });
