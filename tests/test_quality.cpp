@@ -700,6 +700,47 @@ TEST(quality, ScaledJacobianAloneEqualsHexQuality) {
   }
 }
 
+// MovingCorner (the optimiser's per-candidate measures) against scaled_jacobians and edge_ratio of
+// the moved hex, bit for bit, for every corner of random, affine and box-shaped hexes moved to
+// random points, onto another corner (a zero-length edge) and by an ulp; and its early stop: false
+// exactly when the minimum of the 9 falls below the floor.
+TEST(quality, MovingCornerIsBitIdentical) {
+  std::mt19937_64 rng(31);
+  std::uniform_real_distribution<double> step(-0.7, 0.7), unit(0, 1);
+  auto same_bits = [](double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; };
+  for (int t = 0; t < 400; ++t) {
+    HexCorners c = t % 4 == 0 ? map_corners(kUnitCube, random_affine(rng, t % 8 == 0)) : random_hex(rng, 0.35);
+    if (t % 4 == 1) {
+      const double h = 1 + unit(rng);
+      c = map_corners(kUnitCube, [&](Vec3 p) { return h * p; });
+    }
+    for (int corner = 0; corner < 8; ++corner) {
+      const MovingCorner moving(c, corner);
+      for (int k = 0; k < 6; ++k) {
+        Vec3 y = c[corner] + Vec3{step(rng), step(rng), step(rng)};
+        if (k == 0) y = c[corner];
+        if (k == 1) y = c[(corner + 1) % 8];
+        if (k == 2) y = {std::nextafter(c[corner].x, 9.0), c[corner].y, c[corner].z};
+        HexCorners moved = c;
+        moved[corner] = y;
+        const std::array<double, 9> want = scaled_jacobians(moved);
+        std::array<double, 9> got{};
+        ASSERT_TRUE(moving.scaled_jacobians(y, -std::numeric_limits<double>::infinity(), got)) << t;
+        for (int i = 0; i < 9; ++i)
+          EXPECT_TRUE(same_bits(got[i], want[i])) << t << " " << corner << " " << k << " " << i;
+        EXPECT_TRUE(same_bits(moving.edge_ratio(y), edge_ratio(moved))) << t << " " << corner << " " << k;
+        const double lowest = *std::min_element(want.begin(), want.end());
+        for (double floor : {lowest, std::nextafter(lowest, 2.0), lowest - 0.1 * unit(rng), lowest + 0.1 * unit(rng)}) {
+          EXPECT_EQ(moving.scaled_jacobians(y, floor, got), !(lowest < floor)) << t << " " << corner << " " << k;
+          const double least = moving.scaled_jacobian(y, floor);
+          EXPECT_TRUE(lowest < floor ? least == -std::numeric_limits<double>::infinity() : same_bits(least, lowest))
+              << t << " " << corner << " " << k;
+        }
+      }
+    }
+  }
+}
+
 TEST(quality, AnglesAndConditionAreSizeIndependent) {
   std::mt19937_64 rng(23);
   for (int t = 0; t < 50; ++t) {

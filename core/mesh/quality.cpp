@@ -499,6 +499,145 @@ double scaled_jacobian(const HexCorners& c) {
   return *std::min_element(s.begin(), s.end());
 }
 
+namespace {
+
+// normalized() of two vectors, one per lane (norm's sum of squares in its order, then one division
+// per component: the same doubles); their lengths in `length`.
+void normalized_pair(Vec3 a, Vec3 b, Vec3& ua, Vec3& ub, Double2& length) {
+  const Double2 x{a.x, b.x}, y{a.y, b.y}, z{a.z, b.z};
+  length = sqrt2(x * x + y * y + z * z);
+  // A lane of zero length divides by zero; its quotient is not used.
+  const Double2 qx = x / length, qy = y / length, qz = z / length;
+  ua = length[0] > 0 ? Vec3{qx[0], qy[0], qz[0]} : Vec3{};
+  ub = length[1] > 0 ? Vec3{qx[1], qy[1], qz[1]} : Vec3{};
+}
+
+// triple(a[i], b[i], c[i]) for i = 0, 1, one per lane, in cross()'s and dot()'s operations.
+Double2 triple_pair(const Vec3 (&a)[2], const Vec3 (&b)[2], const Vec3 (&c)[2]) {
+  const Double2 bx{b[0].x, b[1].x}, by{b[0].y, b[1].y}, bz{b[0].z, b[1].z};
+  const Double2 cx{c[0].x, c[1].x}, cy{c[0].y, c[1].y}, cz{c[0].z, c[1].z};
+  const Double2 ax{a[0].x, a[1].x}, ay{a[0].y, a[1].y}, az{a[0].z, a[1].z};
+  return ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx);
+}
+
+}  // namespace
+
+MovingCorner::MovingCorner(const HexCorners& p, int corner) {
+  c_ = corner >> 2;
+  b_ = (corner & 3) >= 2;
+  a_ = b_ ? 3 - (corner & 3) : corner & 3;
+  const int a = a_, b = b_, k = c_;
+  end_[0] = p[corner_index(1 - a, b, k)];
+  end_[1] = p[corner_index(a, 1 - b, k)];
+  end_[2] = p[corner_index(a, b, 1 - k)];
+  const Edges e(p);
+  // The 9 edges that do not touch the corner, at unit length as scaled_jacobians has them
+  // (normalized_by of lengths() is normalized()), two at a time.
+  Vec3 unit_xi[2][2], unit_eta[2][2], unit_zeta[2][2];
+  const Vec3* edge[9];
+  Vec3* unit[9];
+  int n = 0;
+  for (int u = 0; u < 2; ++u)
+    for (int v = 0; v < 2; ++v) {
+      if (!(u == b && v == k)) edge[n] = &e.xi[u][v], unit[n++] = &unit_xi[u][v];
+      if (!(u == a && v == k)) edge[n] = &e.eta[u][v], unit[n++] = &unit_eta[u][v];
+      if (!(u == a && v == b)) edge[n] = &e.zeta[u][v], unit[n++] = &unit_zeta[u][v];
+    }
+  short_ = std::numeric_limits<double>::infinity();
+  long_ = 0;
+  Vec3 spare;
+  for (int i = 0; i < 9; i += 2) {
+    Double2 length;
+    normalized_pair(*edge[i], i + 1 < 9 ? *edge[i + 1] : *edge[i], *unit[i], i + 1 < 9 ? *unit[i + 1] : spare, length);
+    // The extremes of the 12 lengths do not depend on their order (never NaN), so the fixed ones
+    // are taken here, as ratio_of_edges takes them.
+    for (int l = 0; l < (i + 1 < 9 ? 2 : 1); ++l) {
+      short_ = std::min(short_, length[l]);
+      long_ = std::max(long_, length[l]);
+    }
+  }
+  neighbour_[0][0] = unit_eta[1 - a][k];
+  neighbour_[0][1] = unit_zeta[1 - a][b];
+  neighbour_[1][0] = unit_xi[1 - b][k];
+  neighbour_[1][1] = unit_zeta[a][1 - b];
+  neighbour_[2][0] = unit_xi[b][1 - k];
+  neighbour_[2][1] = unit_eta[a][1 - k];
+  // The 4 corners off the moving corner's edges: (1-a, 1-b, k), (1-a, b, 1-k), (a, 1-b, 1-k),
+  // (1-a, 1-b, 1-k).
+  const int far[4][3] = {{1 - a, 1 - b, k}, {1 - a, b, 1 - k}, {a, 1 - b, 1 - k}, {1 - a, 1 - b, 1 - k}};
+  fixed_min_ = std::numeric_limits<double>::infinity();
+  for (int f = 0; f < 4; f += 2) {
+    Vec3 x[2], y[2], z[2];
+    for (int l = 0; l < 2; ++l) {
+      const int* r = far[f + l];
+      x[l] = unit_xi[r[1]][r[2]];
+      y[l] = unit_eta[r[0]][r[2]];
+      z[l] = unit_zeta[r[0]][r[1]];
+    }
+    const Double2 value = triple_pair(x, y, z);
+    for (int l = 0; l < 2; ++l) {
+      const int* r = far[f + l];
+      fixed_[corner_index(r[0], r[1], r[2])] = value[l];
+      fixed_min_ = std::min(fixed_min_, value[l]);
+    }
+  }
+  // The xi neighbour's triple is dot(moving unit xi, cross of its two fixed columns).
+  xi_cross_ = cross(neighbour_[0][0], neighbour_[0][1]);
+  // bilinear(e, 0.5, 0.5) = 0.5 * (0.5 * e[0][0] + 0.5 * e[0][1]) + 0.5 * (0.5 * e[1][0] + ...)
+  // with the moving edge xi[b][k], eta[a][k], zeta[a][b]: IEEE addition is commutative, so where
+  // the moving edge sits in its sum does not change a bit, and the products of fixed edges by 0.5
+  // are the same computed here.
+  half_partner_[0] = 0.5 * e.xi[b][1 - k];
+  half_partner_[1] = 0.5 * e.eta[a][1 - k];
+  half_partner_[2] = 0.5 * e.zeta[a][1 - b];
+  half_other_[0] = 0.5 * (0.5 * e.xi[1 - b][0] + 0.5 * e.xi[1 - b][1]);
+  half_other_[1] = 0.5 * (0.5 * e.eta[1 - a][0] + 0.5 * e.eta[1 - a][1]);
+  half_other_[2] = 0.5 * (0.5 * e.zeta[1 - a][0] + 0.5 * e.zeta[1 - a][1]);
+}
+
+bool MovingCorner::scaled_jacobians(Vec3 y, double floor, std::array<double, 9>& s) const {
+  if (fixed_min_ < floor) return false;
+  const int a = a_, b = b_, k = c_;
+  const Vec3 moving[3] = {a ? y - end_[0] : end_[0] - y, b ? y - end_[1] : end_[1] - y, k ? y - end_[2] : end_[2] - y};
+  Vec3 column[3];  // the centre's Jacobian columns
+  for (int d = 0; d < 3; ++d) column[d] = 0.5 * (0.5 * moving[d] + half_partner_[d]) + half_other_[d];
+  Vec3 u[3], w[3];
+  Double2 length;
+  normalized_pair(moving[0], moving[1], u[0], u[1], length);
+  normalized_pair(moving[2], column[0], u[2], w[0], length);
+  normalized_pair(column[1], column[2], w[1], w[2], length);
+  s = fixed_;
+  const double own = triple(u[0], u[1], u[2]), along_xi = dot(u[0], xi_cross_);
+  const double along_eta = triple(neighbour_[1][0], u[1], neighbour_[1][1]);
+  const double along_zeta = triple(neighbour_[2][0], neighbour_[2][1], u[2]);
+  s[corner_index(a, b, k)] = own;
+  s[corner_index(1 - a, b, k)] = along_xi;
+  s[corner_index(a, 1 - b, k)] = along_eta;
+  s[corner_index(a, b, 1 - k)] = along_zeta;
+  s[8] = triple(w[0], w[1], w[2]);
+  return !(own < floor || along_xi < floor || along_eta < floor || along_zeta < floor || s[8] < floor);
+}
+
+double MovingCorner::scaled_jacobian(Vec3 y, double floor) const {
+  std::array<double, 9> s;
+  if (!scaled_jacobians(y, floor, s)) return -std::numeric_limits<double>::infinity();
+  // std::min_element's value: the first of the least (a later value replaces it only if less).
+  double lowest = s[0];
+  for (int i = 1; i < 9; ++i) lowest = std::min(lowest, s[i]);
+  return lowest;
+}
+
+double MovingCorner::edge_ratio(Vec3 y) const {
+  // min and max of the 12 lengths (in any order: they are never NaN), as ratio_of_edges.
+  double lo = short_, hi = long_;
+  for (int d = 0; d < 3; ++d) {
+    const double l = norm(y - end_[d]);
+    lo = std::min(lo, l);
+    hi = std::max(hi, l);
+  }
+  return lo > 0 ? hi / lo : std::numeric_limits<double>::infinity();
+}
+
 std::array<double, 24> dihedral_angles(const HexCorners& c) {
   const Edges e(c, /*shortcuts=*/false);
   const std::array<double, 12> lengths = e.lengths();

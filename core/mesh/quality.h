@@ -76,6 +76,40 @@ std::array<double, 8> corner_jacobians(const HexCorners& c);
 std::array<double, 9> scaled_jacobians(const HexCorners& c);
 double scaled_jacobian(const HexCorners& c);  // min of scaled_jacobians
 
+// scaled_jacobians and edge_ratio of a hex while one of its corners moves, for a caller that
+// tries many positions of one vertex (the optimiser, core/optimize/optimize.cpp). Of the 9 points
+// only the moving corner, its 3 edge neighbours and the centre depend on its position (each of the
+// other 4 corners' Jacobian columns are edges that do not touch it); the 9 edges that do not touch
+// it, those 4 values, the centre's half sums of the fixed edges and the extremes of the 9 fixed
+// lengths are computed once here. A position then costs its 3 edges, 6 normalisations and 5
+// triple products, done by the same operations on the same doubles as scaled_jacobians and
+// edge_ratio: the results are bit for bit theirs (tests: quality.MovingCornerIsBitIdentical).
+class MovingCorner {
+ public:
+  MovingCorner() = default;
+  MovingCorner(const HexCorners& c, int corner);
+  // scaled_jacobians(c) with c[corner] = y into `s`; false as soon as one of the 9 is below
+  // `floor` (the values are finite for finite corners, so then so is their minimum), `s` unfinished.
+  bool scaled_jacobians(Vec3 y, double floor, std::array<double, 9>& s) const;
+  // The least of those 9, as scaled_jacobian(c) has it; -infinity when it is below `floor`.
+  double scaled_jacobian(Vec3 y, double floor) const;
+  // edge_ratio(c) with c[corner] = y.
+  double edge_ratio(Vec3 y) const;
+
+ private:
+  int a_ = 0, b_ = 0, c_ = 0;  // reference coordinates of the corner
+  Vec3 end_[3];                // the far ends of its xi, eta and zeta edges
+  // Unit fixed edges of its neighbours along xi, eta, zeta: the two columns that do not touch it,
+  // in the order (xi, eta, zeta) with the moving one left out.
+  Vec3 neighbour_[3][2];
+  Vec3 xi_cross_;  // cross(neighbour_[0][0], neighbour_[0][1])
+  // Per direction, the centre's column is the bilinear mean (0.5, 0.5) of the 4 edges: half the
+  // edge paired with the moving one, and half the mean of the other pair.
+  Vec3 half_partner_[3], half_other_[3];
+  std::array<double, 9> fixed_{};                // the 4 fixed corners' values in place (the others unset)
+  double fixed_min_ = 0, short_ = 0, long_ = 0;  // min of those 4; shortest and longest fixed edge
+};
+
 // Dihedral angles in degrees, [3 * corner + d] for the edge leaving `corner` along reference axis
 // d (0 xi, 1 eta, 2 zeta): the interior angle between the two faces of the hex at that edge,
 // from the faces' normals at the corner (each the cross product of the face's two edges there).

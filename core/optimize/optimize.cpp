@@ -2,10 +2,12 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <numeric>
 #include <span>
 #include <vector>
@@ -131,6 +133,11 @@ HexCorners corners_of(const std::vector<Vec3>& x, const Hex& h) {
   HexCorners c;
   for (int i = 0; i < 8; ++i) c[i] = x[h[i]];
   return c;
+}
+
+// The same into `c` (a visit's loops reuse one: a fresh HexCorners is zeroed first).
+void gather(const std::vector<Vec3>& x, const Hex& h, HexCorners& c) {
+  for (int i = 0; i < 8; ++i) c[i] = x[h[i]];
 }
 
 // Unit normal of a quad from its diagonals (defined also for a nearly degenerate quad), and its
@@ -319,48 +326,76 @@ struct Optimizer {
   }
 
   struct Local {
-    double min = kInf, sum = 0, max_ratio = 0;
+    double min = kInf, sum = 0;
   };
 
-  // A vertex's hexes where it is, measured once per visit (by candidates, for try_move): their
-  // minimum and sum, the offset of the worst hex and its worst point.
+  // A vertex's hexes where it is, for try_move: their minimum and sum, the offset of the worst
+  // hex and its worst point.
   struct Visit {
     Local now;
     uint32_t worst = 0;
     int point = 0;
   };
 
+  // A visit's hexes, each measured with the vertex moving (MovingCorner: the parts that do not
+  // depend on its position computed once, when a candidate first reaches the hex).
+  struct Star {
+    std::array<MovingCorner, kMaxValence> hex;
+    uint64_t built = 0;  // bit per offset
+    // The corners of the visit's hexes, copied at its start in one pass: the loads are then
+    // independent and overlap, where a copy per build would wait for each in turn.
+    std::array<HexCorners, kMaxValence> corners;
+    std::array<uint8_t, kMaxValence> corner;
+    uint32_t refused = kMaxValence;  // the hex that refused the last candidate (evaluate)
+    void gather(const Joined& j, const KeyGroups& incident, uint32_t v) {
+      built = 0;
+      refused = kMaxValence;
+      for (uint32_t k = incident.start[v], off = 0; k < incident.start[v + 1]; ++k, ++off) {
+        mchex::gather(j.x, j.hexes[incident.items[k] / 8], corners[off]);
+        corner[off] = uint8_t(incident.items[k] % 8);
+      }
+    }
+    const MovingCorner& at(uint32_t off) {
+      if (!(built >> off & 1)) {
+        std::construct_at(&hex[off], corners[off], int(corner[off]));
+        built |= uint64_t(1) << off;
+      }
+      return hex[off];
+    }
+  };
+  static_assert(kMaxValence <= 64);
+
   // The scaled Jacobians of v's hexes with v at y (the certificate and the edge ratio, given a
   // finite ratio_cap, are apart: they are asked only of the candidate chosen); stops early
-  // (min = -inf) as soon as a hex falls below `floor` or passes `ratio_cap`.
-  // `first` (an offset into v's incident hexes) is measured first: the worst hex at the current
-  // point, which rejects most candidates that fall below the floor at once. `worst` returns the
-  // offset of the worst hex, `worst_point` its worst of the 9 points; `mins`, if given, each
-  // hex's scaled Jacobian (by offset), as hex_quality has it (the same operations).
-  Local evaluate(uint32_t v, Vec3 y, double floor, double ratio_cap, uint32_t first = 0, uint32_t* worst = nullptr,
-                 int* worst_point = nullptr, double* mins = nullptr) const {
+  // (min = -inf) as soon as a point of a hex falls below `floor` or a hex passes `ratio_cap`.
+  // `mins` gets each hex's scaled Jacobian (by offset), as hex_quality has it (the same
+  // operations); the minimum and the sum are taken in a fixed order: `first` (an offset into v's
+  // incident hexes, the worst hex at the current point), then the others. Which hex is measured
+  // first changes no result, only how soon a candidate is refused: the hex that refused the
+  // visit's last candidate (it usually refuses the next), else `first`.
+  Local evaluate(uint32_t v, Vec3 y, double floor, double ratio_cap, uint32_t first, Star& star, double* mins) const {
+    const uint32_t n = incident.start[v + 1] - incident.start[v];
+    auto measure = [&](uint32_t off) {
+      const MovingCorner& m = star.at(off);
+      const double lowest = m.scaled_jacobian(y, floor);
+      if (lowest == -kInf || (ratio_cap < kInf && m.edge_ratio(y) > ratio_cap)) {
+        star.refused = off;
+        return false;
+      }
+      mins[off] = lowest;
+      return true;
+    };
+    const uint32_t lead = star.refused < n ? star.refused : first;
+    Local refused;
+    refused.min = -kInf;
+    if (!measure(lead)) return refused;
+    for (uint32_t off = 0; off < n; ++off)
+      if (off != lead && !measure(off)) return refused;
     Local l;
-    const uint32_t b = incident.start[v], n = incident.start[v + 1] - b;
     for (uint32_t i = 0; i < n; ++i) {
       const uint32_t off = i == 0 ? first : (i <= first ? i - 1 : i);
-      const uint32_t k = b + off;
-      const uint32_t h = incident.items[k] / 8, corner = incident.items[k] % 8;
-      HexCorners c = corners_of(j.x, j.hexes[h]);
-      c[corner] = y;
-      const std::array<double, 9> s = scaled_jacobians(c);
-      const auto lowest = std::min_element(s.begin(), s.end());
-      const double ratio = ratio_cap < kInf ? edge_ratio(c) : 0;
-      if (*lowest < floor || ratio > ratio_cap) {
-        l.min = -kInf;
-        return l;
-      }
-      if (mins) mins[off] = *lowest;
-      if (*lowest < l.min) {
-        l.min = *lowest;
-        if (worst) *worst = off, *worst_point = int(lowest - s.begin());
-      }
-      l.sum += *lowest;
-      l.max_ratio = std::max(l.max_ratio, ratio);
+      l.min = std::min(l.min, mins[off]);
+      l.sum += mins[off];
     }
     return l;
   }
@@ -427,24 +462,32 @@ struct Optimizer {
     ideal = ideal / count;
     mean = mean / (3.0 * count);
     length /= 3.0 * count;
+    // Where v is, its hexes' scaled Jacobians are the cached ones (sj, recomputed by place()
+    // whenever a corner moves, with the same operations).
+    Local now;
+    for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k) {
+      const double lowest = sj[incident.items[k] / 8];
+      if (lowest < now.min) now.min = lowest, visit.worst = k - incident.start[v];
+      now.sum += lowest;
+    }
+    visit.now = now;
     // Gradient of the worst scaled Jacobian at v (central differences on that one point).
-    visit.now = evaluate(v, x, -kInf, kInf, 0, &visit.worst, &visit.point);
-    const Local& now = visit.now;
-    const int worst_point = visit.point;
-    const std::size_t worst_hex = incident.items[incident.start[v] + visit.worst] / 8;
+    const uint32_t item = incident.items[incident.start[v] + visit.worst];
+    const Hex& h = j.hexes[item / 8];
+    const MovingCorner worst(corners_of(j.x, h), int(std::find(h.begin(), h.end(), v) - h.begin()));
+    std::array<double, 9> s;
+    worst.scaled_jacobians(x, -kInf, s);
+    visit.point = int(std::min_element(s.begin(), s.end()) - s.begin());
     Vec3 gradient{};
     if (now.min > -kInf) {
-      const Hex& h = j.hexes[worst_hex];
-      const int corner = int(std::find(h.begin(), h.end(), v) - h.begin());
-      HexCorners c = corners_of(j.x, h);
       const double step = 1e-4 * length;
       for (int a = 0; a < 3; ++a) {
         Vec3 d{};
         d[a] = step;
-        c[corner] = x + d;
-        const double up = scaled_jacobians(c)[worst_point];
-        c[corner] = x - d;
-        const double down = scaled_jacobians(c)[worst_point];
+        worst.scaled_jacobians(x + d, -kInf, s);
+        const double up = s[visit.point];
+        worst.scaled_jacobians(x - d, -kInf, s);
+        const double down = s[visit.point];
         gradient[a] = (up - down) / (2 * step);
       }
     }
@@ -475,22 +518,34 @@ struct Optimizer {
     std::vector<Vec3> to_project;
     std::vector<uint8_t> accepted;
     std::vector<Visit> visits;
+    std::vector<uint8_t> wanted;
     for (const std::vector<uint32_t>& cls : classes) {
+      // Which vertices of the colour to visit, in parallel (each reads only sj and its own flags),
+      // then listed in colour order.
+      wanted.resize(cls.size());
+      parallel_chunks(cls.size(), 256, [&](std::size_t b, std::size_t e) {
+        for (std::size_t i = b; i < e; ++i) {
+          const uint32_t v = cls[i];
+          wanted[i] = 0;
+          if (!dirty[v]) continue;
+          double lo = kInf;
+          for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k)
+            lo = std::min(lo, sj[incident.items[k] / 8]);
+          // A surface vertex not yet on the surface, or a feature vertex not yet on its target, is
+          // visited until a move puts it there.
+          wanted[i] = lo < o.active_below || unplaced(v) || snapping(v);
+        }
+      });
       active.clear();
-      for (uint32_t v : cls) {
-        if (!dirty[v]) continue;
-        double lo = kInf;
-        for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k)
-          lo = std::min(lo, sj[incident.items[k] / 8]);
-        // A surface vertex not yet on the surface, or a feature vertex not yet on its target, is
-        // visited until a move puts it there.
-        if (lo < o.active_below || unplaced(v) || snapping(v)) active.push_back(v);
-      }
+      for (std::size_t i = 0; i < cls.size(); ++i)
+        if (wanted[i]) active.push_back(cls[i]);
       if (active.empty()) continue;
       cand.resize(active.size() * kCandidates);
       visits.resize(active.size());
       parallel_chunks(active.size(), 16, [&](std::size_t b, std::size_t e) {
-        for (std::size_t a = b; a < e; ++a) candidates(active[a], &cand[a * kCandidates], visits[a]);
+        for (std::size_t a = b; a < e; ++a) {
+          candidates(active[a], &cand[a * kCandidates], visits[a]);
+        }
       });
       // Surface vertices' candidates onto the surface, in one batch.
       to_project.clear();
@@ -509,24 +564,33 @@ struct Optimizer {
       }
       accepted.assign(active.size(), 0);
       parallel_chunks(active.size(), 16, [&](std::size_t b, std::size_t e) {
-        for (std::size_t a = b; a < e; ++a) accepted[a] = try_move(active[a], &cand[a * kCandidates], visits[a]);
-      });
-      for (std::size_t a = 0; a < active.size(); ++a) {
-        const uint32_t v = active[a];
-        if (!accepted[a]) {
-          ++rejected;
-          dirty[v] = 0;
-          continue;
+        const auto star = std::make_unique<Star>();
+        for (std::size_t a = b; a < e; ++a) {
+          accepted[a] = try_move(active[a], &cand[a * kCandidates], visits[a], *star);
         }
-        ++moved;
-        for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k)
-          for (uint32_t w : j.hexes[incident.items[k] / 8]) dirty[w] = 1;
-      }
+      });
+      // A refused vertex waits until a neighbour moves; a move wakes every vertex of its hexes. In
+      // parallel: no vertex of a colour is a corner of another's hexes, so a refused vertex is
+      // written by its own visit alone and the wake-ups all write 1 (the same on any thread).
+      parallel_chunks(active.size(), 64, [&](std::size_t b, std::size_t e) {
+        for (std::size_t a = b; a < e; ++a) {
+          const uint32_t v = active[a];
+          if (!accepted[a]) {
+            dirty[v] = 0;
+            continue;
+          }
+          for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k)
+            for (uint32_t w : j.hexes[incident.items[k] / 8])
+              std::atomic_ref<uint8_t>(dirty[w]).store(1, std::memory_order_relaxed);
+        }
+      });
+      for (std::size_t a = 0; a < active.size(); ++a) (accepted[a] ? moved : rejected) += 1;
     }
     return moved;
   }
 
-  bool try_move(uint32_t v, const Vec3* cand, const Visit& visit) {
+  bool try_move(uint32_t v, const Vec3* cand, const Visit& visit, Star& star) {
+    star.gather(j, incident, v);
     const Vec3 x = j.x[v];
     const Local& now = visit.now;
     const uint32_t worst = visit.worst;
@@ -542,7 +606,7 @@ struct Optimizer {
     if (snapping(v)) {
       for (const int k : {kTarget, kApproach, kApproach + 1}) {
         const Vec3 y = cand[k];
-        if (!is_finite(y) || y == x || !(evaluate(v, y, now.min, cap, 0, nullptr, nullptr, mins[0]).min > -kInf) ||
+        if (!is_finite(y) || y == x || !(evaluate(v, y, now.min, cap, 0, star, mins[0]).min > -kInf) ||
             !keeps_certificates(v, y))
           continue;
         place(v, y, reaches_target(v, y), mins[0]);
@@ -566,7 +630,7 @@ struct Optimizer {
       if (!is_finite(y) || y == x) continue;
       // Never away from the target (the feature would blur).
       if (target_distance < kInf && features.nearest(y, target[v]).squared_distance > target_distance) continue;
-      const Local l = evaluate(v, y, best.min, kInf, worst, nullptr, nullptr, mins[n]);
+      const Local l = evaluate(v, y, best.min, kInf, worst, star, mins[n]);
       if (l.min == -kInf) continue;
       const bool gain = n == 0 ? l.min - now.min > 1e-12 || (l.min >= now.min && l.sum - now.sum > 1e-9 * (now.sum + 1))
                                : l.min > best.min || (l.min == best.min && l.sum > best.sum);
@@ -577,7 +641,7 @@ struct Optimizer {
     }
     for (int i = n - 1; i >= 0; --i) {
       const Vec3 y = cand[options[i].k];
-      if (!keeps_certificates(v, y) || !within_ratio(v, y, cap, ratios)) continue;
+      if (!keeps_certificates(v, y) || !within_ratio(v, y, cap, star, ratios)) continue;
       place(v, y, reaches_target(v, y), mins[i], ratios);
       return true;
     }
@@ -585,13 +649,10 @@ struct Optimizer {
   }
 
   // Whether every hex of v keeps its edge ratio at most `cap` with v at y; `out` gets them.
-  bool within_ratio(uint32_t v, Vec3 y, double cap, double* out) const {
-    const uint32_t b = incident.start[v], n = incident.start[v + 1] - b;
+  bool within_ratio(uint32_t v, Vec3 y, double cap, Star& star, double* out) const {
+    const uint32_t n = incident.start[v + 1] - incident.start[v];
     for (uint32_t i = 0; i < n; ++i) {
-      const uint32_t h = incident.items[b + i] / 8, corner = incident.items[b + i] % 8;
-      HexCorners c = corners_of(j.x, j.hexes[h]);
-      c[corner] = y;
-      out[i] = edge_ratio(c);
+      out[i] = star.at(i).edge_ratio(y);
       if (out[i] > cap) return false;
     }
     return true;
