@@ -129,15 +129,15 @@ KeyGroups vertex_hexes(std::size_t vertices, const std::vector<Hex>& hexes) {
   return g;  // items are hex * 8 + corner
 }
 
-HexCorners corners_of(const std::vector<Vec3>& x, const Hex& h) {
-  HexCorners c;
-  for (int i = 0; i < 8; ++i) c[i] = x[h[i]];
-  return c;
-}
-
-// The same into `c` (a visit's loops reuse one: a fresh HexCorners is zeroed first).
+// Into `c` (a visit's loops reuse one: a fresh HexCorners is zeroed first).
 void gather(const std::vector<Vec3>& x, const Hex& h, HexCorners& c) {
   for (int i = 0; i < 8; ++i) c[i] = x[h[i]];
+}
+
+HexCorners corners_of(const std::vector<Vec3>& x, const Hex& h) {
+  HexCorners c;
+  gather(x, h, c);
+  return c;
 }
 
 // Unit normal of a quad from its diagonals (defined also for a nearly degenerate quad), and its
@@ -472,9 +472,8 @@ struct Optimizer {
     }
     visit.now = now;
     // Gradient of the worst scaled Jacobian at v (central differences on that one point).
-    const uint32_t item = incident.items[incident.start[v] + visit.worst];
-    const Hex& h = j.hexes[item / 8];
-    const MovingCorner worst(corners_of(j.x, h), int(std::find(h.begin(), h.end(), v) - h.begin()));
+    const uint32_t item = incident.items[incident.start[v] + visit.worst];  // hex * 8 + v's corner
+    const MovingCorner worst(corners_of(j.x, j.hexes[item / 8]), int(item % 8));
     std::array<double, 9> s;
     worst.scaled_jacobians(x, -kInf, s);
     visit.point = int(std::min_element(s.begin(), s.end()) - s.begin());
@@ -543,9 +542,7 @@ struct Optimizer {
       cand.resize(active.size() * kCandidates);
       visits.resize(active.size());
       parallel_chunks(active.size(), 16, [&](std::size_t b, std::size_t e) {
-        for (std::size_t a = b; a < e; ++a) {
-          candidates(active[a], &cand[a * kCandidates], visits[a]);
-        }
+        for (std::size_t a = b; a < e; ++a) candidates(active[a], &cand[a * kCandidates], visits[a]);
       });
       // Surface vertices' candidates onto the surface, in one batch.
       to_project.clear();
