@@ -371,6 +371,42 @@ TEST(HexmeshNumbers, PutDecimalIsToChars) {
   }
 }
 
+// Doubles: put_real's exact path (0.001 < |v| < 2^50) and std::to_chars elsewhere must give
+// std::to_chars's characters: shortest digits, nearest on ties, fixed or scientific as it chooses.
+// Every exponent by random bit patterns; the path's own range densely; short decimals, powers of
+// two and their neighbours, where the rounding interval's ends and the even-digit rule decide.
+TEST(HexmeshNumbers, PutRealIsToChars) {
+  std::mt19937_64 random(11);
+  const auto expect_same = [&](double v) {
+    char want[64], got[80];
+    const std::string_view expected(want, static_cast<std::size_t>(std::to_chars(want, want + 64, v).ptr - want));
+    ASSERT_EQ(std::string_view(got, static_cast<std::size_t>(io_detail::put_real(got, v) - got)), expected);
+    // Within this range the exact path must be the one taken.
+    if (std::abs(v) >= 0.002 && std::abs(v) < 1e15) {
+      ASSERT_NE(io_detail::number_detail::put_real_exact(got, v), nullptr) << v;
+    }
+  };
+  for (int i = 0; i < 1500000; ++i) {
+    const std::uint64_t bits = random();
+    // Any pattern, then the same mantissa and sign at an exponent within 2^-14 .. 2^56.
+    const std::uint64_t near = (bits & 0x800FFFFFFFFFFFFFull) | ((1009 + random() % 70) << 52);
+    for (const std::uint64_t b : {bits, near}) {
+      const double v = std::bit_cast<double>(b);
+      if (std::isfinite(v)) expect_same(v);
+    }
+  }
+  for (int e = -330; e <= 310; ++e)
+    for (int d = 1; d < 400; ++d)
+      for (const double v : {d * std::pow(10.0, e), std::ldexp(d, e)})
+        for (const double w : {v, std::nextafter(v, 0.0), std::nextafter(v, HUGE_VAL)}) {
+          expect_same(w);
+          expect_same(-w);
+        }
+  for (const double v : {0.0, -0.0, 0.001, 0.1, 0.3, 1.0, 2.5, 1e15, 0x1p50, 0x1p53, 5e-324, 2.2250738585072014e-308,
+                         1.7976931348623157e308})
+    expect_same(v);
+}
+
 // ---------------------------------------------------------------------------------------------
 // Atomic writes
 
