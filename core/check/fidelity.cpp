@@ -322,6 +322,7 @@ Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, co
   }
   for (std::size_t p = 0; p < boundary_id.size(); ++p)
     if (boundary_id[p] != kInterior) mesh_samples.push_back(inside.points[p]);
+  boundary_id = {};
   std::vector<double> d(mesh_samples.size());
   if (distance) {
     distance(mesh_samples, d);
@@ -333,11 +334,16 @@ Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, co
     for (std::size_t i = 0; i < d.size(); ++i)
       if (!(std::abs(d[i]) <= far_tolerance)) fid.far_points.push_back(mesh_samples[i]);
 
+  // The mesh side's samples are done with: what is left of the measure is the search tree of the
+  // boundary, the run's largest allocation but for the meshes (so its peak memory when the
+  // fidelity is measured).
+  mesh_samples = {};
+  d = {};
   if (boundary.triangles.empty()) {
     // No mesh surface at all: nothing of the input is matched.
     fid.surface_to_mesh = surface_samples.empty() ? 0 : std::numeric_limits<double>::infinity();
   } else if (!surface_samples.empty()) {
-    const SurfaceSdf mesh_surface(boundary, SignRule::kPseudonormal, SearchUse::kOneBatch);
+    const SurfaceSdf mesh_surface(std::move(boundary), SignRule::kPseudonormal, SearchUse::kOneBatch);
     d.assign(surface_samples.size(), 0);
     mesh_surface.distance(surface_samples, d);
     for (double v : d) fid.surface_to_mesh = std::max(fid.surface_to_mesh, v);

@@ -82,7 +82,7 @@ std::vector<std::pair<uint32_t, uint32_t>> TriangleBvh::subtree_slots() const {
   return slots;
 }
 
-TriangleBvh TriangleBvh::build(const TriangleSurface& s) {
+TriangleBvh TriangleBvh::build(const TriangleSurface& s, BvhBuilder builder) {
   TriangleBvh out;
   if (s.triangles.empty()) return out;
   if (s.triangles.size() >= (1u << 31)) throw std::length_error("too many triangles for the BVH");
@@ -104,11 +104,14 @@ TriangleBvh TriangleBvh::build(const TriangleSurface& s) {
   RTCBVH bvh = rtcNewBVH(device);
   RTCBuildArguments args = rtcDefaultBuildArguments();
   args.byteSize = sizeof(args);
-  args.buildQuality = RTC_BUILD_QUALITY_MEDIUM;
+  // RTC_BUILD_QUALITY_LOW is Embree's Morton-code builder, which makes a leaf per triangle
+  // unless told a least leaf size.
+  const bool morton = builder == BvhBuilder::kMorton;
+  args.buildQuality = morton ? RTC_BUILD_QUALITY_LOW : RTC_BUILD_QUALITY_MEDIUM;
   args.maxBranchingFactor = 2;
   args.maxDepth = 64;
   args.sahBlockSize = 1;
-  args.minLeafSize = 1;
+  args.minLeafSize = morton ? 4 : 1;
   args.maxLeafSize = 4;
   args.traversalCost = 1.0f;
   args.intersectionCost = 1.0f;

@@ -145,12 +145,14 @@ struct SurfaceSdf::Impl {
     return *normals_made;
   }
 
-  Impl(const TriangleSurface& s, SignRule rule, SearchUse use)
-      : surface(s),
-        bvh(TriangleBvh::build(s)),
-        tree(s, bvh, use == SearchUse::kOneBatch ? SearchTree::Frames::kAxisAligned : SearchTree::Frames::kFitted),
-        box(s.bounds()),
+  Impl(TriangleSurface moved, SignRule rule, SearchUse use)
+      : surface(std::move(moved)),
+        bvh(TriangleBvh::build(surface, use == SearchUse::kOneBatch ? BvhBuilder::kMorton : BvhBuilder::kSah)),
+        tree(surface, bvh,
+             use == SearchUse::kOneBatch ? SearchTree::Frames::kAxisAligned : SearchTree::Frames::kFitted),
+        box(surface.bounds()),
         sign(rule) {
+    const TriangleSurface& s = surface;
     if (sign == SignRule::kWindingNumber) winding.emplace(s, bvh);
     if (sign == SignRule::kWindingParity) winding.emplace(s, bvh, WindingNumber::Decision::kParity);
     if (bvh.leaf_triangles.size() >= (1u << 29)) throw std::length_error("too many triangles for the SDF search tree");
@@ -352,8 +354,8 @@ struct SurfaceSdf::Impl {
   }
 };
 
-SurfaceSdf::SurfaceSdf(const TriangleSurface& surface, SignRule sign, SearchUse use)
-    : impl_(std::make_unique<Impl>(surface, sign, use)) {}
+SurfaceSdf::SurfaceSdf(TriangleSurface surface, SignRule sign, SearchUse use)
+    : impl_(std::make_unique<Impl>(std::move(surface), sign, use)) {}
 SurfaceSdf::~SurfaceSdf() = default;
 
 Box SurfaceSdf::bounds() const { return impl_->box; }

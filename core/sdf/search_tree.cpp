@@ -121,6 +121,80 @@ TriangleLeaf::TriangleLeaf(const TriangleSurface& s, std::span<const uint32_t> t
   }
 }
 
+namespace {
+
+struct Lane {
+  uint32_t wide, lane, node;  // wide node, its lane, the binary node there
+};
+
+// Fitted boxes for the lanes' binary nodes.
+void fit_boxes(const TriangleSurface& s, const TriangleBvh& bvh, const std::vector<Lane>& lanes,
+               std::vector<OrientedBox>& boxes) {
+  const auto slots = bvh.subtree_slots();
+  const std::span<const uint32_t> all(bvh.leaf_triangles);
+  auto subtree = [&](uint32_t n) { return all.subspan(slots[n].first, slots[n].second - slots[n].first); };
+  // Each binary node's area-vector and area sums and corner box, bottom up (children follow
+  // their parent in the hierarchy's order): what decides a node's frame, and a curved node's
+  // whole box, without visiting its triangles again at every level.
+  struct Sums {
+    Vec3 normal{};
+    double area = 0;
+    Box box;
+  };
+  // The leaves' sums (most of the work: every triangle's cross product) in parallel, then the
+  // inner nodes' in one pass up.
+  std::vector<Sums> sums(bvh.nodes.size());
+  parallel_for(bvh.nodes.size(), [&](std::size_t n) {
+    const BvhNode& node = bvh.nodes[n];
+    if (!node.count) return;
+    Sums& out = sums[n];
+    for (uint32_t t : all.subspan(node.index, node.count)) {
+      const auto& v = s.triangles[t];
+      const Vec3 c = cross(s.vertices[v[1]] - s.vertices[v[0]], s.vertices[v[2]] - s.vertices[v[0]]);
+      out.normal += c;
+      out.area += norm(c);
+      for (uint32_t i : v) out.box.extend(s.vertices[i]);
+    }
+  });
+  for (std::size_t n = bvh.nodes.size(); n-- > 0;) {
+    const BvhNode& node = bvh.nodes[n];
+    if (node.count) continue;  // a leaf: summed above
+    Sums& out = sums[n];
+    const Sums &l = sums[n + 1], &r = sums[node.index];
+    out.normal = l.normal + r.normal;
+    out.area = l.area + r.area;
+    out.box = l.box;
+    out.box.extend(r.box.lo);
+    out.box.extend(r.box.hi);
+  }
+
+  // The boxes: a nearly flat node gets its own frame from its distinct corners; any other the
+  // coordinate axes, whose extents are its corner box.
+  parallel_chunks(lanes.size(), 64, [&](std::size_t b, std::size_t e) {
+    std::vector<uint32_t> ids;
+    std::vector<Vec3> corners;
+    for (std::size_t k = b; k < e; ++k) {
+      const Lane& l = lanes[k];
+      const Sums& sum = sums[l.node];
+      ids.clear();
+      corners.clear();
+      const bool own_frame = nearly_flat(sum.normal, sum.area);
+      if (own_frame) {
+        for (uint32_t t : subtree(l.node))
+          for (uint32_t i : s.triangles[t]) ids.push_back(i);
+        std::sort(ids.begin(), ids.end());
+        ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+        for (uint32_t i : ids) corners.push_back(s.vertices[i]);
+      } else {
+        corners = {sum.box.lo, sum.box.hi};
+      }
+      boxes[k] = own_frame ? bound_corners(corners, sum.normal, sum.area) : bound_corners(corners, {}, 0);
+    }
+  });
+}
+
+}  // namespace
+
 SearchTree::SearchTree(const TriangleSurface& s, const TriangleBvh& bvh, Frames frames) {
   if (bvh.nodes.empty()) return;
   const auto slots = bvh.subtree_slots();
@@ -130,9 +204,6 @@ SearchTree::SearchTree(const TriangleSurface& s, const TriangleBvh& bvh, Frames 
   // The collapse: each wide node takes its two children and keeps opening the inner one holding
   // the most triangles until it has four. Only the binary nodes that end up as a wide node's
   // children need a box (about half of them), so the topology comes first and the boxes after.
-  struct Lane {
-    uint32_t wide, lane, node;  // wide node, its lane, the binary node there
-  };
   std::vector<Lane> lanes;
   std::vector<uint32_t> leaf_nodes;  // the binary leaf of each TriangleLeaf
   // Sized up front: growing them would fault in and copy each array several times.
@@ -173,70 +244,28 @@ SearchTree::SearchTree(const TriangleSurface& s, const TriangleBvh& bvh, Frames 
   if (bvh.nodes[0].count) build(build, {0, 0, 0, 0}, 1);  // a single leaf
   else build(build, {1, bvh.nodes[0].index, 0, 0}, 2);
 
-  // Each binary node's area-vector and area sums and corner box, bottom up (children follow
-  // their parent in the hierarchy's order): what decides a node's frame, and a curved node's
-  // whole box, without visiting its triangles again at every level.
-  struct Sums {
-    Vec3 normal{};
-    double area = 0;
-    Box box;
-  };
-  // The leaves' sums (most of the work: every triangle's cross product) in parallel, then the
-  // inner nodes' in one pass up.
-  std::vector<Sums> sums(bvh.nodes.size());
-  parallel_for(bvh.nodes.size(), [&](std::size_t n) {
-    const BvhNode& node = bvh.nodes[n];
-    if (!node.count) return;
-    Sums& out = sums[n];
-    for (uint32_t t : all.subspan(node.index, node.count)) {
-      const auto& v = s.triangles[t];
-      const Vec3 c = cross(s.vertices[v[1]] - s.vertices[v[0]], s.vertices[v[2]] - s.vertices[v[0]]);
-      out.normal += c;
-      out.area += norm(c);
-      for (uint32_t i : v) out.box.extend(s.vertices[i]);
-    }
-  });
-  for (std::size_t n = bvh.nodes.size(); n-- > 0;) {
-    const BvhNode& node = bvh.nodes[n];
-    if (node.count) continue;  // a leaf: summed above
-    Sums& out = sums[n];
-    const Sums &l = sums[n + 1], &r = sums[node.index];
-    out.normal = l.normal + r.normal;
-    out.area = l.area + r.area;
-    out.box = l.box;
-    out.box.extend(r.box.lo);
-    out.box.extend(r.box.hi);
+  // Fitted boxes, or the coordinate frame in bound_corners's order (z, x, y) with the hierarchy's
+  // own float bounds, which hold the node's triangles: no sums and no corners to gather.
+  std::vector<OrientedBox> boxes;
+  if (frames == Frames::kFitted) {
+    boxes.resize(lanes.size());
+    fit_boxes(s, bvh, lanes, boxes);
   }
-
-  // The boxes: a nearly flat node gets its own frame from its distinct corners; any other the
-  // coordinate axes, whose extents are its corner box.
-  std::vector<OrientedBox> boxes(lanes.size());
-  parallel_chunks(lanes.size(), 64, [&](std::size_t b, std::size_t e) {
-    std::vector<uint32_t> ids;
-    std::vector<Vec3> corners;
-    for (std::size_t k = b; k < e; ++k) {
-      const Lane& l = lanes[k];
-      const Sums& sum = sums[l.node];
-      ids.clear();
-      corners.clear();
-      const bool own_frame = frames == Frames::kFitted && nearly_flat(sum.normal, sum.area);
-      if (own_frame) {
-        for (uint32_t t : subtree(l.node))
-          for (uint32_t i : s.triangles[t]) ids.push_back(i);
-        std::sort(ids.begin(), ids.end());
-        ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
-        for (uint32_t i : ids) corners.push_back(s.vertices[i]);
-      } else {
-        corners = {sum.box.lo, sum.box.hi};
-      }
-      boxes[k] = own_frame ? bound_corners(corners, sum.normal, sum.area) : bound_corners(corners, {}, 0);
+  auto axis_aligned = [](const BvhNode& node) {
+    OrientedBox b;
+    for (int a = 0; a < 3; ++a) {
+      const int axis = (a + 2) % 3;
+      for (int i = 0; i < 3; ++i) b.axis[a][i] = i == axis ? 1.0f : 0.0f;
+      b.lo[a] = node.lo[axis];
+      b.hi[a] = node.hi[axis];
     }
-  });
+    return b;
+  };
   // Set on one thread: lanes of one wide node share its vectors and its leaf mask.
   for (std::size_t k = 0; k < lanes.size(); ++k) {
     WideNode& w = nodes[lanes[k].wide];
     const int c = int(lanes[k].lane);
-    w.set(c, boxes[k], w.child[c], w.count[c]);
+    w.set(c, boxes.empty() ? axis_aligned(bvh.nodes[lanes[k].node]) : boxes[k], w.child[c], w.count[c]);
   }
   leaves.resize(leaf_nodes.size());
   parallel_for(leaf_nodes.size(), [&](std::size_t k) {

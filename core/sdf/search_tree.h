@@ -113,11 +113,11 @@ struct alignas(64) TriangleLeaf {
 // and keeps opening the inner one holding the most triangles until it has four: half the depth,
 // four boxes per step), and the triangle layer, one node per leaf.
 //
-// Frames::kAxisAligned gives every node the coordinate frame (its corner box): the answers are the
-// same (the search is exact whatever the boxes), a search may open more nodes, and the tree is
-// made in about half the time (no node's corners gathered and sorted, no turns tried), which pays
-// for a surface searched by one batch (the fidelity's mesh boundary, made for every mesh it
-// measures).
+// Frames::kAxisAligned gives every node the coordinate frame and the hierarchy's own box: the
+// answers are the same (the search is exact whatever the boxes), a search may open more nodes, and
+// the tree is made in a fraction of the time (no sums, no node's corners gathered and sorted, no
+// turns tried), which pays for a surface searched by one batch (the fidelity's mesh boundary, made
+// for every mesh it measures).
 struct SearchTree {
   enum class Frames { kFitted, kAxisAligned };
   std::vector<WideNode> nodes;
