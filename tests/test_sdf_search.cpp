@@ -74,18 +74,28 @@ std::vector<Vec3> feature_points(const TriangleSurface& s) {
   return pts;
 }
 
-// Both search trees (fitted boxes for repeated use, axis-aligned ones for one batch) must give
-// the loop's values bit for bit: the boxes only decide what is opened, never the answer.
+// Every search tree (fitted boxes for repeated use, axis-aligned ones for one batch, leaves of
+// four consecutive triangles) must give the loop's values bit for bit: the boxes and leaves only
+// decide what is opened, never the answer.
 void expect_brute_force_values(const TriangleSurface& mesh, const std::vector<Vec3>& pts) {
   std::vector<double> brute(pts.size());
   brute_force_sdf(mesh, pts, brute);
-  for (const SearchUse use : {SearchUse::kRepeated, SearchUse::kOneBatch}) {
+  for (const SearchUse use : {SearchUse::kRepeated, SearchUse::kOneBatch, SearchUse::kOneBatchInFours}) {
     const SurfaceSdf sdf(mesh, SignRule::kPseudonormal, use);
     std::vector<double> fast(pts.size());
     sdf.evaluate(pts, fast);
     for (std::size_t i = 0; i < pts.size(); ++i)
-      ASSERT_EQ(fast[i], brute[i]) << "point " << i << (use == SearchUse::kOneBatch ? " (one-batch tree)" : "");
+      ASSERT_EQ(fast[i], brute[i]) << "point " << i << " (search use " << int(use) << ")";
   }
+  // Fours with one short group at the end, which holds the mesh's own last triangle: a copy of
+  // the first triangle (which changes no distance) goes in front.
+  TriangleSurface uneven = mesh;
+  uneven.triangles.insert(uneven.triangles.begin(), mesh.triangles.front());
+  ASSERT_NE(uneven.triangles.size() % 4, 0u);
+  const SurfaceSdf sdf(uneven, SignRule::kPseudonormal, SearchUse::kOneBatchInFours);
+  std::vector<double> distance(pts.size());
+  sdf.distance(pts, distance);
+  for (std::size_t i = 0; i < pts.size(); ++i) ASSERT_EQ(distance[i], std::abs(brute[i])) << "point " << i;
 }
 
 TEST(SurfaceSdfSearch, ExactTiesAtSharedVerticesAndEdgesOfACurvedMesh) {

@@ -343,7 +343,7 @@ Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, co
     // No mesh surface at all: nothing of the input is matched.
     fid.surface_to_mesh = surface_samples.empty() ? 0 : std::numeric_limits<double>::infinity();
   } else if (!surface_samples.empty()) {
-    const SurfaceSdf mesh_surface(std::move(boundary), SignRule::kPseudonormal, SearchUse::kOneBatch);
+    const SurfaceSdf mesh_surface(std::move(boundary), SignRule::kPseudonormal, SearchUse::kOneBatchInFours);
     d.assign(surface_samples.size(), 0);
     mesh_surface.distance(surface_samples, d);
     for (double v : d) fid.surface_to_mesh = std::max(fid.surface_to_mesh, v);

@@ -1,5 +1,6 @@
 #include "core/sdf/bvh.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -53,20 +54,24 @@ float up(double v) {
   return double(f) < v ? std::nextafter(f, INFINITY) : f;
 }
 
-void flatten(const BuildNode* n, const float lo[3], const float hi[3], TriangleBvh& out) {
+// Primitive p stands for triangles [p * group, (p + 1) * group) (fewer at the end).
+void flatten(const BuildNode* n, const float lo[3], const float hi[3], std::size_t group, std::size_t triangles,
+             TriangleBvh& out) {
   const uint32_t self = uint32_t(out.nodes.size());
   out.nodes.push_back({{lo[0], lo[1], lo[2]}, 0, {hi[0], hi[1], hi[2]}, 0});
   if (n->leaf) {
     out.nodes[self].index = uint32_t(out.leaf_triangles.size());
-    out.nodes[self].count = n->count;
-    out.leaf_triangles.insert(out.leaf_triangles.end(), n->triangles, n->triangles + n->count);
+    for (uint32_t k = 0; k < n->count; ++k)
+      for (std::size_t t = n->triangles[k] * group; t < std::min(triangles, (n->triangles[k] + 1) * group); ++t)
+        out.leaf_triangles.push_back(uint32_t(t));
+    out.nodes[self].count = uint32_t(out.leaf_triangles.size()) - out.nodes[self].index;
     return;
   }
   for (int c = 0; c < 2; ++c) {
     if (c == 1) out.nodes[self].index = uint32_t(out.nodes.size());
     const RTCBounds& b = n->bounds[c];
     const float clo[3] = {b.lower_x, b.lower_y, b.lower_z}, chi[3] = {b.upper_x, b.upper_y, b.upper_z};
-    flatten(n->child[c], clo, chi, out);
+    flatten(n->child[c], clo, chi, group, triangles, out);
   }
 }
 
@@ -86,16 +91,20 @@ TriangleBvh TriangleBvh::build(const TriangleSurface& s, BvhBuilder builder) {
   TriangleBvh out;
   if (s.triangles.empty()) return out;
   if (s.triangles.size() >= (1u << 31)) throw std::length_error("too many triangles for the BVH");
-  std::vector<RTCBuildPrimitive> prims(s.triangles.size());
+  // A primitive is a triangle, or under kMortonFours four consecutive ones (the last group may
+  // be shorter): the builder then makes one leaf per primitive.
+  const std::size_t group = builder == BvhBuilder::kMortonFours ? 4 : 1;
+  std::vector<RTCBuildPrimitive> prims((s.triangles.size() + group - 1) / group);
   float root_lo[3] = {INFINITY, INFINITY, INFINITY}, root_hi[3] = {-INFINITY, -INFINITY, -INFINITY};
-  for (std::size_t t = 0; t < s.triangles.size(); ++t) {
+  for (std::size_t g = 0; g < prims.size(); ++g) {
     Box b;
-    for (uint32_t v : s.triangles[t]) b.extend(s.vertices[v]);
-    RTCBuildPrimitive& p = prims[t];
+    for (std::size_t t = g * group; t < std::min(s.triangles.size(), (g + 1) * group); ++t)
+      for (uint32_t v : s.triangles[t]) b.extend(s.vertices[v]);
+    RTCBuildPrimitive& p = prims[g];
     p.lower_x = down(b.lo.x), p.lower_y = down(b.lo.y), p.lower_z = down(b.lo.z);
     p.upper_x = up(b.hi.x), p.upper_y = up(b.hi.y), p.upper_z = up(b.hi.z);
     p.geomID = 0;
-    p.primID = uint32_t(t);
+    p.primID = uint32_t(g);
     const float lo[3] = {p.lower_x, p.lower_y, p.lower_z}, hi[3] = {p.upper_x, p.upper_y, p.upper_z};
     for (int a = 0; a < 3; ++a) root_lo[a] = std::min(root_lo[a], lo[a]), root_hi[a] = std::max(root_hi[a], hi[a]);
   }
@@ -106,13 +115,13 @@ TriangleBvh TriangleBvh::build(const TriangleSurface& s, BvhBuilder builder) {
   args.byteSize = sizeof(args);
   // RTC_BUILD_QUALITY_LOW is Embree's Morton-code builder, which makes a leaf per triangle
   // unless told a least leaf size.
-  const bool morton = builder == BvhBuilder::kMorton;
+  const bool morton = builder != BvhBuilder::kSah;
   args.buildQuality = morton ? RTC_BUILD_QUALITY_LOW : RTC_BUILD_QUALITY_MEDIUM;
   args.maxBranchingFactor = 2;
   args.maxDepth = 64;
   args.sahBlockSize = 1;
-  args.minLeafSize = morton ? 4 : 1;
-  args.maxLeafSize = 4;
+  args.minLeafSize = builder == BvhBuilder::kMorton ? 4 : 1;
+  args.maxLeafSize = group == 1 ? 4 : 1;
   args.traversalCost = 1.0f;
   args.intersectionCost = 1.0f;
   args.bvh = bvh;
@@ -127,8 +136,8 @@ TriangleBvh TriangleBvh::build(const TriangleSurface& s, BvhBuilder builder) {
   const RTCError err = rtcGetDeviceError(device);
   if (root && err == RTC_ERROR_NONE) {
     out.nodes.reserve(2 * prims.size());
-    out.leaf_triangles.reserve(prims.size());
-    flatten(root, root_lo, root_hi, out);
+    out.leaf_triangles.reserve(s.triangles.size());
+    flatten(root, root_lo, root_hi, group, s.triangles.size(), out);
   }
   rtcReleaseBVH(bvh);
   rtcReleaseDevice(device);

@@ -147,9 +147,11 @@ struct SurfaceSdf::Impl {
 
   Impl(TriangleSurface moved, SignRule rule, SearchUse use)
       : surface(std::move(moved)),
-        bvh(TriangleBvh::build(surface, use == SearchUse::kOneBatch ? BvhBuilder::kMorton : BvhBuilder::kSah)),
+        bvh(TriangleBvh::build(surface, use == SearchUse::kRepeated   ? BvhBuilder::kSah
+                                        : use == SearchUse::kOneBatch ? BvhBuilder::kMorton
+                                                                      : BvhBuilder::kMortonFours)),
         tree(surface, bvh,
-             use == SearchUse::kOneBatch ? SearchTree::Frames::kAxisAligned : SearchTree::Frames::kFitted),
+             use == SearchUse::kRepeated ? SearchTree::Frames::kFitted : SearchTree::Frames::kAxisAligned),
         box(surface.bounds()),
         sign(rule) {
     const TriangleSurface& s = surface;

@@ -55,7 +55,9 @@ class SignedDistance {
 // boxes: hierarchy and tree made in about a third of the time, measured on a 254k-triangle mesh
 // boundary, and searched about as fast). The values are the same either way: the search is exact
 // whatever the boxes.
-enum class SearchUse { kRepeated, kOneBatch };
+// kOneBatchInFours: the same for a surface whose triangles come in fours that belong together
+// (each of the fidelity's boundary quads, split around its centre), made into one leaf each.
+enum class SearchUse { kRepeated, kOneBatch, kOneBatchInFours };
 
 class SurfaceSdf final : public SignedDistance {
  public:
