@@ -131,7 +131,10 @@ struct SurfaceSdf::Impl {
   TriangleSurface surface;
   TriangleBvh bvh;
   SearchTree tree;
-  std::vector<std::array<Vec3, 3>> leaf_corners;  // corners of each leaf slot's triangle, for locality
+  // Corners of each leaf slot's triangle, for locality: for a surface searched many times; one
+  // searched by one batch reads them through its triangles (72 bytes a triangle less, at the
+  // moment of the run's peak memory for the fidelity's mesh boundary).
+  std::vector<std::array<Vec3, 3>> leaf_corners;
   Box box;
   double scale = 0;  // largest coordinate magnitude of the surface
   SignRule sign;
@@ -160,6 +163,7 @@ struct SurfaceSdf::Impl {
     if (bvh.leaf_triangles.size() >= (1u << 29)) throw std::length_error("too many triangles for the SDF search tree");
     scale = std::max({std::abs(box.lo.x), std::abs(box.lo.y), std::abs(box.lo.z), std::abs(box.hi.x),
                       std::abs(box.hi.y), std::abs(box.hi.z)});
+    if (use != SearchUse::kRepeated) return;
     leaf_corners.resize(bvh.leaf_triangles.size());
     for (std::size_t k = 0; k < leaf_corners.size(); ++k)
       for (int c = 0; c < 3; ++c) leaf_corners[k][c] = s.vertices[s.triangles[bvh.leaf_triangles[k]][c]];
@@ -262,9 +266,14 @@ struct SurfaceSdf::Impl {
             const int t = __builtin_ctz(tb);
             if (t2[t] > best2[l]) continue;
             const uint32_t slot = leaf.slot[t];
-            const auto& v = leaf_corners[slot];
-            const ClosestPoint cp = closest_point_inline(p[l], v[0], v[1], v[2]);
             const uint32_t id = bvh.leaf_triangles[slot];
+            std::array<Vec3, 3> own;
+            const Vec3* v = leaf_corners.empty() ? nullptr : leaf_corners[slot].data();
+            if (!v) {
+              for (int k = 0; k < 3; ++k) own[k] = surface.vertices[surface.triangles[id][k]];
+              v = own.data();
+            }
+            const ClosestPoint cp = closest_point_inline(p[l], v[0], v[1], v[2]);
             if (cp.squared_distance < q[l].best.squared_distance ||
                 (cp.squared_distance == q[l].best.squared_distance && id < q[l].best_triangle)) {
               q[l] = {cp, id};
