@@ -62,7 +62,7 @@ enum : uint8_t { kOnSurface = 1, kFixed = 2, kPlaced = 4, kFeature = 8, kSnapped
 // gradient of the worst scaled Jacobian (in units of the vertex's mean edge length: the worst
 // hexes are thin, so the steps that help them are short).
 constexpr int kSteps = 3, kGradientSteps = 6;
-// A surface vertex on the surface whose hexes are below kSearchBelow (it cannot search: each
+// In the second phase, a surface vertex on the surface whose hexes are below kSearchBelow (it cannot search: each
 // position needs a projection) also tries 8 directions of its tangent plane at 2 steps, projected
 // with the others (unused slots are NaN and skipped).
 constexpr int kTangentAngles = 8, kTangentSteps = 2;
@@ -73,7 +73,8 @@ constexpr int kQualityCandidates = kTangent + kTangentAngles * kTangentSteps;  /
 // surface).
 constexpr int kApproach = kQualityCandidates, kTarget = kApproach + 2, kCandidates = kTarget + 1;
 constexpr std::size_t kMaxValence = 48;  // vertices in more hexes are left fixed
-// A vertex whose hexes stay below kSearchBelow after the candidates above searches further: a
+// In the second phase (Optimizer::searching, once the plain sweeps stall), a vertex whose hexes
+// stay below kSearchBelow after the candidates above searches further: a
 // compass search from the best of them along the 3 axes and the 4 cube diagonals, both ways,
 // from kSearchStart of its mean edge length, taking the first step that gains, halving the step
 // when none does, for at most kSearchRounds rounds. The candidates above are few directions
@@ -216,6 +217,9 @@ struct Optimizer {
   // itself): otherwise its candidates and their scores are those it has already refused.
   std::vector<uint8_t> dirty;
   Box box;
+  // The second phase (optimize): once the plain sweeps stall, the search and the tangent
+  // candidates join in, so the result is never below the plain sweeps' own.
+  bool searching = false;
 
   Optimizer(Joined& joined, const SignedDistance* s, const TriangleSurface* triangles, const OptimizeOptions& opt,
             const HexMesh& inside, bool pair)
@@ -518,7 +522,7 @@ struct Optimizer {
     for (int s = 0; s < kGradientSteps; ++s, t *= 0.5) out[1 + 2 * kSteps + s] = x + t * g;
     constexpr double nan = std::numeric_limits<double>::quiet_NaN();
     std::fill(out + kTangent, out + kQualityCandidates, Vec3{nan, nan, nan});
-    if (now.min < kSearchBelow && surface && (flags[v] & (kOnSurface | kFeature | kFixed)) == kOnSurface &&
+    if (searching && now.min < kSearchBelow && surface && (flags[v] & (kOnSurface | kFeature | kFixed)) == kOnSurface &&
         !locked[v]) {
       const Vec3 n = normal[v];
       const Vec3 axis = std::abs(n.x) < 0.5 ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
@@ -675,7 +679,7 @@ struct Optimizer {
     const Vec3 y = chosen >= 0 ? cand[options[chosen].k] : x;
     const Local l = chosen >= 0 ? options[chosen].l : now;
     // A surface vertex that a projected candidate puts on the surface takes it (fidelity first).
-    if (l.min < kSearchBelow && searches(v) && !(chosen >= 0 && unplaced(v))) {
+    if (searching && l.min < kSearchBelow && searches(v) && !(chosen >= 0 && unplaced(v))) {
       double found_mins[kMaxValence];
       Vec3 z = y;
       if (search(v, cand[0], visit, cap, star, z, l, found_mins)) {
@@ -838,6 +842,7 @@ OptimizeStats optimize(MeshPair& meshes, const SignedDistance* surface, const Op
   const auto classes = opt.colour();
   st.colours = int(classes.size());
   double last_min = before.min, last_mean = st.mean_sj_before;
+  int stalls = 0;
   const double ts = now(), cs = cpu_seconds();
   for (int s = 0; s < options.max_sweeps; ++s) {
     const std::size_t moved = opt.sweep(classes, st.moves_rejected);
@@ -848,7 +853,18 @@ OptimizeStats optimize(MeshPair& meshes, const SignedDistance* surface, const Op
     for (double v : opt.sj) lo = std::min(lo, v), sum += v;
     const double mean = sum / double(opt.sj.size());
     st.min_per_sweep.push_back(lo);
-    if (moved == 0 || (lo - last_min < options.tolerance && mean - last_mean < 10 * options.tolerance)) break;
+    const bool stalled = moved == 0 || (lo - last_min < options.tolerance && mean - last_mean < 10 * options.tolerance);
+    stalls = stalled ? stalls + 1 : 0;
+    if (stalled) {
+      // The search's gains come in bursts: it stops after three stalled sweeps in a row.
+      if (opt.searching && (moved == 0 || stalls >= 3)) break;
+      // The plain sweeps have stalled: on with the search, every vertex visited again.
+      if (!opt.searching) {
+        opt.searching = true;
+        stalls = 0;
+        std::fill(opt.dirty.begin(), opt.dirty.end(), uint8_t(1));
+      }
+    }
     last_min = lo;
     last_mean = mean;
   }

@@ -15,9 +15,11 @@
 // half, quarter and eighth step, and takes the one that raises the minimum scaled Jacobian of
 // its incident hexes most (or, at an equal minimum, their mean), among those that keep every
 // incident hex Bernstein-certified (all 27 coefficients of det J positive) and keep the edge
-// ratio of each under OptimizeOptions::max_edge_ratio (or no worse than it was). Where its hexes
-// stay below 0.3, a vertex off the surface then runs a compass search from there (14 directions,
-// halving steps), and a surface vertex on the surface tries 8 more tangent directions, projected.
+// ratio of each under OptimizeOptions::max_edge_ratio (or no worse than it was). Once these plain
+// sweeps stall, a second phase adds, where a vertex's hexes stay below 0.3, a compass search from
+// the chosen point (14 directions, halving steps; not for surface vertices on the surface) and 8
+// more tangent directions for a surface vertex on the surface, projected; it stops after three
+// stalled sweeps in a row. The result is never below the plain sweeps' own.
 //
 // Constraints. Vertices on the inside mesh's boundary (the interface) stay on the input surface:
 // each candidate is moved in the tangent plane and projected onto the surface (the exact closest
