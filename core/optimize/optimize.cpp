@@ -62,12 +62,26 @@ enum : uint8_t { kOnSurface = 1, kFixed = 2, kPlaced = 4, kFeature = 8, kSnapped
 // gradient of the worst scaled Jacobian (in units of the vertex's mean edge length: the worst
 // hexes are thin, so the steps that help them are short).
 constexpr int kSteps = 3, kGradientSteps = 6;
-constexpr int kQualityCandidates = 1 + 2 * kSteps + kGradientSteps;  // slot 0: the current point (projected)
+// In the second phase, a surface vertex on the surface whose hexes are below kSearchBelow (it cannot search: each
+// position needs a projection) also tries 8 directions of its tangent plane at 2 steps, projected
+// with the others (unused slots are NaN and skipped).
+constexpr int kTangentAngles = 8, kTangentSteps = 2;
+constexpr int kTangent = 1 + 2 * kSteps + kGradientSteps;
+constexpr int kQualityCandidates = kTangent + kTangentAngles * kTangentSteps;  // slot 0: the current point (projected)
 // A feature vertex not yet on its target has three more: half and a quarter of the way to the
 // nearest point of the target (projected), and that point itself (not projected: it is on the
 // surface).
 constexpr int kApproach = kQualityCandidates, kTarget = kApproach + 2, kCandidates = kTarget + 1;
 constexpr std::size_t kMaxValence = 48;  // vertices in more hexes are left fixed
+// In the second phase (Optimizer::searching, once the plain sweeps stall), a vertex whose hexes
+// stay below kSearchBelow after the candidates above searches further: a
+// compass search from the best of them along the 3 axes and the 4 cube diagonals, both ways,
+// from kSearchStart of its mean edge length, taking the first step that gains, halving the step
+// when none does, for at most kSearchRounds rounds. The candidates above are few directions
+// (one point's gradient, two means); where two hexes tie at the minimum, every one of them
+// lowers one of the two, and a search over directions finds the ones that raise both.
+constexpr double kSearchBelow = 0.3, kSearchStart = 0.25;
+constexpr int kSearchRounds = 16, kSearchHalvings = 4;
 
 // The pair as one mesh: inside points first, then the outside points that are not on the
 // interface; hexes of the inside, then of the outside.
@@ -203,6 +217,9 @@ struct Optimizer {
   // itself): otherwise its candidates and their scores are those it has already refused.
   std::vector<uint8_t> dirty;
   Box box;
+  // The second phase (optimize): once the plain sweeps stall, the search and the tangent
+  // candidates join in, so the result is never below the plain sweeps' own.
+  bool searching = false;
 
   Optimizer(Joined& joined, const SignedDistance* s, const TriangleSurface* triangles, const OptimizeOptions& opt,
             const HexMesh& inside, bool pair)
@@ -335,6 +352,7 @@ struct Optimizer {
     Local now;
     uint32_t worst = 0;
     int point = 0;
+    double length = 0;  // mean length of its edges
   };
 
   // A visit's hexes, each measured with the vertex moving (MovingCorner: the parts that do not
@@ -346,7 +364,8 @@ struct Optimizer {
     // independent and overlap, where a copy per build would wait for each in turn.
     std::array<HexCorners, kMaxValence> corners;
     std::array<uint8_t, kMaxValence> corner;
-    uint32_t refused = kMaxValence;  // the hex that refused the last candidate (evaluate)
+    uint32_t refused = kMaxValence;          // the hex that refused the last candidate (evaluate)
+    std::array<double, kMaxValence> ratios;  // the edge ratios at the search's position (search)
     void gather(const Joined& j, const KeyGroups& incident, uint32_t v) {
       built = 0;
       refused = kMaxValence;
@@ -462,6 +481,7 @@ struct Optimizer {
     ideal = ideal / count;
     mean = mean / (3.0 * count);
     length /= 3.0 * count;
+    visit.length = length;
     // Where v is, its hexes' scaled Jacobians are the cached ones (sj, recomputed by place()
     // whenever a corner moves, with the same operations).
     Local now;
@@ -500,8 +520,22 @@ struct Optimizer {
     const Vec3 g = length * normalized(constrain(v, gradient, on.tangent));
     double t = 0.5;
     for (int s = 0; s < kGradientSteps; ++s, t *= 0.5) out[1 + 2 * kSteps + s] = x + t * g;
+    constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+    std::fill(out + kTangent, out + kQualityCandidates, Vec3{nan, nan, nan});
+    if (searching && now.min < kSearchBelow && surface && (flags[v] & (kOnSurface | kFeature | kFixed)) == kOnSurface &&
+        !locked[v]) {
+      const Vec3 n = normal[v];
+      const Vec3 axis = std::abs(n.x) < 0.5 ? Vec3{1, 0, 0} : Vec3{0, 1, 0};
+      const Vec3 t1 = normalized(cross(n, axis)), t2 = cross(n, t1);
+      for (int a = 0; a < kTangentAngles; ++a) {
+        const double angle = 2 * M_PI * a / kTangentAngles;
+        const Vec3 d = std::cos(angle) * t1 + std::sin(angle) * t2;
+        double step = 0.25 * length;
+        for (int s = 0; s < kTangentSteps; ++s, step *= 0.25) out[kTangent + a * kTangentSteps + s] = x + step * d;
+      }
+    }
     if (snapped(v))
-      for (int k = 0; k < kQualityCandidates; ++k) out[k] = features.nearest(out[k], target[v]).point;
+      for (int k = 0; k < kTangent; ++k) out[k] = features.nearest(out[k], target[v]).point;
     if (snapping(v)) {
       out[kApproach] = x + 0.5 * (on.point - x);
       out[kApproach + 1] = x + 0.25 * (on.point - x);
@@ -548,15 +582,16 @@ struct Optimizer {
       to_project.clear();
       for (std::size_t a = 0; a < active.size(); ++a) {
         const int n = projected_count(active[a]);
-        to_project.insert(to_project.end(), &cand[a * kCandidates], &cand[a * kCandidates] + n);
+        for (int k = 0; k < n; ++k)
+          if (is_finite(cand[a * kCandidates + k])) to_project.push_back(cand[a * kCandidates + k]);
       }
       if (!to_project.empty()) {
         project_to_surface(*surface, to_project);
         std::size_t next = 0;
         for (std::size_t a = 0; a < active.size(); ++a) {
           const int n = projected_count(active[a]);
-          std::copy_n(&to_project[next], n, &cand[a * kCandidates]);
-          next += n;
+          for (int k = 0; k < n; ++k)
+            if (is_finite(cand[a * kCandidates + k])) cand[a * kCandidates + k] = to_project[next++];
         }
       }
       accepted.assign(active.size(), 0);
@@ -636,13 +671,81 @@ struct Optimizer {
         best = l;
       }
     }
-    for (int i = n - 1; i >= 0; --i) {
+    int chosen = -1;
+    for (int i = n - 1; i >= 0 && chosen < 0; --i) {
       const Vec3 y = cand[options[i].k];
-      if (!keeps_certificates(v, y) || !within_ratio(v, y, cap, star, ratios)) continue;
-      place(v, y, reaches_target(v, y), mins[i], ratios);
-      return true;
+      if (keeps_certificates(v, y) && within_ratio(v, y, cap, star, ratios)) chosen = i;
     }
-    return false;
+    const Vec3 y = chosen >= 0 ? cand[options[chosen].k] : x;
+    const Local l = chosen >= 0 ? options[chosen].l : now;
+    // A surface vertex that a projected candidate puts on the surface takes it (fidelity first).
+    if (searching && l.min < kSearchBelow && searches(v) && !(chosen >= 0 && unplaced(v))) {
+      double found_mins[kMaxValence];
+      Vec3 z = y;
+      if (search(v, cand[0], visit, cap, star, z, l, found_mins)) {
+        place(v, z, false, found_mins, found_ratios(star), false);
+        return true;
+      }
+    }
+    if (chosen < 0) return false;
+    place(v, y, reaches_target(v, y), mins[chosen], ratios);
+    return true;
+  }
+
+  // Vertices that search (try_move): free vertices, those on a face or edge of the box, and
+  // surface vertices not yet on the surface (the search keeps them no farther from it); not
+  // those on the surface (every position would need a projection) nor feature vertices.
+  bool searches(uint32_t v) const {
+    if (flags[v] & (kFixed | kFeature)) return false;
+    return !(flags[v] & kOnSurface) || unplaced(v);
+  }
+
+  static double* found_ratios(Star& star) { return star.ratios.data(); }
+
+  // The compass search of try_move from `y` (where the candidates left v, measured `l`): true
+  // when it found a better position, then in `y`, with its hexes' scaled Jacobians in `out` and
+  // edge ratios in found_ratios(star). Every step taken keeps every certificate and the edge-ratio
+  // cap, and gains as a candidate must; a surface vertex not on the surface stays within the ball
+  // around its closest point `foot` through where it is, so it gets no farther from the surface.
+  bool search(uint32_t v, Vec3 foot, const Visit& visit, double cap, Star& star, Vec3& y, Local l, double* out) const {
+    static constexpr double r = 0.57735026918962573;  // 1 / sqrt(3)
+    static constexpr Vec3 kDirs[14] = {{1, 0, 0},  {-1, 0, 0},  {0, 1, 0},    {0, -1, 0}, {0, 0, 1},
+                                       {0, 0, -1}, {r, r, r},   {-r, -r, -r}, {r, r, -r}, {-r, -r, r},
+                                       {r, -r, r}, {-r, r, -r}, {-r, r, r},   {r, -r, -r}};
+    const Vec3 x = j.x[v];
+    const bool ball = unplaced(v);
+    const double radius2 = squared_norm(x - foot);
+    if (ball && !is_finite(foot)) return false;
+    const uint32_t n = incident.start[v + 1] - incident.start[v];
+    double mins[kMaxValence], ratios[kMaxValence];
+    double step = kSearchStart * visit.length;
+    bool found = false;
+    for (int round = 0, halvings = 0; round < kSearchRounds && halvings <= kSearchHalvings; ++round) {
+      bool gained = false;
+      for (const Vec3& dir : kDirs) {
+        Vec3 d = step * dir;
+        for (int a = 0; a < 3; ++a)
+          if (locked[v] >> a & 1) d[a] = 0;
+        if (d == Vec3{}) continue;
+        const Vec3 z = y + d;
+        if (ball && squared_norm(z - foot) > radius2) continue;
+        const Local m = evaluate(v, z, l.min, kInf, visit.worst, star, mins);
+        if (m.min == -kInf) continue;
+        const bool gain = m.min - l.min > 1e-12 || (m.min >= l.min && m.sum - l.sum > 1e-9 * (l.sum + 1));
+        if (!gain || !keeps_certificates(v, z) || !within_ratio(v, z, cap, star, ratios)) continue;
+        y = z;
+        l = m;
+        std::copy_n(mins, n, out);
+        std::copy_n(ratios, n, found_ratios(star));
+        gained = found = true;
+        break;
+      }
+      if (!gained) {
+        step *= 0.5;
+        ++halvings;
+      }
+    }
+    return found;
   }
 
   // Whether every hex of v keeps its edge ratio at most `cap` with v at y; `out` gets them.
@@ -658,9 +761,10 @@ struct Optimizer {
   // Moves v to y (on the surface; on its target, if `arrives`) and records its hexes'
   // scaled Jacobians `mins` and edge ratios `ratios` there (by offset; measured when the move
   // was chosen, ratios also here when not given). Certified hexes were re-certified before.
-  void place(uint32_t v, Vec3 y, bool arrives, const double* mins, const double* ratios = nullptr) {
+  void place(uint32_t v, Vec3 y, bool arrives, const double* mins, const double* ratios = nullptr,
+             bool projected = true) {
     j.x[v] = y;
-    if (surface && (flags[v] & kOnSurface)) flags[v] |= kPlaced;
+    if (projected && surface && (flags[v] & kOnSurface)) flags[v] |= kPlaced;
     if (arrives) flags[v] |= kSnapped;
     const uint32_t b = incident.start[v], n = incident.start[v + 1] - b;
     for (uint32_t i = 0; i < n; ++i) {
@@ -738,6 +842,7 @@ OptimizeStats optimize(MeshPair& meshes, const SignedDistance* surface, const Op
   const auto classes = opt.colour();
   st.colours = int(classes.size());
   double last_min = before.min, last_mean = st.mean_sj_before;
+  int stalls = 0;
   const double ts = now(), cs = cpu_seconds();
   for (int s = 0; s < options.max_sweeps; ++s) {
     const std::size_t moved = opt.sweep(classes, st.moves_rejected);
@@ -748,7 +853,18 @@ OptimizeStats optimize(MeshPair& meshes, const SignedDistance* surface, const Op
     for (double v : opt.sj) lo = std::min(lo, v), sum += v;
     const double mean = sum / double(opt.sj.size());
     st.min_per_sweep.push_back(lo);
-    if (moved == 0 || (lo - last_min < options.tolerance && mean - last_mean < 10 * options.tolerance)) break;
+    const bool stalled = moved == 0 || (lo - last_min < options.tolerance && mean - last_mean < 10 * options.tolerance);
+    stalls = stalled ? stalls + 1 : 0;
+    if (stalled) {
+      // The search's gains come in bursts: it stops after three stalled sweeps in a row.
+      if (opt.searching && (moved == 0 || stalls >= 3)) break;
+      // The plain sweeps have stalled: on with the search, every vertex visited again.
+      if (!opt.searching) {
+        opt.searching = true;
+        stalls = 0;
+        std::fill(opt.dirty.begin(), opt.dirty.end(), uint8_t(1));
+      }
+    }
     last_min = lo;
     last_mean = mean;
   }

@@ -15,12 +15,19 @@
 // half, quarter and eighth step, and takes the one that raises the minimum scaled Jacobian of
 // its incident hexes most (or, at an equal minimum, their mean), among those that keep every
 // incident hex Bernstein-certified (all 27 coefficients of det J positive) and keep the edge
-// ratio of each under OptimizeOptions::max_edge_ratio (or no worse than it was).
+// ratio of each under OptimizeOptions::max_edge_ratio (or no worse than it was). Once these plain
+// sweeps stall, a second phase adds, where a vertex's hexes stay below 0.3, a compass search from
+// the chosen point (14 directions, halving steps; not for surface vertices on the surface) and 8
+// more tangent directions for a surface vertex on the surface, projected; it stops after three
+// stalled sweeps in a row. The result is never below the plain sweeps' own.
 //
 // Constraints. Vertices on the inside mesh's boundary (the interface) stay on the input surface:
 // each candidate is moved in the tangent plane and projected onto the surface (the exact closest
 // point for a triangle surface, Newton steps on the field for an analytic shape); without a
-// surface they are fixed. Features come from the input's own geometry (core/mesh/
+// surface they are fixed. One the mesher put off the surface (its points are only near it) and
+// no projected candidate suits may search within the ball around its closest point through where
+// it is: it never gets farther from the surface, and a projected candidate taken later puts it on
+// the surface. Features come from the input's own geometry (core/mesh/
 // feature_curves.h: triangle pairs folded by more than OptimizeOptions::feature_angle, chained
 // into curves that meet at corners), not from the mesh: a boundary vertex whose quads fold by
 // that angle represents a feature only where an input sharp edge lies within its size (then the
@@ -56,7 +63,7 @@ namespace mchex {
 inline constexpr double kOptimizeEps = 0.02;
 
 struct OptimizeOptions {
-  int max_sweeps = 30;
+  int max_sweeps = 60;
   // A vertex is moved in a sweep when one of its hexes has a scaled Jacobian below this (hexes
   // above it are left as they are: most of a grid's hexes are cubes).
   double active_below = 0.8;
