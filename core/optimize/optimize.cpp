@@ -856,6 +856,7 @@ OptimizeStats optimize(MeshPair& meshes, const SignedDistance* surface, const Op
     const bool stalled = moved == 0 || (lo - last_min < options.tolerance && mean - last_mean < 10 * options.tolerance);
     stalls = stalled ? stalls + 1 : 0;
     if (stalled) {
+      if (!options.search) break;
       // The search's gains come in bursts: it stops after three stalled sweeps in a row.
       if (opt.searching && (moved == 0 || stalls >= 3)) break;
       // The plain sweeps have stalled: on with the search, every vertex visited again.

@@ -64,6 +64,9 @@ inline constexpr double kOptimizeEps = 0.02;
 
 struct OptimizeOptions {
   int max_sweeps = 60;
+  // The second phase (the search and the tangent candidates) once the plain sweeps stall; false
+  // stops there, with the optimiser as it was before the search (30 sweeps at most then).
+  bool search = true;
   // A vertex is moved in a sweep when one of its hexes has a scaled Jacobian below this (hexes
   // above it are left as they are: most of a grid's hexes are cubes).
   double active_below = 0.8;
