@@ -127,12 +127,11 @@ struct Lane {
   uint32_t wide, lane, node;  // wide node, its lane, the binary node there
 };
 
-// Fitted boxes for the lanes' binary nodes.
-void fit_boxes(const TriangleSurface& s, const TriangleBvh& bvh, const std::vector<Lane>& lanes,
+// Fitted boxes for the lanes' binary nodes; subtree(n): the triangles under node n.
+template <class Subtree>
+void fit_boxes(const TriangleSurface& s, const TriangleBvh& bvh, const Subtree& subtree, const std::vector<Lane>& lanes,
                std::vector<OrientedBox>& boxes) {
-  const auto slots = bvh.subtree_slots();
   const std::span<const uint32_t> all(bvh.leaf_triangles);
-  auto subtree = [&](uint32_t n) { return all.subspan(slots[n].first, slots[n].second - slots[n].first); };
   // Each binary node's area-vector and area sums and corner box, bottom up (children follow
   // their parent in the hierarchy's order): what decides a node's frame, and a curved node's
   // whole box, without visiting its triangles again at every level.
@@ -244,22 +243,16 @@ SearchTree::SearchTree(const TriangleSurface& s, const TriangleBvh& bvh, Frames 
   if (bvh.nodes[0].count) build(build, {0, 0, 0, 0}, 1);  // a single leaf
   else build(build, {1, bvh.nodes[0].index, 0, 0}, 2);
 
-  // Fitted boxes, or the coordinate frame in bound_corners's order (z, x, y) with the hierarchy's
-  // own float bounds, which hold the node's triangles: no sums and no corners to gather.
+  // Fitted boxes, or the coordinate frame around the hierarchy's own float bounds, which hold the
+  // node's triangles: no sums and no corners to gather, and no array of boxes.
   std::vector<OrientedBox> boxes;
   if (frames == Frames::kFitted) {
     boxes.resize(lanes.size());
-    fit_boxes(s, bvh, lanes, boxes);
+    fit_boxes(s, bvh, subtree, lanes, boxes);
   }
   auto axis_aligned = [](const BvhNode& node) {
-    OrientedBox b;
-    for (int a = 0; a < 3; ++a) {
-      const int axis = (a + 2) % 3;
-      for (int i = 0; i < 3; ++i) b.axis[a][i] = i == axis ? 1.0f : 0.0f;
-      b.lo[a] = node.lo[axis];
-      b.hi[a] = node.hi[axis];
-    }
-    return b;
+    const Vec3 corners[2] = {{node.lo[0], node.lo[1], node.lo[2]}, {node.hi[0], node.hi[1], node.hi[2]}};
+    return bound_corners(corners, {}, 0);
   };
   // Set on one thread: lanes of one wide node share its vectors and its leaf mask.
   for (std::size_t k = 0; k < lanes.size(); ++k) {
