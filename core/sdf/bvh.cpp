@@ -113,14 +113,12 @@ TriangleBvh TriangleBvh::build(const TriangleSurface& s, BvhBuilder builder) {
   RTCBVH bvh = rtcNewBVH(device);
   RTCBuildArguments args = rtcDefaultBuildArguments();
   args.byteSize = sizeof(args);
-  // RTC_BUILD_QUALITY_LOW is Embree's Morton-code builder, which makes a leaf per triangle
-  // unless told a least leaf size.
-  const bool morton = builder != BvhBuilder::kSah;
-  args.buildQuality = morton ? RTC_BUILD_QUALITY_LOW : RTC_BUILD_QUALITY_MEDIUM;
+  // RTC_BUILD_QUALITY_LOW is Embree's Morton-code builder.
+  args.buildQuality = group == 1 ? RTC_BUILD_QUALITY_MEDIUM : RTC_BUILD_QUALITY_LOW;
   args.maxBranchingFactor = 2;
   args.maxDepth = 64;
   args.sahBlockSize = 1;
-  args.minLeafSize = builder == BvhBuilder::kMorton ? 4 : 1;
+  args.minLeafSize = 1;
   args.maxLeafSize = group == 1 ? 4 : 1;
   args.traversalCost = 1.0f;
   args.intersectionCost = 1.0f;

@@ -150,9 +150,7 @@ struct SurfaceSdf::Impl {
 
   Impl(TriangleSurface moved, SignRule rule, SearchUse use)
       : surface(std::move(moved)),
-        bvh(TriangleBvh::build(surface, use == SearchUse::kRepeated   ? BvhBuilder::kSah
-                                        : use == SearchUse::kOneBatch ? BvhBuilder::kMorton
-                                                                      : BvhBuilder::kMortonFours)),
+        bvh(TriangleBvh::build(surface, use == SearchUse::kRepeated ? BvhBuilder::kSah : BvhBuilder::kMortonFours)),
         tree(surface, bvh,
              use == SearchUse::kRepeated ? SearchTree::Frames::kFitted : SearchTree::Frames::kAxisAligned),
         box(surface.bounds()),

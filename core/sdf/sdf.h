@@ -51,13 +51,12 @@ class SignedDistance {
 
 // What a SurfaceSdf's search tree is made for (core/sdf/search_tree.h): kRepeated, a surface
 // evaluated many times (boxes fitted to the triangles: the fewest nodes opened per search);
-// kOneBatch, a surface searched by one batch and dropped (Embree's Morton builder and axis-aligned
-// boxes: hierarchy and tree made in about a third of the time, measured on a 254k-triangle mesh
-// boundary, and searched about as fast). The values are the same either way: the search is exact
-// whatever the boxes.
-// kOneBatchInFours: the same for a surface whose triangles come in fours that belong together
-// (each of the fidelity's boundary quads, split around its centre), made into one leaf each.
-enum class SearchUse { kRepeated, kOneBatch, kOneBatchInFours };
+// kOneBatchInFours, a surface searched by one batch and dropped whose triangles come in fours that
+// belong together (each of the fidelity's boundary quads, split around its centre): one leaf
+// each, Embree's Morton builder and axis-aligned boxes (core/sdf/bvh.h BvhBuilder::kMortonFours:
+// hierarchy and tree made in a fraction of the time on a 254k-triangle mesh boundary, searched as
+// fast). The values are the same either way: the search is exact whatever the tree.
+enum class SearchUse { kRepeated, kOneBatchInFours };
 
 class SurfaceSdf final : public SignedDistance {
  public:
