@@ -344,6 +344,10 @@ struct Optimizer {
 
   struct Local {
     double min = kInf, sum = 0;
+    // Better than `from` by more than rounding: a higher minimum, or the same and a higher sum.
+    bool gains_over(const Local& from) const {
+      return min - from.min > 1e-12 || (min >= from.min && sum - from.sum > 1e-9 * (from.sum + 1));
+    }
   };
 
   // A vertex's hexes where it is, for try_move: their minimum and sum, the offset of the worst
@@ -664,8 +668,7 @@ struct Optimizer {
       if (target_distance < kInf && features.nearest(y, target[v]).squared_distance > target_distance) continue;
       const Local l = evaluate(v, y, best.min, kInf, worst, star, mins[n]);
       if (l.min == -kInf) continue;
-      const bool gain = n == 0 ? l.min - now.min > 1e-12 || (l.min >= now.min && l.sum - now.sum > 1e-9 * (now.sum + 1))
-                               : l.min > best.min || (l.min == best.min && l.sum > best.sum);
+      const bool gain = n == 0 ? l.gains_over(now) : l.min > best.min || (l.min == best.min && l.sum > best.sum);
       if (gain || (k == 0 && n == 0)) {
         options[n++] = {l, k};
         best = l;
@@ -683,7 +686,7 @@ struct Optimizer {
       double found_mins[kMaxValence];
       Vec3 z = y;
       if (search(v, cand[0], visit, cap, star, z, l, found_mins)) {
-        place(v, z, false, found_mins, found_ratios(star), false);
+        place(v, z, false, found_mins, star.ratios.data(), false);
         return true;
       }
     }
@@ -700,11 +703,9 @@ struct Optimizer {
     return !(flags[v] & kOnSurface) || unplaced(v);
   }
 
-  static double* found_ratios(Star& star) { return star.ratios.data(); }
-
   // The compass search of try_move from `y` (where the candidates left v, measured `l`): true
   // when it found a better position, then in `y`, with its hexes' scaled Jacobians in `out` and
-  // edge ratios in found_ratios(star). Every step taken keeps every certificate and the edge-ratio
+  // edge ratios in star.ratios. Every step taken keeps every certificate and the edge-ratio
   // cap, and gains as a candidate must; a surface vertex not on the surface stays within the ball
   // around its closest point `foot` through where it is, so it gets no farther from the surface.
   bool search(uint32_t v, Vec3 foot, const Visit& visit, double cap, Star& star, Vec3& y, Local l, double* out) const {
@@ -731,12 +732,11 @@ struct Optimizer {
         if (ball && squared_norm(z - foot) > radius2) continue;
         const Local m = evaluate(v, z, l.min, kInf, visit.worst, star, mins);
         if (m.min == -kInf) continue;
-        const bool gain = m.min - l.min > 1e-12 || (m.min >= l.min && m.sum - l.sum > 1e-9 * (l.sum + 1));
-        if (!gain || !keeps_certificates(v, z) || !within_ratio(v, z, cap, star, ratios)) continue;
+        if (!m.gains_over(l) || !keeps_certificates(v, z) || !within_ratio(v, z, cap, star, ratios)) continue;
         y = z;
         l = m;
         std::copy_n(mins, n, out);
-        std::copy_n(ratios, n, found_ratios(star));
+        std::copy_n(ratios, n, star.ratios.data());
         gained = found = true;
         break;
       }
