@@ -963,6 +963,15 @@ std::size_t refine_leaves_of_cells(Octree& tree, const AdaptiveGrid& grid, std::
   return refined;
 }
 
+int leaf_level_at(const Octree& tree, Vec3 p) {
+  const Box& cube = tree.cube();
+  for (int a = 0; a < 3; ++a)
+    if (!(p[a] >= cube.lo[a] && p[a] <= cube.hi[a])) return -1;
+  int level = 0;
+  while (level < tree.max_depth() && tree.is_refined(level, key_at(cube, level, p))) ++level;
+  return level;
+}
+
 std::size_t refine_leaves_at_points(Octree& tree, std::span<const Vec3> points, std::size_t min_points) {
   const Box& cube = tree.cube();
   // The leaves first (level, key), then refined in sorted order: the same tree however the points
@@ -970,15 +979,9 @@ std::size_t refine_leaves_at_points(Octree& tree, std::span<const Vec3> points, 
   std::vector<std::uint64_t> leaves(points.size(), ~std::uint64_t{0});
   parallel_for(points.size(), [&](std::size_t i) {
     const Vec3 p = points[i];
-    for (int a = 0; a < 3; ++a)
-      if (!(p[a] >= cube.lo[a] && p[a] <= cube.hi[a])) return;
-    for (int level = 0; level <= tree.max_depth(); ++level) {
-      const std::uint64_t key = key_at(cube, level, p);
-      if (tree.is_refined(level, key)) continue;
-      // Cell indices are below 3^9 < 2^15, so a key is below 2^57 and the level fits above it.
-      if (level < tree.max_depth()) leaves[i] = (std::uint64_t(level) << 60) | key;
-      return;
-    }
+    const int level = leaf_level_at(tree, p);
+    // Cell indices are below 3^9 < 2^15, so a key is below 2^57 and the level fits above it.
+    if (level >= 0 && level < tree.max_depth()) leaves[i] = (std::uint64_t(level) << 60) | key_at(cube, level, p);
   });
   std::sort(leaves.begin(), leaves.end());
   std::size_t refined = 0;

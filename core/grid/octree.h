@@ -227,6 +227,10 @@ std::size_t refine_leaves_of_cells(Octree& tree, const AdaptiveGrid& grid, std::
 // min_points: a leaf is refined only when at least this many of the points fall in it.
 std::size_t refine_leaves_at_points(Octree& tree, std::span<const Vec3> points, std::size_t min_points = 1);
 
+// The level of the leaf that holds p (a point on a face between leaves goes to the leaf above it,
+// by floor, as refine_leaves_at_points has it); -1 outside the cube.
+int leaf_level_at(const Octree& tree, Vec3 p);
+
 // The dedupe behind the SDF batches and the complex's points: the distinct values of `keys`
 // (each below 2^key_bits), ascending, and index_of[i] = the index of keys[i] among them. A stable
 // LSD radix sort, parallel in fixed chunks: the same result on any number of threads.

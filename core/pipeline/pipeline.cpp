@@ -192,10 +192,32 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
   Backend& backend = request.backend ? *request.backend : *(opened = request.open_backend());
   run.device = backend.device();
   std::vector<Vec3> repelled_points;  // the grid points the last mesh was cut at, where repel moved them
+  // Several regions whose shells cross: the parity field is lifted around their junction curves
+  // (core/pipeline/regions.h JunctionLift) wherever the mesher reads it, by one cell of the grid
+  // where the curve lies (an adaptive grid's leaf at each segment's midpoint, anew for each grid).
+  std::optional<JunctionLift> lift;
+  const bool lifts = regions && o.method == "mchex" && !regions->junctions().empty();
+  const auto field = [&](std::span<const Vec3> p, std::span<double> v) {
+    const bool unchanged = backend_sdf(backend, solid, p, v);
+    return (!lift || lift->lift(p, v) == 0) && unchanged;
+  };
   auto mesh_grid = [&] {
     bool device_values = true;  // values as the backend wrote them: no sign changed on the host
-    const std::vector<double> values =
-        run.clock.run("sdf", [&] { return grid_values(run, backend, solid, device_values); });
+    std::vector<double> values = run.clock.run("sdf", [&] { return grid_values(run, backend, solid, device_values); });
+    if (lifts) {
+      const std::vector<Segment>& curves = regions->junctions();
+      std::vector<double> radii(curves.size(), kJunctionLiftRadius * (run.uniform ? run.uniform->cell_size() : 0.0));
+      if (tree)
+        for (std::size_t s = 0; s < curves.size(); ++s) {
+          const int level = leaf_level_at(*tree, 0.5 * (curves[s][0] + curves[s][1]));  // inside the cube
+          radii[s] = kJunctionLiftRadius * run.cube.size().x / std::pow(3.0, level < 0 ? tree->max_depth() : level);
+        }
+      lift.emplace(curves, std::move(radii));
+      // The adaptive grid's values came from its refinement, the uniform grid's from the backend:
+      // the lift applies to all of them here.
+      const std::vector<Vec3> uniform_points = run.uniform ? run.uniform->vertices() : std::vector<Vec3>{};
+      if (lift->lift(run.uniform ? uniform_points : run.adaptive->complex.points, values) > 0) device_values = false;
+    }
     std::optional<HexComplex> uniform_cx;
     const bool classify_on_device = o.method == "mchex" && run.device.backend != "cpu";
     if (run.uniform && (classify_on_device || o.repel > 0)) uniform_cx.emplace(uniform_complex(*run.uniform));
@@ -209,9 +231,7 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
       run.clock.run("repel", [&] {
         RepelOptions ro;
         ro.delta = o.repel;
-        repelled = repel(
-            *grid_cx, run.cube, values,
-            [&](std::span<const Vec3> p, std::span<double> v) { backend_sdf(backend, solid, p, v); }, ro);
+        repelled = repel(*grid_cx, run.cube, values, field, ro);
         moved_cx.emplace(*grid_cx);
         moved_cx->points = repelled->points;
       });
@@ -280,11 +300,8 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
         for (std::uint32_t c = 0; c < ok.size(); ++c)
           if (!ok[c]) bad.push_back(c);
       }
-      if (bad.empty() || run.clock.run("repel", [&] {
-            return relax_cells(
-                *grid_cx, values, bad,
-                [&](std::span<const Vec3> p, std::span<double> v) { backend_sdf(backend, solid, p, v); }, *repelled);
-          }) == 0)
+      if (bad.empty() ||
+          run.clock.run("repel", [&] { return relax_cells(*grid_cx, values, bad, field, *repelled); }) == 0)
         break;
       moved_cx->points = repelled->points;
       classify();
@@ -360,6 +377,7 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
       const std::vector<Vec3> uniform_points = run.uniform ? run.uniform->vertices() : std::vector<Vec3>{};
       return label_regions(run.meshes, run.uniform ? uniform_points : run.adaptive->complex.points, *regions, &stats);
     });
+    if (lift) stats.lift_min_radius = lift->min_radius(), stats.lift_max_radius = lift->max_radius();
   }
   CheckOptions check_options;
   check_options.keep_scaled_jacobians = o.keep_scaled_jacobians;

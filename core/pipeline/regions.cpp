@@ -3,9 +3,12 @@
 #include <algorithm>
 #include <array>
 #include <bit>
+#include <cmath>
 #include <cstring>
 #include <limits>
 #include <numeric>
+#include <optional>
+#include <stdexcept>
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -108,6 +111,77 @@ class PointIndex {
   std::size_t mask_ = 0;
 };
 
+// Cells of a uniform grid (edge `cell`, anchored at the origin) as one word: 21 bits an axis,
+// offset to keep negative indices apart. Indices past that range wrap; a wrapped key only merges
+// far cells into one bucket, where the exact tests that follow sort them out.
+std::int64_t cell_index(double x, double cell) { return std::int64_t(std::floor(x / cell)); }
+std::uint64_t cell_key(std::int64_t x, std::int64_t y, std::int64_t z) {
+  constexpr std::int64_t kOffset = std::int64_t{1} << 20, kMask = (std::int64_t{1} << 21) - 1;
+  return std::uint64_t((x + kOffset) & kMask) | std::uint64_t((y + kOffset) & kMask) << 21 |
+         std::uint64_t((z + kOffset) & kMask) << 42;
+}
+// Every cell a box covers.
+template <class F>
+void for_cells(const Box& box, double cell, F&& f) {
+  for (std::int64_t z = cell_index(box.lo.z, cell); z <= cell_index(box.hi.z, cell); ++z)
+    for (std::int64_t y = cell_index(box.lo.y, cell); y <= cell_index(box.hi.y, cell); ++y)
+      for (std::int64_t x = cell_index(box.lo.x, cell); x <= cell_index(box.hi.x, cell); ++x) f(cell_key(x, y, z));
+}
+
+Box triangle_box(const TriangleSurface& s, const std::array<uint32_t, 3>& t) {
+  Box b;
+  for (uint32_t v : t) b.extend(s.vertices[v]);
+  return b;
+}
+
+bool boxes_overlap(const Box& a, const Box& b) {
+  return a.lo.x <= b.hi.x && b.lo.x <= a.hi.x && a.lo.y <= b.hi.y && b.lo.y <= a.hi.y && a.lo.z <= b.hi.z &&
+         b.lo.z <= a.hi.z;
+}
+
+// Where triangle p's plane is crossed by triangle t: the one or two points of t on it (its
+// vertices on the plane, and the crossings of the edges whose ends lie strictly on either side),
+// with the ends' signed distances `d`. Fewer than two points: t only touches the plane.
+int plane_cut(const std::array<Vec3, 3>& t, const std::array<double, 3>& d, std::array<Vec3, 2>& cut) {
+  int n = 0;
+  for (int k = 0; k < 3 && n < 2; ++k) {
+    const int l = (k + 1) % 3;
+    if (d[k] == 0) cut[n++] = t[k];
+    if (n < 2 && ((d[k] < 0 && d[l] > 0) || (d[k] > 0 && d[l] < 0)))
+      cut[n++] = t[k] + (d[k] / (d[k] - d[l])) * (t[l] - t[k]);
+  }
+  return n;
+}
+
+// The segment two triangles share when they cross (the overlap, along their planes' common line,
+// of each one's cut by the other's plane); nothing when they miss or only touch.
+std::optional<Segment> triangles_cross(const std::array<Vec3, 3>& a, const std::array<Vec3, 3>& b) {
+  const Vec3 na = cross(a[1] - a[0], a[2] - a[0]), nb = cross(b[1] - b[0], b[2] - b[0]);
+  std::array<double, 3> da, db;
+  for (int k = 0; k < 3; ++k) da[k] = dot(nb, a[k] - b[0]), db[k] = dot(na, b[k] - a[0]);
+  // Each must have corners strictly on both sides of the other's plane: triangles that only touch
+  // (shells sharing an edge or a face, one lying on the other) do not cross.
+  const auto both_sides = [](const std::array<double, 3>& d) {
+    return std::min({d[0], d[1], d[2]}) < 0 && std::max({d[0], d[1], d[2]}) > 0;
+  };
+  if (!both_sides(da) || !both_sides(db)) return std::nullopt;
+  std::array<Vec3, 2> ca, cb;
+  if (plane_cut(a, da, ca) < 2 || plane_cut(b, db, cb) < 2) return std::nullopt;
+  const Vec3 line = cross(na, nb);
+  double a0 = dot(line, ca[0]), a1 = dot(line, ca[1]), b0 = dot(line, cb[0]), b1 = dot(line, cb[1]);
+  if (a0 > a1) std::swap(a0, a1), std::swap(ca[0], ca[1]);
+  if (b0 > b1) std::swap(b0, b1), std::swap(cb[0], cb[1]);
+  if (std::max(a0, b0) > std::min(a1, b1)) return std::nullopt;
+  return Segment{a0 >= b0 ? ca[0] : cb[0], a1 <= b1 ? ca[1] : cb[1]};
+}
+
+double squared_distance_to_segment(Vec3 p, const Segment& s) {
+  const Vec3 e = s[1] - s[0];
+  const double l = squared_norm(e);
+  const double t = l > 0 ? std::clamp(dot(p - s[0], e) / l, 0.0, 1.0) : 0.0;
+  return squared_norm(p - (s[0] + t * e));
+}
+
 }  // namespace
 
 RegionSet::RegionSet(std::span<const SolidSource> sources, StageClock& clock, bool quiet, const SolidOptions& options,
@@ -178,6 +252,11 @@ RegionSet::RegionSet(std::span<const SolidSource> sources, StageClock& clock, bo
     for (std::size_t t = 0; t < drop.size(); ++t)
       if (!drop[t]) kept.push_back(combined_.triangles[t]);
     combined_.triangles = std::move(kept);
+    for (std::size_t i = 0; i < solids_.size(); ++i)
+      for (std::size_t j = i + 1; j < solids_.size(); ++j) {
+        const std::vector<Segment> s = crossing_segments(*solids_[i]->surface(), *solids_[j]->surface());
+        junctions_.insert(junctions_.end(), s.begin(), s.end());
+      }
   });
 }
 
@@ -295,6 +374,7 @@ MeshPair label_regions(const MeshPair& parity, std::span<const Vec3> grid_points
   out.inside.region = std::move(in_labels);
   for (int r : regions.priority()) s.priority.push_back(r + 1);
   s.shared_faces = regions.shared_faces();
+  s.junction_segments = regions.junctions().size();
   s.flipped = wrong.size();
   if (stats) *stats = std::move(s);
   return out;
@@ -352,6 +432,101 @@ std::vector<TriangleSurface> split_shells(const TriangleSurface& surface) {
     for (const uint32_t v : used) local[v] = kNone;
   }
   return shells;
+}
+
+std::vector<Segment> crossing_segments(const TriangleSurface& a, const TriangleSurface& b) {
+  if (a.triangles.empty() || b.triangles.empty()) return {};
+  // b's triangles in a grid of cells about their mean size (each in every cell its box covers),
+  // so each of a's triangles meets only the few of b's around it.
+  std::vector<Box> b_boxes(b.triangles.size());
+  Box b_all;
+  double extent = 0;
+  for (std::size_t t = 0; t < b.triangles.size(); ++t) {
+    b_boxes[t] = triangle_box(b, b.triangles[t]);
+    b_all.extend(b_boxes[t].lo);
+    b_all.extend(b_boxes[t].hi);
+    const Vec3 e = b_boxes[t].size();
+    extent += std::max({e.x, e.y, e.z});
+  }
+  // At most about 2^20 cells a side over b: a few huge triangles among small ones stay bounded.
+  const double cell = std::max(
+      {extent / double(b.triangles.size()), b_all.diagonal() / double(1 << 20), std::numeric_limits<double>::min()});
+  std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> grid;
+  for (std::size_t t = 0; t < b.triangles.size(); ++t)
+    for_cells(b_boxes[t], cell, [&](std::uint64_t key) { grid[key].push_back(std::uint32_t(t)); });
+
+  std::vector<std::vector<Segment>> found(a.triangles.size());
+  parallel_for(a.triangles.size(), [&](std::size_t t) {
+    const Box box = triangle_box(a, a.triangles[t]);
+    if (!boxes_overlap(box, b_all)) return;
+    std::vector<std::uint32_t> near;
+    for_cells(box, cell, [&](std::uint64_t key) {
+      const auto it = grid.find(key);
+      if (it != grid.end()) near.insert(near.end(), it->second.begin(), it->second.end());
+    });
+    std::sort(near.begin(), near.end());
+    near.erase(std::unique(near.begin(), near.end()), near.end());
+    std::array<Vec3, 3> ta;
+    for (int k = 0; k < 3; ++k) ta[k] = a.vertices[a.triangles[t][k]];
+    for (std::uint32_t u : near) {
+      if (!boxes_overlap(box, b_boxes[u])) continue;
+      std::array<Vec3, 3> tb;
+      for (int k = 0; k < 3; ++k) tb[k] = b.vertices[b.triangles[u][k]];
+      if (const auto s = triangles_cross(ta, tb)) found[t].push_back(*s);
+    }
+  });
+  std::vector<Segment> all;
+  for (auto& f : found) all.insert(all.end(), f.begin(), f.end());
+  return all;
+}
+
+JunctionLift::JunctionLift(std::span<const Segment> curves, std::vector<double> radii)
+    : curves_(curves), radii_(std::move(radii)) {
+  if (radii_.size() != curves.size()) throw std::invalid_argument("JunctionLift: one radius per segment");
+  if (!std::all_of(radii_.begin(), radii_.end(), [](double r) { return r > 0; }))
+    throw std::invalid_argument("JunctionLift: every radius must be positive");
+  if (curves.empty()) return;
+  min_radius_ = *std::min_element(radii_.begin(), radii_.end());
+  max_radius_ = *std::max_element(radii_.begin(), radii_.end());
+  // Cells no smaller than the largest radius (a point's reach spans at most 3 an axis) nor than
+  // the segments' mean extent (a segment spans a few cells, however small the radius).
+  std::vector<Box> boxes(curves.size());
+  double extent = 0;
+  for (std::size_t i = 0; i < curves.size(); ++i) {
+    boxes[i].extend(curves[i][0]);
+    boxes[i].extend(curves[i][1]);
+    const Vec3 e = boxes[i].size();
+    extent += std::max({e.x, e.y, e.z});
+  }
+  cell_ = std::max(max_radius_, extent / double(curves.size()));
+  for (std::size_t i = 0; i < curves.size(); ++i)
+    for_cells(boxes[i], cell_, [&](std::uint64_t key) { cells_[key].push_back(std::uint32_t(i)); });
+}
+
+std::size_t JunctionLift::lift(std::span<const Vec3> points, std::span<double> values) const {
+  if (cells_.empty()) return 0;
+  std::vector<std::uint8_t> changed(points.size(), 0);
+  parallel_for(points.size(), [&](std::size_t i) {
+    // The field is the distance to the nearest shell, so only a point nearer than a radius to
+    // a shell can be nearer than that to a curve on it.
+    if (!(std::abs(values[i]) < max_radius_)) return;
+    const Vec3 p = points[i];
+    const Vec3 r{max_radius_, max_radius_, max_radius_};
+    Box reach;
+    reach.extend(p - r);
+    reach.extend(p + r);
+    double lift = 0;
+    for_cells(reach, cell_, [&](std::uint64_t key) {
+      const auto it = cells_.find(key);
+      if (it == cells_.end()) return;
+      for (std::uint32_t s : it->second) {
+        const double d2 = squared_distance_to_segment(p, curves_[s]);
+        if (d2 < radii_[s] * radii_[s]) lift = std::max(lift, radii_[s] - std::sqrt(d2));
+      }
+    });
+    if (lift > 0) values[i] += lift, changed[i] = 1;
+  });
+  return std::size_t(std::count(changed.begin(), changed.end(), std::uint8_t{1}));
 }
 
 }  // namespace mchex

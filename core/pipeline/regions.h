@@ -21,10 +21,11 @@
 // reverse); the bit of the shell nearest to the point is then flipped, since that is the shell
 // the interface approximates there. The region is the first one in priority order whose bit is
 // set (0: none, the box outside). So a region's hexes meet another's only across the interface
-// (face for face), except within a cell of a junction curve where three or more cells of the
-// arrangement meet: there MCHex's field has a saddle that Marching Cubes resolves one way or the
-// other, and the labels follow the centroids. Cutting junction cells by the facets, which keeps
-// such curves sharp, is the job of Awad's own method (not part of this reduction).
+// (face for face), except within a cell of a junction curve where two shells cross and four
+// cells of the arrangement meet: there the parity field has a saddle, lifted by JunctionLift
+// (below) so that Marching Cubes opens it a cell wide, and the labels follow the grid corners.
+// Cutting junction cells by the facets, which keeps such curves sharp, is the job of Awad's own
+// method (not part of this reduction).
 //
 // Priority (what an overlap belongs to): by default the region of smaller enclosed volume first,
 // so a nested solid keeps its own label and its container becomes the shell around it, and an
@@ -34,11 +35,13 @@
 // one region keeps the single-solid labels 1 and 2).
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <span>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "core/base/stage_clock.h"
@@ -47,6 +50,8 @@
 #include "core/pipeline/solid.h"
 
 namespace mchex {
+
+using Segment = std::array<Vec3, 2>;
 
 class RegionSet {
  public:
@@ -69,6 +74,9 @@ class RegionSet {
   std::string name() const;
   // The volume each region's shell encloses (its solid alone, before priority), input order.
   const std::vector<double>& enclosed_volumes() const { return enclosed_; }
+  // The junction curves: where two shells cross, as the segments along which their triangles
+  // cross (shells that only touch, sharing faces or edges in one plane, have none there).
+  const std::vector<Segment>& junctions() const { return junctions_; }
 
  private:
   std::vector<std::unique_ptr<Solid>> solids_;
@@ -76,6 +84,47 @@ class RegionSet {
   std::vector<double> enclosed_;
   TriangleSurface combined_;
   std::size_t shared_faces_ = 0;
+  std::vector<Segment> junctions_;
+};
+
+// The segments where two triangle surfaces cross: every pair of triangles, one of each, that
+// crosses (not coplanar) gives the segment they share. Deterministic (a's triangle order, then b's).
+std::vector<Segment> crossing_segments(const TriangleSurface& a, const TriangleSurface& b);
+
+// The lift around the junction curves that MCHex's junction cells need (docs/regions.md,
+// "Junction curves"). Where two shells cross, four cells of their arrangement meet along the curve
+// in alternating parity: the parity field has a saddle there, Marching Cubes joins two opposite
+// cells through a neck as thin as the grid values happen to make it, and that neck's polyhedra
+// are the mesh's worst hexes (min scaled Jacobian 0.0009-0.004 on two overlapping spheres at
+// depths 2-4 with --repel, where every hex away from the curve is above 0.18). Adding
+// radius - d to the field within the radius of the curve (d the distance to it: a cone one radius
+// high) moves the saddle's zero off the curve: the field is the radius on it, the two odd cells
+// join across it through a neck about a radius wide, and the two even cells end short of it, their
+// tips cut at about 45 degrees to the shells. Taking max(field, radius - d) instead, a round tube
+// on the odd side, cuts the tips square and was measured worse (docs/regions.md). The labels give
+// the neck's hexes to the region of the nearer shell (label_regions' flip), so each region's
+// boundary moves by less than the radius, and only within it of the curve.
+// The lift's radius in cells of the grid (an adaptive grid's cell where the curve lies): measured best
+// among 0.5-3 cells on two and three overlapping spheres at depths 2-4 (docs/regions.md).
+inline constexpr double kJunctionLiftRadius = 1.0;
+
+class JunctionLift {
+ public:
+  // radii: one per segment (the grid's cell size where it lies), each positive.
+  JunctionLift(std::span<const Segment> curves, std::vector<double> radii);
+  // values[i] += the largest radius(s) - d(points[i], s) over the segments s nearer to the point
+  // than their radius; returns how many values changed. `values` must be the parity field at
+  // `points` (its size bounds the search). Threaded, deterministic.
+  std::size_t lift(std::span<const Vec3> points, std::span<double> values) const;
+  double min_radius() const { return min_radius_; }
+  double max_radius() const { return max_radius_; }
+
+ private:
+  std::span<const Segment> curves_;
+  std::vector<double> radii_;
+  double min_radius_ = 0, max_radius_ = 0;
+  double cell_;                                                          // the grid's cell edge
+  std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> cells_;  // cell -> segments in it
 };
 
 // What labelling found, for the report (core/pipeline/report.h).
@@ -90,6 +139,9 @@ struct RegionStats {
   std::vector<int> priority;    // 1-based input positions, highest first
   std::size_t outside_hexes = 0;
   std::size_t shared_faces = 0;
+  std::size_t junction_segments = 0;  // RegionSet::junctions
+  double lift_min_radius = 0;         // JunctionLift's radii (0: no lift)
+  double lift_max_radius = 0;
   std::size_t flipped = 0;  // hexes whose centroid's bits disagreed with their side (one bit flipped)
 };
 

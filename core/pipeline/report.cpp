@@ -182,8 +182,14 @@ json regions_json(const RegionStats& s) {
                        {"volume", r.volume},
                        {"enclosed_volume", r.enclosed_volume}});
   }
-  return {{"regions", regions},     {"outside_label", s.regions.size() + 1}, {"outside_hexes", s.outside_hexes},
-          {"priority", s.priority}, {"shared_faces", s.shared_faces},        {"flipped_hexes", s.flipped}};
+  return {{"regions", regions},
+          {"outside_label", s.regions.size() + 1},
+          {"outside_hexes", s.outside_hexes},
+          {"priority", s.priority},
+          {"shared_faces", s.shared_faces},
+          {"junction_segments", s.junction_segments},
+          {"junction_lift_radius", {{"min", s.lift_min_radius}, {"max", s.lift_max_radius}}},
+          {"flipped_hexes", s.flipped}};
 }
 
 // How the grid's settings were chosen: a target Hausdorff ratio, a hex cap and the settings the

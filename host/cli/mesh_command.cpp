@@ -73,11 +73,18 @@ void print_summary(const MeshRun& run, const MeshOutputs& outputs) {
              run.meshes.inside.points.size(), outputs.inside);
   fmt::print("  outside: {:>10} hexes {:>10} vertices -> {}\n", run.meshes.outside.hexes.size(),
              run.meshes.outside.points.size(), outputs.outside);
-  if (run.regions)
+  if (run.regions) {
     fmt::print("  input: {} regions, cut along every shell by the winding number's parity ({} faces shared), "
                "overlaps to regions {}\n",
                run.regions->regions.size(), run.regions->shared_faces, fmt::join(run.regions->priority, " > "));
-  else if (!run.input.analytic)
+    const RegionStats& r = *run.regions;
+    if (r.junction_segments > 0 && r.lift_max_radius > 0)
+      fmt::print("  junctions: shells cross along {} segments; field lifted within {} of them\n", r.junction_segments,
+                 r.lift_min_radius == r.lift_max_radius
+                     ? fmt::format("{:.4g}", r.lift_max_radius)
+                     : fmt::format("{:.4g} to {:.4g}", r.lift_min_radius, r.lift_max_radius));
+    else if (r.junction_segments > 0) fmt::print("  junctions: shells cross along {} segments\n", r.junction_segments);
+  } else if (!run.input.analytic)
     fmt::print("  input: inside by {}; repair: {}\n",
                run.input.sign == SignRule::kWindingNumber ? "winding number" : "pseudonormal",
                run.input.repair ? describe(*run.input.repair) : "skipped (--no-repair)");
