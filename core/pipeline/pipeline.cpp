@@ -196,7 +196,7 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
   // (core/pipeline/regions.h JunctionLift) wherever the mesher reads it, by one cell of the grid
   // where the curve lies (an adaptive grid's leaf at each segment's midpoint, anew for each grid).
   std::optional<JunctionLift> lift;
-  const bool lifts = regions && o.method == "mchex" && !regions->junctions().empty();
+  const bool lifts = regions && o.method == "mchex" && o.junction_lift > 0 && !regions->junctions().empty();
   const auto field = [&](std::span<const Vec3> p, std::span<double> v) {
     const bool unchanged = backend_sdf(backend, solid, p, v);
     return (!lift || lift->lift(p, v) == 0) && unchanged;
@@ -206,11 +206,11 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
     std::vector<double> values = run.clock.run("sdf", [&] { return grid_values(run, backend, solid, device_values); });
     if (lifts) {
       const std::vector<Segment>& curves = regions->junctions();
-      std::vector<double> radii(curves.size(), kJunctionLiftRadius * (run.uniform ? run.uniform->cell_size() : 0.0));
+      std::vector<double> radii(curves.size(), o.junction_lift * (run.uniform ? run.uniform->cell_size() : 0.0));
       if (tree)
         for (std::size_t s = 0; s < curves.size(); ++s) {
           const int level = leaf_level_at(*tree, 0.5 * (curves[s][0] + curves[s][1]));  // inside the cube
-          radii[s] = kJunctionLiftRadius * run.cube.size().x / std::pow(3.0, level < 0 ? tree->max_depth() : level);
+          radii[s] = o.junction_lift * run.cube.size().x / std::pow(3.0, level < 0 ? tree->max_depth() : level);
         }
       lift.emplace(curves, std::move(radii));
       // The adaptive grid's values came from its refinement, the uniform grid's from the backend:
@@ -309,23 +309,27 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
     run.repel = repelled->stats;
     repelled_points = std::move(repelled->points);
   };
-  mesh_grid();
   // The remedy for a cut cell that no certificate covers (docs/templates.md, "Certification"):
   // its leaf is refined and the grid meshed again. Leaves at max_depth are cubes, proven for every
-  // subcase, so the loop ends; max_depth rounds reach them from any level.
-  for (int round = 0; tree && !run.mchex.uncertified_cells.empty() && round < o.max_depth; ++round) {
-    const std::size_t refined = run.clock.run("remedy", [&] {
-      const std::size_t n = refine_leaves_of_cells(*tree, *run.adaptive, run.mchex.uncertified_cells);
-      run.adaptive = build_adaptive_complex(*tree);
-      return n;
-    });
-    run.remedy.rounds += 1;
-    run.remedy.cells += run.mchex.uncertified_cells.size();
-    run.remedy.refined_leaves += refined;
-    if (refined == 0) break;
-    check_memory_budget(run);
+  // subcase, so the loop ends; max_depth rounds reach them from any level. Every grid gets it,
+  // the fit rounds' too: a round's new leaves can hold such a cell as well.
+  const auto mesh_and_remedy = [&] {
     mesh_grid();
-  }
+    for (int round = 0; tree && !run.mchex.uncertified_cells.empty() && round < o.max_depth; ++round) {
+      const std::size_t refined = run.clock.run("remedy", [&] {
+        const std::size_t n = refine_leaves_of_cells(*tree, *run.adaptive, run.mchex.uncertified_cells);
+        run.adaptive = build_adaptive_complex(*tree);
+        return n;
+      });
+      run.remedy.rounds += 1;
+      run.remedy.cells += run.mchex.uncertified_cells.size();
+      run.remedy.refined_leaves += refined;
+      if (refined == 0) break;
+      check_memory_budget(run);
+      mesh_grid();
+    }
+  };
+  mesh_and_remedy();
   // The fitted grid's measured rounds (core/pipeline/fit.h): where the mesh lies farther from the
   // input than the target, in either direction, the leaves holding those samples are refined and
   // the grid meshed again, until the target holds, nothing below max_depth is left to refine, or
@@ -336,6 +340,17 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
   for (int round = 0; rounds; ++round) {
     run.fidelity =
         run.clock.run("fidelity", [&] { return solid.fidelity(run.meshes.inside, run.cube, o.lattice, far); });
+    if (lift) {
+      // Near a junction curve the mesh leaves the shells by design (the lift): refining there
+      // would only put transition cells, cut by the shells, beside the curve (docs/regions.md).
+      for (std::vector<Vec3>* points : {&run.fidelity->far_points, &run.fidelity->misclassified_points}) {
+        const std::vector<std::uint8_t> skip = lift->near(*points, kJunctionFitMargin);
+        std::size_t kept = 0;
+        for (std::size_t i = 0; i < points->size(); ++i)
+          if (!skip[i]) (*points)[kept++] = (*points)[i];
+        points->resize(kept);
+      }
+    }
     const Fidelity& fid = *run.fidelity;
     // A round that lowered neither the HR nor the IoU's shortfall would repeat itself.
     const bool stalled = !run.fit_rounds.empty() && !(fid.hausdorff_ratio < run.fit_rounds.back().hausdorff_ratio) &&
@@ -357,7 +372,7 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
     if (r.refined_leaves == 0) break;
     run.fidelity.reset();
     check_memory_budget(run);
-    mesh_grid();
+    mesh_and_remedy();
   }
   if (run.fidelity) run.fidelity->far_points = run.fidelity->misclassified_points = {};
   if (o.optimize) {

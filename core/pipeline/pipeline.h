@@ -60,6 +60,9 @@ struct MeshOptions {
   // > 0: grid points repelled from the isosurface before cutting (core/cutting/repel.h), every
   // crossing this fraction of its edge from both ends where the rules allow; 0: off.
   double repel = 0;
+  // Several regions, method mchex: the parity field's lift around the junction curves, in cells
+  // of the grid where each lies (core/pipeline/regions.h JunctionLift); 0: off.
+  double junction_lift = kJunctionLiftRadius;
   bool fidelity = false;
   std::size_t lattice = 128;  // fidelity: IoU samples per axis
   bool quiet = false;         // no progress lines, no warning about an open surface

@@ -503,6 +503,25 @@ JunctionLift::JunctionLift(std::span<const Segment> curves, std::vector<double> 
     for_cells(boxes[i], cell_, [&](std::uint64_t key) { cells_[key].push_back(std::uint32_t(i)); });
 }
 
+std::vector<std::uint8_t> JunctionLift::near(std::span<const Vec3> points, double factor) const {
+  std::vector<std::uint8_t> out(points.size(), 0);
+  if (cells_.empty()) return out;
+  const double reach_radius = factor * max_radius_;
+  parallel_for(points.size(), [&](std::size_t i) {
+    const Vec3 p = points[i], r{reach_radius, reach_radius, reach_radius};
+    Box reach;
+    reach.extend(p - r);
+    reach.extend(p + r);
+    for_cells(reach, cell_, [&](std::uint64_t key) {
+      const auto it = cells_.find(key);
+      if (it == cells_.end() || out[i]) return;
+      for (std::uint32_t s : it->second)
+        if (squared_distance_to_segment(p, curves_[s]) < factor * factor * radii_[s] * radii_[s]) out[i] = 1;
+    });
+  });
+  return out;
+}
+
 std::size_t JunctionLift::lift(std::span<const Vec3> points, std::span<double> values) const {
   if (cells_.empty()) return 0;
   std::vector<std::uint8_t> changed(points.size(), 0);

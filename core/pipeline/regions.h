@@ -107,6 +107,9 @@ std::vector<Segment> crossing_segments(const TriangleSurface& a, const TriangleS
 // The lift's radius in cells of the grid (an adaptive grid's cell where the curve lies): measured best
 // among 0.5-3 cells on two and three overlapping spheres at depths 2-4 (docs/regions.md).
 inline constexpr double kJunctionLiftRadius = 1.0;
+// The fitted grid's rounds leave alone the samples within this many lift radii of a junction
+// curve, where the lifted mesh lies off the shells by design.
+inline constexpr double kJunctionFitMargin = 1.5;
 
 class JunctionLift {
  public:
@@ -116,6 +119,9 @@ class JunctionLift {
   // than their radius; returns how many values changed. `values` must be the parity field at
   // `points` (its size bounds the search). Threaded, deterministic.
   std::size_t lift(std::span<const Vec3> points, std::span<double> values) const;
+  // Whether each point lies nearer than `factor` times a segment's radius to it: where the lifted
+  // field's zero set leaves the shells (at most a radius from the curve), with a margin.
+  std::vector<std::uint8_t> near(std::span<const Vec3> points, double factor) const;
   double min_radius() const { return min_radius_; }
   double max_radius() const { return max_radius_; }
 

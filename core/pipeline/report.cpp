@@ -188,7 +188,8 @@ json regions_json(const RegionStats& s) {
           {"priority", s.priority},
           {"shared_faces", s.shared_faces},
           {"junction_segments", s.junction_segments},
-          {"junction_lift_radius", {{"min", s.lift_min_radius}, {"max", s.lift_max_radius}}},
+          {"junction_lift_radius",
+           s.lift_max_radius > 0 ? json{{"min", s.lift_min_radius}, {"max", s.lift_max_radius}} : json(nullptr)},
           {"flipped_hexes", s.flipped}};
 }
 

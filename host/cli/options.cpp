@@ -55,6 +55,11 @@ MeshCli::MeshCli(CLI::App& app) {
                "one INPUT whose closed shells (connected through their edges) are the regions, in file order");
   app.add_flag("--region-files", command.region_files,
                "several regions: also write each region's own mesh beside the inside one, as STEM.regionI.EXT");
+  app.add_option("--junction-lift", command.options.junction_lift,
+                 "several regions: where two shells cross, lift the field within this many cells of the crossing "
+                 "curve so that Marching Cubes opens its saddle a cell wide (docs/regions.md); 0: off")
+      ->check(CLI::Range(0.0, 10.0))
+      ->capture_default_str();
   app.add_option("--shape", command.shape, "built-in analytic shape: sphere, torus, rounded-box, two-holed");
   app.add_option("-o,--output", command.inside, "inside mesh (.mesh, .meshb, .vtu, .msh, .exo or .inp)")
       ->capture_default_str();
