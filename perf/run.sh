@@ -21,4 +21,6 @@ for bench in "$build"/perf/bench_*; do
 done 2>&1
 echo "== bench_end_to_end.py"
 /usr/bin/python3 "$here/bench_end_to_end.py" --build "$build" 2>&1 | tee /dev/stderr | grep '^{' >>"$out"
+echo "== bench_regions.py"
+/usr/bin/python3 "$here/bench_regions.py" --build "$build" 2>&1 | tee /dev/stderr | grep '^{' >>"$out"
 echo "results: $out"
