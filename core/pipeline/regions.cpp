@@ -374,6 +374,10 @@ MeshPair label_regions(const MeshPair& parity, std::span<const Vec3> grid_points
     labels[h] = label_of(bits[h], regions.priority());
     if (labels[h] != 0) volumes[h] = hex_volume(corners(h));
   });
+  const std::size_t n_out = std::size_t(std::count(labels.begin(), labels.end(), 0));
+  in_hexes.reserve(n - n_out);
+  in_labels.reserve(n - n_out);
+  out_hexes.reserve(n_out);
   for (std::size_t h = 0; h < n; ++h) {
     Hex hex = h < n_odd ? odd.hexes[h] : even.hexes[h - n_odd];
     if (h >= n_odd)
@@ -390,7 +394,7 @@ MeshPair label_regions(const MeshPair& parity, std::span<const Vec3> grid_points
     ++r.hexes;
     r.volume += volumes[h];
   }
-  MeshPair out{compact_mesh(points, in_hexes, 0), compact_mesh(points, out_hexes, outside_label)};
+  MeshPair out{compact_mesh(points, std::move(in_hexes), 0), compact_mesh(points, std::move(out_hexes), outside_label)};
   out.inside.region = std::move(in_labels);
   for (int r : regions.priority()) s.priority.push_back(r + 1);
   s.shared_faces = regions.shared_faces();
