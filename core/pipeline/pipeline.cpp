@@ -214,9 +214,24 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
         }
       lift.emplace(curves, std::move(radii));
       // The adaptive grid's values came from its refinement, the uniform grid's from the backend:
-      // the lift applies to all of them here.
-      const std::vector<Vec3> uniform_points = run.uniform ? run.uniform->vertices() : std::vector<Vec3>{};
-      if (lift->lift(run.uniform ? uniform_points : run.adaptive->complex.points, values) > 0) device_values = false;
+      // the lift applies to all of them here, through the points nearer than a radius to a shell
+      // (no other can be lifted), whose positions alone are made.
+      std::vector<std::size_t> near;
+      for (std::size_t i = 0; i < values.size(); ++i)
+        if (std::abs(values[i]) < lift->max_radius()) near.push_back(i);
+      std::vector<Vec3> near_points(near.size());
+      std::vector<double> near_values(near.size());
+      const uint32_t m = run.uniform ? run.uniform->cells_per_axis() + 1 : 0;
+      for (std::size_t k = 0; k < near.size(); ++k) {
+        const std::size_t i = near[k];
+        near_points[k] = run.uniform ? run.uniform->vertex(uint32_t(i % m), uint32_t(i / m % m), uint32_t(i / m / m))
+                                     : run.adaptive->complex.points[i];
+        near_values[k] = values[i];
+      }
+      if (lift->lift(near_points, near_values) > 0) {
+        device_values = false;
+        for (std::size_t k = 0; k < near.size(); ++k) values[near[k]] = near_values[k];
+      }
     }
     std::optional<HexComplex> uniform_cx;
     const bool classify_on_device = o.method == "mchex" && run.device.backend != "cpu";
