@@ -72,6 +72,31 @@ class Optimize(ScratchTestCase):
         self.assertGreaterEqual(rep["fidelity"]["iou"], default["fidelity"]["iou"])
         self.assertLessEqual(rep["fidelity"]["hausdorff_ratio"], default["fidelity"]["hausdorff_ratio"])
 
+    def test_the_edge_ratio_cap_holds(self):
+        # No move takes a hex past the cap unless a hex of the moving vertex already was: the pair's
+        # largest edge ratio after is at most the cap or the largest before, measured here from the
+        # files (longest over shortest of each hex's 12 edges), and a lower cap gives a lower one.
+        def ratios(path):
+            m = meshio.read(path)
+            p, h = m.points, m.cells_dict["hexahedron"]
+            edges = [(0, 1), (1, 2), (2, 3), (3, 0), (4, 5), (5, 6), (6, 7), (7, 4), (0, 4), (1, 5), (2, 6), (3, 7)]
+            lengths = np.stack([np.linalg.norm(p[h[:, a]] - p[h[:, b]], axis=1) for a, b in edges], axis=1)
+            return lengths.max(axis=1) / lengths.min(axis=1)
+
+        # --repel: the plain mesh's largest ratio (11.7) lies between the caps.
+        plain = [ratios(f).max() for f in self.mesh("--repel", "--eps", 0.02, "--quiet", tag="plain")[:2]]
+        worst = {}
+        for cap in (3, 20):
+            inside, outside, rep, _ = self.mesh("--repel", "--optimize", "--optimize-max-edge-ratio", cap, "--quiet",
+                                                tag=f"c{cap}")
+            after = max(ratios(inside).max(), ratios(outside).max())
+            self.assertLessEqual(after, max(cap, max(plain)) * (1 + 1e-12), cap)
+            self.assertAlmostEqual(rep["optimize"]["max_edge_ratio"]["after"], after, places=9)
+            self.assertTrue(rep["check"]["ok"])
+            worst[cap] = after
+        self.assertLessEqual(worst[3], max(plain) * (1 + 1e-12))
+        self.assertGreater(worst[20], max(plain))
+
     def test_optimize_command_equals_mesh_optimize(self):
         plain_in, plain_out, _, _ = self.mesh("--quiet", "--eps", 0.02, tag="plain")
         opt_in, opt_out, _, _ = self.mesh("--quiet", "--optimize", tag="opt")

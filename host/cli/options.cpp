@@ -186,6 +186,11 @@ MeshCli::MeshCli(CLI::App& app) {
       ->check(CLI::Range(0, 10000))
       ->capture_default_str();
 
+  app.add_option("--optimize-max-edge-ratio", command.options.optimize_options.max_edge_ratio,
+                 "--optimize: no move takes a hex's edge ratio (longest edge over shortest) past this, or past "
+                 "the largest among the hexes of the vertex that moves where that is larger (docs/optimize.md)")
+      ->check(CLI::Range(1.0, 1e6))
+      ->capture_default_str();
   app.add_option("--optimize-tolerance", command.options.optimize_options.tolerance,
                  "--optimize: stop when a sweep raises the minimum scaled Jacobian by less than this and the mean "
                  "by less than 10 times it")
