@@ -94,6 +94,13 @@ class Optimize(ScratchTestCase):
             self.assertAlmostEqual(rep["optimize"]["max_edge_ratio"]["after"], after, places=9)
             self.assertTrue(rep["check"]["ok"])
             worst[cap] = after
+            # The optimize command with the same cap moves the same points.
+            mine = [os.path.join(self.dir, f"cmd{cap}.{n}.vtu") for n in ("in", "out")]
+            r = run("optimize", os.path.join(self.dir, "plain.in.vtu"), "--outside", os.path.join(self.dir, "plain.out.vtu"),
+                    "--shape", "sphere", "--max-edge-ratio", cap, "-o", mine[0], "--outside-output", mine[1], "--quiet")
+            self.assertEqual(r.returncode, 0, r.stderr)
+            for a, b in zip(mine, (inside, outside)):
+                self.assertTrue(np.array_equal(meshio.read(a).points, meshio.read(b).points), cap)
         self.assertLessEqual(worst[3], max(plain) * (1 + 1e-12))
         self.assertGreater(worst[20], max(plain))
 

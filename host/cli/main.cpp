@@ -59,6 +59,9 @@ int main(int argc, char** argv) {
   optimize_cmd->add_option("--sweeps", oo.options.max_sweeps, "at most this many sweeps")
       ->check(CLI::Range(0, 10000))
       ->capture_default_str();
+  optimize_cmd->add_option("--max-edge-ratio", oo.options.max_edge_ratio, "as mesh --optimize-max-edge-ratio")
+      ->check(CLI::Range(1.0, 1e6))
+      ->capture_default_str();
   optimize_cmd->add_option("--report", oo.report, "write the optimiser's figures as JSON to this file");
   optimize_cmd->add_option("--sign", oo.solid.sign, "--input: the sign rule the mesh was made with, as mesh --sign")
       ->transform(CLI::CheckedTransformer(sign_rules, CLI::ignore_case))
