@@ -87,8 +87,9 @@ class RegionSet {
   std::vector<Segment> junctions_;
 };
 
-// The segments where two triangle surfaces cross: every pair of triangles, one of each, that
-// crosses (not coplanar) gives the segment they share. Deterministic (a's triangle order, then b's).
+// The segments where two triangle surfaces cross: every pair of triangles, one of each, whose
+// corners lie strictly on both sides of the other's plane gives the segment they share (pairs that
+// only touch, or lie in one plane, give none). Deterministic (a's triangle order, then b's).
 std::vector<Segment> crossing_segments(const TriangleSurface& a, const TriangleSurface& b);
 
 // The lift around the junction curves that MCHex's junction cells need (docs/regions.md,
@@ -104,8 +105,8 @@ std::vector<Segment> crossing_segments(const TriangleSurface& a, const TriangleS
 // on the odd side, cuts the tips square and was measured worse (docs/regions.md). The labels give
 // the neck's hexes to the region of the nearer shell (label_regions' flip), so each region's
 // boundary moves by less than the radius, and only within it of the curve.
-// The lift's radius in cells of the grid (an adaptive grid's cell where the curve lies): measured best
-// among 0.5-3 cells on two and three overlapping spheres at depths 2-4 (docs/regions.md).
+// The lift's radius in cells of the grid (an adaptive grid's cell where the curve lies): measured
+// best among 0.5-3 cells on two overlapping spheres at depths 3 and 4 (docs/regions.md).
 inline constexpr double kJunctionLiftRadius = 1.0;
 // The fitted grid's rounds leave alone the samples within this many lift radii of a junction
 // curve, where the lifted mesh lies off the shells by design.
@@ -129,7 +130,7 @@ class JunctionLift {
   std::span<const Segment> curves_;
   std::vector<double> radii_;
   double min_radius_ = 0, max_radius_ = 0;
-  double cell_;                                                          // the grid's cell edge
+  double cell_ = 0;                                                      // the grid's cell edge
   std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> cells_;  // cell -> segments in it
 };
 
