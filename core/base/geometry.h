@@ -35,6 +35,13 @@ inline Vec3 normalized(Vec3 a) {
 // Signed volume of the parallelepiped spanned by a, b, c (the paper's omega, Theorem 5.2).
 constexpr double triple(Vec3 a, Vec3 b, Vec3 c) { return dot(a, cross(b, c)); }
 inline bool is_finite(Vec3 a) { return std::isfinite(a.x) && std::isfinite(a.y) && std::isfinite(a.z); }
+// The point of segment ab nearest to p (a when the segment has no length).
+constexpr Vec3 closest_on_segment(Vec3 p, Vec3 a, Vec3 b) {
+  const Vec3 d = b - a;
+  const double l2 = dot(d, d);
+  const double t = l2 > 0 ? std::clamp(dot(p - a, d) / l2, 0.0, 1.0) : 0.0;
+  return a + t * d;
+}
 
 // Two doubles in one SSE2 register (a GCC and Clang vector extension; elsewhere two scalars). Each
 // operation is the IEEE operation on each lane, so a lane holds what the scalar code computes: for

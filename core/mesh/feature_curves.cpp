@@ -18,13 +18,6 @@ double squared_distance_to_box(Vec3 p, const Box& b) {
   return d;
 }
 
-Vec3 closest_on_segment(Vec3 p, Vec3 a, Vec3 b) {
-  const Vec3 d = b - a;
-  const double l2 = dot(d, d);
-  const double t = l2 > 0 ? std::clamp(dot(p - a, d) / l2, 0.0, 1.0) : 0.0;
-  return a + t * d;
-}
-
 }  // namespace
 
 FeatureCurves::FeatureCurves(const TriangleSurface& surface, double angle_degrees) {

@@ -179,10 +179,7 @@ std::optional<Segment> triangles_cross(const std::array<Vec3, 3>& a, const std::
 }
 
 double squared_distance_to_segment(Vec3 p, const Segment& s) {
-  const Vec3 e = s[1] - s[0];
-  const double l = squared_norm(e);
-  const double t = l > 0 ? std::clamp(dot(p - s[0], e) / l, 0.0, 1.0) : 0.0;
-  return squared_norm(p - (s[0] + t * e));
+  return squared_norm(p - closest_on_segment(p, s[0], s[1]));
 }
 
 }  // namespace
@@ -527,20 +524,25 @@ JunctionLift::JunctionLift(std::span<const Segment> curves, std::vector<double> 
     for_cells(boxes[i], cell_, [&](std::uint64_t key) { cells_[key].push_back(std::uint32_t(i)); });
 }
 
+template <class F>
+void JunctionLift::for_segments_within(Vec3 p, double reach, F&& f) const {
+  const Vec3 r{reach, reach, reach};
+  Box box;
+  box.extend(p - r);
+  box.extend(p + r);
+  for_cells(box, cell_, [&](std::uint64_t key) {
+    const auto it = cells_.find(key);
+    if (it != cells_.end())
+      for (std::uint32_t s : it->second) f(s, squared_distance_to_segment(p, curves_[s]));
+  });
+}
+
 std::vector<std::uint8_t> JunctionLift::near(std::span<const Vec3> points, double factor) const {
   std::vector<std::uint8_t> out(points.size(), 0);
   if (cells_.empty()) return out;
-  const double reach_radius = factor * max_radius_;
   parallel_for(points.size(), [&](std::size_t i) {
-    const Vec3 p = points[i], r{reach_radius, reach_radius, reach_radius};
-    Box reach;
-    reach.extend(p - r);
-    reach.extend(p + r);
-    for_cells(reach, cell_, [&](std::uint64_t key) {
-      const auto it = cells_.find(key);
-      if (it == cells_.end() || out[i]) return;
-      for (std::uint32_t s : it->second)
-        if (squared_distance_to_segment(p, curves_[s]) < factor * factor * radii_[s] * radii_[s]) out[i] = 1;
+    for_segments_within(points[i], factor * max_radius_, [&](std::uint32_t s, double d2) {
+      if (d2 < factor * factor * radii_[s] * radii_[s]) out[i] = 1;
     });
   });
   return out;
@@ -553,19 +555,9 @@ std::size_t JunctionLift::lift(std::span<const Vec3> points, std::span<double> v
     // The field is the distance to the nearest shell, so only a point nearer than a radius to
     // a shell can be nearer than that to a curve on it.
     if (!(std::abs(values[i]) < max_radius_)) return;
-    const Vec3 p = points[i];
-    const Vec3 r{max_radius_, max_radius_, max_radius_};
-    Box reach;
-    reach.extend(p - r);
-    reach.extend(p + r);
     double lift = 0;
-    for_cells(reach, cell_, [&](std::uint64_t key) {
-      const auto it = cells_.find(key);
-      if (it == cells_.end()) return;
-      for (std::uint32_t s : it->second) {
-        const double d2 = squared_distance_to_segment(p, curves_[s]);
-        if (d2 < radii_[s] * radii_[s]) lift = std::max(lift, radii_[s] - std::sqrt(d2));
-      }
+    for_segments_within(points[i], max_radius_, [&](std::uint32_t s, double d2) {
+      if (d2 < radii_[s] * radii_[s]) lift = std::max(lift, radii_[s] - std::sqrt(d2));
     });
     if (lift > 0) values[i] += lift, changed[i] = 1;
   });

@@ -132,6 +132,10 @@ class JunctionLift {
   double min_radius_ = 0, max_radius_ = 0;
   double cell_ = 0;                                                      // the grid's cell edge
   std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> cells_;  // cell -> segments in it
+  // f(segment, squared distance to p) for every segment in the cells that the box of half-edge
+  // `reach` around p covers (those within `reach` among them; others may come too).
+  template <class F>
+  void for_segments_within(Vec3 p, double reach, F&& f) const;
 };
 
 // What labelling found, for the report (core/pipeline/report.h).
