@@ -98,7 +98,9 @@ def main():
             print(f"{name:12} {b['hexes']:8d} {a['min_sj']:8.2e}->{b['min_sj']:6.3f} {a['mean_sj']:.3f}->{b['mean_sj']:.3f} "
                   f"{a['max_edge_ratio']:6.3g}->{b['max_edge_ratio']:<5.3g} {100 * b['certified']:6.2f} "
                   f"{a['iou']:.4f}->{b['iou']:.4f} {100 * a['hr']:.3f}->{100 * b['hr']:.3f} {s['sweeps']:6d} "
-                  f"{s['hexes_per_second_per_sweep'] / 1e6:6.2f} {s['hexes_per_cpu_second_per_sweep'] / 1e6:6.2f}  {w['mesh']} {w['scaled_jacobian']:.3f} "
+                  f"{s['hexes_per_second_per_sweep'] / 1e6:6.2f} {s['hexes_per_cpu_second_per_sweep'] / 1e6:6.2f} "
+                  f"(plain {s['phases']['plain']['hexes_per_second_per_sweep'] / 1e6:.2f}, "
+                  f"search {s['phases']['search']['hexes_per_second_per_sweep'] / 1e6:.2f})  {w['mesh']} {w['scaled_jacobian']:.3f} "
                   f"{w['edge_ratio']:.3g} {w['fixed_corners']}/{w['surface_corners']}/{w['box_corners']} "
                   f"(below 0.3: {s['hexes_below_0_3']['before']}->{s['hexes_below_0_3']['after']}, "
                   f"{s['hexes_below_0_3_touching_fixed']} touch a fixed vertex)")

@@ -383,6 +383,68 @@ uint64_t fingerprint(const MeshPair& m) {
   return f;
 }
 
+// The second phase visits a vertex that shares no hex with a surface vertex only when one of its
+// hexes is below search_active_below: with that bound at 0, every such vertex keeps the position
+// the plain sweeps gave it, while the surface's vertices and their neighbours go on moving; and
+// the guarantees hold with any bound.
+TEST(Optimize, SecondPhaseVisitsInteriorVerticesOnlyBelowItsBound) {
+  const ShapeSdf sdf(ShapeKind::kSphere);
+  const MeshPair start = sphere_pair(3);
+  // Coordinates of the inside boundary's vertices (the interface, the same in both meshes).
+  std::map<std::tuple<double, double, double>, int> surface;
+  for (const auto& q : boundary_quads(start.inside))
+    for (uint32_t v : q) surface[{start.inside.points[v].x, start.inside.points[v].y, start.inside.points[v].z}] = 1;
+  auto beside = [&](const HexMesh& m) {
+    std::vector<uint8_t> b(m.points.size(), 0);
+    for (const Hex& h : m.hexes) {
+      bool touches = false;
+      for (uint32_t v : h) touches = touches || surface.count({m.points[v].x, m.points[v].y, m.points[v].z});
+      if (touches)
+        for (uint32_t v : h) b[v] = 1;
+    }
+    return b;
+  };
+  const std::vector<uint8_t> beside_in = beside(start.inside), beside_out = beside(start.outside);
+
+  OptimizeOptions plain;
+  plain.search = false;
+  MeshPair first = start;
+  const OptimizeStats p = optimize(first, &sdf, plain);
+  ASSERT_LT(p.sweeps, plain.max_sweeps);  // the plain sweeps stalled: the second phase follows them
+
+  OptimizeOptions none;
+  none.search_active_below = 0;
+  MeshPair both = start;
+  const OptimizeStats s = optimize(both, &sdf, none);
+  EXPECT_EQ(s.plain_sweeps, p.sweeps);
+  EXPECT_GT(s.sweeps, s.plain_sweeps);
+  std::size_t interior = 0, moved_beside = 0;
+  for (int mesh = 0; mesh < 2; ++mesh) {
+    const HexMesh &a = mesh ? first.outside : first.inside, &b = mesh ? both.outside : both.inside;
+    const std::vector<uint8_t>& near = mesh ? beside_out : beside_in;
+    for (std::size_t v = 0; v < a.points.size(); ++v) {
+      if (near[v]) {
+        moved_beside += !(a.points[v] == b.points[v]);
+        continue;
+      }
+      ++interior;
+      ASSERT_EQ(a.points[v], b.points[v]) << (mesh ? "outside " : "inside ") << v;
+    }
+  }
+  EXPECT_GT(interior, 0u);
+  EXPECT_GT(moved_beside, 0u);  // the second phase did move vertices at the surface
+  EXPECT_GE(s.min_sj_after, p.min_sj_after);
+  EXPECT_EQ(s.certified_after, s.hexes);
+
+  // The default bound: interior vertices below it move too, and the result is never below the
+  // plain sweeps' own.
+  MeshPair dflt = start;
+  const OptimizeStats d = optimize(dflt, &sdf, {});
+  EXPECT_EQ(d.plain_sweeps, p.sweeps);
+  EXPECT_GE(d.min_sj_after, p.min_sj_after);
+  EXPECT_EQ(d.certified_after, d.hexes);
+}
+
 // The sweeps measure candidates with MovingCorner (a hex's unchanged points kept per visit), stop
 // at the first hex below the floor, measure first the hex that refused the last candidate and take
 // the visit's current measures from the cached per-hex values. None of it may change a bit of the

@@ -49,6 +49,12 @@ class Optimize(ScratchTestCase):
         self.assertAlmostEqual(s["min_scaled_jacobian"]["after"], min(x["min_scaled_jacobian"] for x in q), places=12)
         self.assertGreater(s["min_scaled_jacobian"]["after"], s["min_scaled_jacobian"]["before"])
         self.assertGreater(s["mean_scaled_jacobian"]["after"], s["mean_scaled_jacobian"]["before"])
+        # The two phases split the sweeps and their time; the summary names both.
+        ph = s["phases"]
+        self.assertGreater(ph["plain"]["sweeps"], 0)
+        self.assertEqual(ph["plain"]["sweeps"] + ph["search"]["sweeps"], s["sweeps"])
+        self.assertAlmostEqual(ph["plain"]["seconds"] + ph["search"]["seconds"], s["sweep_seconds"], places=9)
+        self.assertRegex(r.stdout, r"\d+ sweeps, .* hexes/s per sweep \(\d+ plain at .*, \d+ search at .*\)")
         for x in q:
             self.assertEqual(x["certified"], x["count"])
         self.assertTrue(rep["check"]["ok"])

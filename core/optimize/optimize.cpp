@@ -56,7 +56,8 @@ constexpr CornerTable kCorners = make_corner_table();
 // kFeature: a surface vertex that represents a feature of the input, a curve or a corner (its
 // `target`): until it lies on it (kSnapped) it moves on the surface, never away from the target;
 // then along the curve (a corner's holds it).
-enum : uint8_t { kOnSurface = 1, kFixed = 2, kPlaced = 4, kFeature = 8, kSnapped = 16 };
+// kBesideSurface: a vertex sharing a hex with a surface vertex (kOnSurface included).
+enum : uint8_t { kOnSurface = 1, kFixed = 2, kPlaced = 4, kFeature = 8, kSnapped = 16, kBesideSurface = 32 };
 
 // Steps along the ideal-corner and neighbour-mean directions (full, half, quarter), and along the
 // gradient of the worst scaled Jacobian (in units of the vertex's mean edge length: the worst
@@ -302,6 +303,17 @@ struct Optimizer {
     });
     parallel_for(nv, [&](std::size_t v) {
       if (incident.start[v + 1] - incident.start[v] > kMaxValence) flags[v] |= kFixed;
+    });
+    // Vertices sharing a hex with a surface vertex (the second phase visits them as it visits the
+    // surface's own); each writes its own entry of `beside`, read from flags no one writes here.
+    std::vector<uint8_t> beside(nv, 0);
+    parallel_for(nv, [&](std::size_t v) {
+      for (uint32_t k = incident.start[v]; k < incident.start[v + 1] && !beside[v]; ++k)
+        for (uint32_t w : j.hexes[incident.items[k] / 8])
+          if (flags[w] & kOnSurface) beside[v] = 1;
+    });
+    parallel_for(nv, [&](std::size_t v) {
+      if (beside[v]) flags[v] |= kBesideSurface;
     });
     sj.resize(j.hexes.size());
     ratio.resize(j.hexes.size());
@@ -570,7 +582,11 @@ struct Optimizer {
             lo = std::min(lo, sj[incident.items[k] / 8]);
           // A surface vertex not yet on the surface, or a feature vertex not yet on its target, is
           // visited until a move puts it there.
-          wanted[i] = lo < o.active_below || unplaced(v) || snapping(v);
+          // In the second phase an interior vertex is visited only near the hexes the search
+          // aims at: the mean was the first phase's work, and visiting every vertex below
+          // active_below again took most of the second phase's time (docs/optimize.md).
+          const bool interior = searching && !(flags[v] & (kOnSurface | kBesideSurface));
+          wanted[i] = lo < (interior ? o.search_active_below : o.active_below) || unplaced(v) || snapping(v);
         }
       });
       active.clear();
@@ -842,6 +858,7 @@ OptimizeStats optimize(MeshPair& meshes, const SignedDistance* surface, const Op
   const auto classes = opt.colour();
   st.colours = int(classes.size());
   double last_min = before.min, last_mean = st.mean_sj_before;
+  std::size_t last_below = before.below;
   int stalls = 0;
   const double ts = now(), cs = cpu_seconds();
   for (int s = 0; s < options.max_sweeps; ++s) {
@@ -850,10 +867,15 @@ OptimizeStats optimize(MeshPair& meshes, const SignedDistance* surface, const Op
     ++st.sweeps;
     // The minimum from the cached per-hex values (exact: each is recomputed when a corner moves).
     double lo = kInf, sum = 0;
-    for (double v : opt.sj) lo = std::min(lo, v), sum += v;
+    std::size_t below = 0;
+    for (double v : opt.sj) lo = std::min(lo, v), sum += v, below += v < kSearchBelow;
     const double mean = sum / double(opt.sj.size());
     st.min_per_sweep.push_back(lo);
-    const bool stalled = moved == 0 || (lo - last_min < options.tolerance && mean - last_mean < 10 * options.tolerance);
+    // In the second phase fewer hexes below kSearchBelow is progress too: the search works on
+    // them one cluster at a time, and the minimum rises only once the last one at it has.
+    const bool stalled =
+        moved == 0 || (lo - last_min < options.tolerance && mean - last_mean < 10 * options.tolerance &&
+                       (!opt.searching || below >= last_below));
     stalls = stalled ? stalls + 1 : 0;
     if (stalled) {
       if (!options.search) break;
@@ -861,6 +883,8 @@ OptimizeStats optimize(MeshPair& meshes, const SignedDistance* surface, const Op
       if (opt.searching && (moved == 0 || stalls >= 3)) break;
       // The plain sweeps have stalled: on with the search, every vertex visited again.
       if (!opt.searching) {
+        st.plain_sweeps = st.sweeps;
+        st.plain_sweep_seconds = now() - ts;
         opt.searching = true;
         stalls = 0;
         std::fill(opt.dirty.begin(), opt.dirty.end(), uint8_t(1));
@@ -868,9 +892,11 @@ OptimizeStats optimize(MeshPair& meshes, const SignedDistance* surface, const Op
     }
     last_min = lo;
     last_mean = mean;
+    last_below = below;
   }
   st.sweep_seconds = now() - ts;
   st.sweep_cpu_seconds = cpu_seconds() - cs;
+  if (!opt.searching) st.plain_sweeps = st.sweeps, st.plain_sweep_seconds = st.sweep_seconds;
   const Optimizer::Summary after = opt.summarize();
   st.min_sj_after = after.min;
   st.mean_sj_after = after.sum / double(after.count);

@@ -18,8 +18,10 @@
 // ratio of each under OptimizeOptions::max_edge_ratio (or no worse than it was). Once these plain
 // sweeps stall, a second phase adds, where a vertex's hexes stay below 0.3, a compass search from
 // the chosen point (14 directions, halving steps; not for surface vertices on the surface) and 8
-// more tangent directions for a surface vertex on the surface, projected; it stops after three
-// stalled sweeps in a row. The result is never below the plain sweeps' own.
+// more tangent directions for a surface vertex on the surface, projected; it visits a vertex away
+// from the surface only when one of its hexes is below OptimizeOptions::search_active_below, and
+// stops after three stalled sweeps in a row (fewer hexes below 0.3 is progress there). The result
+// is never below the plain sweeps' own.
 //
 // Constraints. Vertices on the inside mesh's boundary (the interface) stay on the input surface:
 // each candidate is moved in the tangent plane and projected onto the surface (the exact closest
@@ -70,6 +72,9 @@ struct OptimizeOptions {
   // A vertex is moved in a sweep when one of its hexes has a scaled Jacobian below this (hexes
   // above it are left as they are: most of a grid's hexes are cubes).
   double active_below = 0.8;
+  // In the second phase, a vertex that shares no hex with a surface vertex is visited only when
+  // one of its hexes is below this (the others still below active_below: the fidelity is theirs).
+  double search_active_below = 0.5;
   // Degrees between the normals of two input triangles that make their edge sharp, and between
   // two boundary quads that make their vertex a fold.
   double feature_angle = 40;
@@ -113,10 +118,22 @@ struct OptimizeStats {
   double sweep_seconds = 0;                               // the sweeps alone, wall
   double sweep_cpu_seconds = 0;                           // the same in CPU seconds of all threads (a loaded machine
                                                           // distorts this far less than the wall time)
+  // The first phase (the plain sweeps) alone: its sweeps and their wall seconds; the rest of
+  // `sweeps` and `sweep_seconds` is the second phase's.
+  int plain_sweeps = 0;
+  double plain_sweep_seconds = 0;
   WorstHex worst;
   // Hexes of the pair processed per second per sweep.
   double hexes_per_second() const { return sweep_seconds > 0 ? double(hexes) * sweeps / sweep_seconds : 0; }
   double hexes_per_cpu_second() const { return sweep_cpu_seconds > 0 ? double(hexes) * sweeps / sweep_cpu_seconds : 0; }
+  // The same per phase (wall).
+  double plain_hexes_per_second() const {
+    return plain_sweep_seconds > 0 ? double(hexes) * plain_sweeps / plain_sweep_seconds : 0;
+  }
+  double search_hexes_per_second() const {
+    const double t = sweep_seconds - plain_sweep_seconds;
+    return sweeps > plain_sweeps && t > 0 ? double(hexes) * (sweeps - plain_sweeps) / t : 0;
+  }
 };
 
 // Optimises the pair in place. `surface` is the solid's field (its zero set is the input

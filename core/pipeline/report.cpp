@@ -167,7 +167,16 @@ json optimize_json(const OptimizeStats& s) {
           {"sweep_seconds", s.sweep_seconds},
           {"sweep_cpu_seconds", s.sweep_cpu_seconds},
           {"hexes_per_second_per_sweep", s.hexes_per_second()},
-          {"hexes_per_cpu_second_per_sweep", s.hexes_per_cpu_second()}};
+          {"hexes_per_cpu_second_per_sweep", s.hexes_per_cpu_second()},
+          {"phases",
+           {{"plain",
+             {{"sweeps", s.plain_sweeps},
+              {"seconds", s.plain_sweep_seconds},
+              {"hexes_per_second_per_sweep", s.plain_hexes_per_second()}}},
+            {"search",
+             {{"sweeps", s.sweeps - s.plain_sweeps},
+              {"seconds", s.sweep_seconds - s.plain_sweep_seconds},
+              {"hexes_per_second_per_sweep", s.search_hexes_per_second()}}}}}};
 }
 
 // Several regions (core/pipeline/regions.h): per region its hexes and volume against the volume
