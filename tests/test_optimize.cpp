@@ -342,6 +342,7 @@ TEST(Optimize, VerticesAlreadyOnTheirFeatureAreSnappedFromTheStart) {
   ASSERT_GT(first.snapped_vertices, 0u);
   OptimizeOptions none;
   none.max_sweeps = 0;
+  none.ratio_sweeps = 0;
   const MeshPair optimized = pair;
   const OptimizeStats again = optimize(pair, &sdf, none, &prism);
   EXPECT_GE(again.snapped_vertices, first.snapped_vertices);
@@ -414,6 +415,7 @@ TEST(Optimize, SecondPhaseVisitsInteriorVerticesOnlyBelowItsBound) {
 
   OptimizeOptions none;
   none.search_active_below = 0;
+  none.ratio_sweeps = 0;  // the third phase moves interior vertices above the edge-ratio cap
   MeshPair both = start;
   const OptimizeStats s = optimize(both, &sdf, none);
   EXPECT_EQ(s.plain_sweeps, p.sweeps);
@@ -443,6 +445,44 @@ TEST(Optimize, SecondPhaseVisitsInteriorVerticesOnlyBelowItsBound) {
   EXPECT_EQ(d.plain_sweeps, p.sweeps);
   EXPECT_GE(d.min_sj_after, p.min_sj_after);
   EXPECT_EQ(d.certified_after, d.hexes);
+}
+
+// The third phase lowers the edge ratios above the cap: against the same run without it (the first
+// two phases are the same), every hex's ratio is at most max(cap, what it was), fewer hexes are
+// above the cap, no hex falls below the pair's minimum it started from, and every hex keeps its
+// certificate. Uniform depth-3 sphere, cap 8.3 (Awad et al.'s shortest-over-longest 0.12).
+TEST(Optimize, EdgeRatioPhaseLowersTheRatiosAboveTheCap) {
+  const ShapeSdf sdf(ShapeKind::kSphere);
+  const MeshPair start = sphere_pair(3);
+  OptimizeOptions without;
+  without.max_edge_ratio = 8.3;
+  without.ratio_sweeps = 0;
+  OptimizeOptions with = without;
+  with.ratio_sweeps = 20;
+  MeshPair a = start, b = start;
+  const OptimizeStats sa = optimize(a, &sdf, without);
+  const OptimizeStats sb = optimize(b, &sdf, with);
+  EXPECT_EQ(sa.ratio_sweeps, 0);
+  EXPECT_GT(sb.ratio_sweeps, 0);
+  EXPECT_EQ(sb.sweeps - sb.ratio_sweeps, sa.sweeps);
+  ASSERT_GT(sa.above_edge_ratio_cap_after, 0u);
+  EXPECT_LT(sb.above_edge_ratio_cap_after, sa.above_edge_ratio_cap_after);
+  EXPECT_LE(sb.max_edge_ratio_after, sa.max_edge_ratio_after);
+  EXPECT_GE(sb.min_sj_after, sa.min_sj_after);
+  EXPECT_EQ(sb.certified_after, sb.hexes);
+  std::size_t above_a = 0, above_b = 0;
+  for (int mesh = 0; mesh < 2; ++mesh) {
+    const HexMesh &ma = mesh ? a.outside : a.inside, &mb = mesh ? b.outside : b.inside;
+    for (std::size_t h = 0; h < ma.hexes.size(); ++h) {
+      const double ra = edge_ratio(ma.corners(h)), rb = edge_ratio(mb.corners(h));
+      EXPECT_LE(rb, std::max(8.3, ra)) << (mesh ? "outside " : "inside ") << h;
+      EXPECT_GE(scaled_jacobian(mb.corners(h)), sa.min_sj_after);
+      above_a += ra > 8.3 * (1 + 1e-9);
+      above_b += rb > 8.3 * (1 + 1e-9);
+    }
+  }
+  EXPECT_EQ(above_a, sa.above_edge_ratio_cap_after);
+  EXPECT_EQ(above_b, sb.above_edge_ratio_cap_after);
 }
 
 // The sweeps measure candidates with MovingCorner (a hex's unchanged points kept per visit), stop

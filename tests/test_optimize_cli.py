@@ -49,12 +49,16 @@ class Optimize(ScratchTestCase):
         self.assertAlmostEqual(s["min_scaled_jacobian"]["after"], min(x["min_scaled_jacobian"] for x in q), places=12)
         self.assertGreater(s["min_scaled_jacobian"]["after"], s["min_scaled_jacobian"]["before"])
         self.assertGreater(s["mean_scaled_jacobian"]["after"], s["mean_scaled_jacobian"]["before"])
-        # The two phases split the sweeps and their time; the summary names both.
+        # The three phases split the sweeps and their time; the summary names each.
         ph = s["phases"]
         self.assertGreater(ph["plain"]["sweeps"], 0)
-        self.assertEqual(ph["plain"]["sweeps"] + ph["search"]["sweeps"], s["sweeps"])
-        self.assertAlmostEqual(ph["plain"]["seconds"] + ph["search"]["seconds"], s["sweep_seconds"], places=9)
-        self.assertRegex(r.stdout, r"\d+ sweeps, .* hexes/s per sweep \(\d+ plain at .*, \d+ search at .*\)")
+        self.assertEqual(sum(ph[p]["sweeps"] for p in ("plain", "search", "edge_ratio")), s["sweeps"])
+        self.assertAlmostEqual(sum(ph[p]["seconds"] for p in ("plain", "search", "edge_ratio")), s["sweep_seconds"],
+                               places=9)
+        self.assertRegex(r.stdout, r"\d+ sweeps, .* hexes/s per sweep \(\d+ plain at .*, \d+ search at .*, "
+                         r"\d+ edge-ratio at .*\)")
+        # The third phase leaves no more hexes above the cap (20) than there were.
+        self.assertLessEqual(s["hexes_above_edge_ratio_cap"]["after"], s["hexes_above_edge_ratio_cap"]["before"])
         for x in q:
             self.assertEqual(x["certified"], x["count"])
         self.assertTrue(rep["check"]["ok"])

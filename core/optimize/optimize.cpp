@@ -50,6 +50,17 @@ constexpr CornerTable make_corner_table() {
 }
 constexpr CornerTable kCorners = make_corner_table();
 
+// The 12 edges of a hex as corner pairs (each corner with its edge neighbours of higher index).
+constexpr std::array<std::array<int, 2>, 12> make_hex_edges() {
+  std::array<std::array<int, 2>, 12> edges{};
+  int n = 0;
+  for (int i = 0; i < 8; ++i)
+    for (int e : kCorners.edge[i])
+      if (e > i) edges[n++] = {i, e};
+  return edges;
+}
+constexpr std::array<std::array<int, 2>, 12> kHexEdges = make_hex_edges();
+
 // Vertex constraints.
 // kPlaced: a surface vertex that a move has put onto the input surface (the mesher's interface
 // points are only near it: edge crossings of the interpolated field, face and cell centres).
@@ -82,6 +93,22 @@ constexpr std::size_t kMaxValence = 48;  // vertices in more hexes are left fixe
 // (one point's gradient, two means); where two hexes tie at the minimum, every one of them
 // lowers one of the two, and a search over directions finds the ones that raise both.
 constexpr double kSearchBelow = 0.3, kSearchStart = 0.25;
+// The compass: the 3 axes and the 4 cube diagonals, both ways.
+constexpr double kDiagonal = 0.57735026918962573;  // 1 / sqrt(3)
+constexpr Vec3 kCompass[14] = {{1, 0, 0},
+                               {-1, 0, 0},
+                               {0, 1, 0},
+                               {0, -1, 0},
+                               {0, 0, 1},
+                               {0, 0, -1},
+                               {kDiagonal, kDiagonal, kDiagonal},
+                               {-kDiagonal, -kDiagonal, -kDiagonal},
+                               {kDiagonal, kDiagonal, -kDiagonal},
+                               {-kDiagonal, -kDiagonal, kDiagonal},
+                               {kDiagonal, -kDiagonal, kDiagonal},
+                               {-kDiagonal, kDiagonal, -kDiagonal},
+                               {-kDiagonal, kDiagonal, kDiagonal},
+                               {kDiagonal, -kDiagonal, -kDiagonal}};
 constexpr int kSearchRounds = 16, kSearchHalvings = 4;
 
 // The pair as one mesh: inside points first, then the outside points that are not on the
@@ -221,6 +248,11 @@ struct Optimizer {
   // The second phase (optimize): once the plain sweeps stall, the search and the tangent
   // candidates join in, so the result is never below the plain sweeps' own.
   bool searching = false;
+  // The third phase (optimize): once the search stops, moves that lower the edge ratios above
+  // OptimizeOptions::max_edge_ratio, each keeping the minimum scaled Jacobian of the vertex's
+  // hexes at least min(where it is, ratio_floor).
+  bool ratios = false;
+  double ratio_floor = 0;
 
   Optimizer(Joined& joined, const SignedDistance* s, const TriangleSurface* triangles, const OptimizeOptions& opt,
             const HexMesh& inside, bool pair)
@@ -550,13 +582,183 @@ struct Optimizer {
         for (int s = 0; s < kTangentSteps; ++s, step *= 0.25) out[kTangent + a * kTangentSteps + s] = x + step * d;
       }
     }
+    if (ratios) ratio_candidates(v, out + kTangent, length);
     if (snapped(v))
-      for (int k = 0; k < kTangent; ++k) out[k] = features.nearest(out[k], target[v]).point;
+      for (int k = 0; k < (ratios ? kQualityCandidates : kTangent); ++k)
+        if (is_finite(out[k])) out[k] = features.nearest(out[k], target[v]).point;
     if (snapping(v)) {
       out[kApproach] = x + 0.5 * (on.point - x);
       out[kApproach + 1] = x + 0.25 * (on.point - x);
       out[kTarget] = on.point;
     }
+  }
+
+  // The edge-ratio phase's own candidates (kQualityCandidates - kTangent slots): in each of v's two
+  // hexes of largest edge ratio above the cap, where v ends that hex's shortest edge, steps away
+  // from its other end that would lengthen it to longest / cap (full, half, quarter, eighth);
+  // where v ends the longest edge, steps towards its other end that would shorten it to cap x
+  // shortest (at most half of it). Unused slots are NaN.
+  void ratio_candidates(uint32_t v, Vec3* out, double length) const {
+    constexpr int kSlots = kQualityCandidates - kTangent, kRatioSteps = 4;
+    // The full step aims a little below the cap: aimed at it, rounding left hexes at 8.3001.
+    constexpr double kRatioAim = 0.97;
+    static_assert(kSlots >= 4 * kRatioSteps);
+    constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+    std::fill(out, out + kSlots, Vec3{nan, nan, nan});
+    const uint32_t b = incident.start[v], e = incident.start[v + 1];
+    // The two largest ratios above the cap (by offset; ties: the lower offset).
+    uint32_t pick[2] = {e, e};
+    for (uint32_t k = b; k < e; ++k) {
+      const double r = ratio[incident.items[k] / 8];
+      if (!(r > o.max_edge_ratio)) continue;
+      if (pick[0] == e || r > ratio[incident.items[pick[0]] / 8]) {
+        pick[1] = pick[0];
+        pick[0] = k;
+      } else if (pick[1] == e || r > ratio[incident.items[pick[1]] / 8]) {
+        pick[1] = k;
+      }
+    }
+    const Vec3 x = j.x[v];
+    int slot = 0;
+    for (uint32_t k : pick) {
+      if (k == e) continue;
+      const Hex& h = j.hexes[incident.items[k] / 8];
+      const int i = int(incident.items[k] % 8);
+      // The hex's shortest and longest edges.
+      double lo = kInf, hi = 0;
+      int lo_edge = 0, hi_edge = 0;
+      for (int edge = 0; edge < 12; ++edge) {
+        const double l = norm(j.x[h[kHexEdges[edge][0]]] - j.x[h[kHexEdges[edge][1]]]);
+        if (l < lo) lo = l, lo_edge = edge;
+        if (l > hi) hi = l, hi_edge = edge;
+      }
+      auto other_end = [&](int edge) {
+        const auto& c = kHexEdges[edge];
+        return c[0] == i ? c[1] : c[1] == i ? c[0] : -1;
+      };
+      Vec3 dir{};
+      double step = 0;
+      if (const int w = other_end(lo_edge); w >= 0) {
+        dir = constrain(v, x - j.x[h[w]], Vec3{});
+        step = hi / (kRatioAim * o.max_edge_ratio) - lo;
+      } else if (const int u = other_end(hi_edge); u >= 0) {
+        dir = constrain(v, j.x[h[u]] - x, Vec3{});
+        step = std::min(hi - kRatioAim * o.max_edge_ratio * lo, 0.5 * hi);
+      }
+      const double d = norm(dir);
+      if (!(d > 1e-12 * length) || !(step > 0)) continue;
+      for (int s = 0; s < kRatioSteps; ++s, step *= 0.5) out[slot++] = x + (step / d) * dir;
+    }
+  }
+
+  // A move of the edge-ratio phase: among v's candidates, the one that lowers most the excess of
+  // its hexes' edge ratios over the cap (the sum of ratio - cap where positive), keeping every
+  // hex's ratio at most max(cap, its own), every certificate, and the minimum scaled Jacobian of
+  // v's hexes at least min(where it is, ratio_floor) (so the pair's minimum never falls).
+  bool ratio_move(uint32_t v, const Vec3* cand, const Visit& visit, Star& star) {
+    star.gather(j, incident, v);
+    const Vec3 x = j.x[v];
+    const uint32_t b = incident.start[v], n = incident.start[v + 1] - b;
+    const double cap = o.max_edge_ratio;
+    double own[kMaxValence], excess_now = 0;
+    for (uint32_t i = 0; i < n; ++i) {
+      own[i] = ratio[incident.items[b + i] / 8];
+      excess_now += std::max(0.0, own[i] - cap);
+    }
+    const double floor = std::min(visit.now.min, ratio_floor);
+    // Every candidate that lowers the excess (by more than rounding) and keeps the floor; of those,
+    // the ones that bring every ratio to the cap rank first, by the minimum scaled Jacobian of v's
+    // hexes (the mildest fix), the others by their excess.
+    struct Option {
+      int k;
+      double excess, min;
+    };
+    Option options[kQualityCandidates];
+    double mins[kQualityCandidates][kMaxValence], ratios_at[kQualityCandidates][kMaxValence];
+    int count = 0;
+    for (int k = 0; k < kQualityCandidates; ++k) {
+      const Vec3 y = cand[k];
+      if (!is_finite(y) || y == x) continue;
+      double excess = 0;
+      bool fits = true;
+      for (uint32_t i = 0; i < n && fits; ++i) {
+        const double r = star.at(i).edge_ratio(y);
+        fits = r <= std::max(cap, own[i]);
+        ratios_at[count][i] = r;
+        excess += std::max(0.0, r - cap);
+      }
+      if (!fits || !(excess < excess_now - 1e-9 * (excess_now + 1))) continue;
+      const Local l = evaluate(v, y, floor, kInf, visit.worst, star, mins[count]);
+      if (l.min == -kInf) continue;
+      options[count] = {k, excess, l.min};
+      ++count;
+    }
+    int order[kQualityCandidates];
+    std::iota(order, order + count, 0);
+    std::stable_sort(order, order + count, [&](int p, int q) {
+      const Option &a = options[p], &b = options[q];
+      if ((a.excess == 0) != (b.excess == 0)) return a.excess == 0;
+      return a.excess == 0 ? a.min > b.min : a.excess < b.excess;
+    });
+    int chosen = -1;
+    for (int i = 0; i < count && chosen < 0; ++i)
+      if (keeps_certificates(v, cand[options[order[i]].k])) chosen = order[i];
+    // Where no candidate brings every ratio to the cap, a free vertex or one on the box runs the
+    // compass search of the second phase from the chosen point on the same rules, lowering the
+    // excess (not a surface vertex, even off the surface: its moves here are projected ones).
+    if ((chosen < 0 || options[chosen].excess > 0) && searches(v) && !(flags[v] & kOnSurface)) {
+      Vec3 y = chosen >= 0 ? cand[options[chosen].k] : x;
+      double excess = chosen >= 0 ? options[chosen].excess : excess_now;
+      double found_mins[kMaxValence], found_ratios[kMaxValence], trial[kMaxValence], trial_ratios[kMaxValence];
+      if (ratio_search(v, visit, floor, own, y, excess, found_mins, found_ratios, star, trial, trial_ratios)) {
+        place(v, y, false, found_mins, found_ratios, false);
+        return true;
+      }
+    }
+    if (chosen < 0) return false;
+    place(v, cand[options[chosen].k], false, mins[chosen], ratios_at[chosen]);
+    return true;
+  }
+
+  // The compass search of ratio_move from `y` (excess `excess`): true when a step lowered the
+  // excess, then `y`, `excess`, `mins`, `ratios` are at the best point. The steps keep what
+  // ratio_move's candidates keep.
+  bool ratio_search(uint32_t v, const Visit& visit, double floor, const double* own, Vec3& y, double& excess,
+                    double* mins, double* ratios_out, Star& star, double* trial, double* trial_ratios) const {
+    const uint32_t n = incident.start[v + 1] - incident.start[v];
+    const double cap = o.max_edge_ratio;
+    double step = kSearchStart * visit.length;
+    bool found = false;
+    for (int round = 0, halvings = 0; round < kSearchRounds && halvings <= kSearchHalvings && excess > 0; ++round) {
+      bool gained = false;
+      for (const Vec3& dir : kCompass) {
+        Vec3 d = step * dir;
+        for (int a = 0; a < 3; ++a)
+          if (locked[v] >> a & 1) d[a] = 0;
+        if (d == Vec3{}) continue;
+        const Vec3 z = y + d;
+        double e = 0;
+        bool fits = true;
+        for (uint32_t i = 0; i < n && fits; ++i) {
+          trial_ratios[i] = star.at(i).edge_ratio(z);
+          fits = trial_ratios[i] <= std::max(cap, own[i]);
+          e += std::max(0.0, trial_ratios[i] - cap);
+        }
+        if (!fits || !(e < excess - 1e-9 * (excess + 1))) continue;
+        if (evaluate(v, z, floor, kInf, visit.worst, star, trial).min == -kInf || !keeps_certificates(v, z)) continue;
+        y = z;
+        excess = e;
+        std::copy_n(trial, n, mins);
+        std::copy_n(trial_ratios, n, ratios_out);
+        gained = found = true;
+        break;
+      }
+      if (!gained) {
+        step *= 0.5;
+        ++halvings;
+      }
+    }
+    return found;
   }
 
   // One sweep; returns the vertices moved.
@@ -585,6 +787,15 @@ struct Optimizer {
           // In the second phase an interior vertex is visited only near the hexes the search
           // aims at: the mean was the first phase's work, and visiting every vertex below
           // active_below again took most of the second phase's time (docs/optimize.md).
+          if (ratios) {
+            // The edge-ratio phase: vertices with a hex above the cap (not a feature vertex still
+            // on its way to its target; one on it slides along its curve).
+            bool above = false;
+            for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k)
+              above = above || ratio[incident.items[k] / 8] > o.max_edge_ratio;
+            wanted[i] = above && !snapping(v);
+            continue;
+          }
           const bool interior = searching && !(flags[v] & (kOnSurface | kBesideSurface));
           wanted[i] = lo < (interior ? o.search_active_below : o.active_below) || unplaced(v) || snapping(v);
         }
@@ -618,7 +829,8 @@ struct Optimizer {
       parallel_chunks(active.size(), 16, [&](std::size_t b, std::size_t e) {
         const auto star = std::make_unique<Star>();
         for (std::size_t a = b; a < e; ++a) {
-          accepted[a] = try_move(active[a], &cand[a * kCandidates], visits[a], *star);
+          accepted[a] = ratios ? ratio_move(active[a], &cand[a * kCandidates], visits[a], *star)
+                               : try_move(active[a], &cand[a * kCandidates], visits[a], *star);
         }
       });
       // A refused vertex waits until a neighbour moves; a move wakes every vertex of its hexes. In
@@ -725,10 +937,6 @@ struct Optimizer {
   // cap, and gains as a candidate must; a surface vertex not on the surface stays within the ball
   // around its closest point `foot` through where it is, so it gets no farther from the surface.
   bool search(uint32_t v, Vec3 foot, const Visit& visit, double cap, Star& star, Vec3& y, Local l, double* out) const {
-    static constexpr double r = 0.57735026918962573;  // 1 / sqrt(3)
-    static constexpr Vec3 kDirs[14] = {{1, 0, 0},  {-1, 0, 0},  {0, 1, 0},    {0, -1, 0}, {0, 0, 1},
-                                       {0, 0, -1}, {r, r, r},   {-r, -r, -r}, {r, r, -r}, {-r, -r, r},
-                                       {r, -r, r}, {-r, r, -r}, {-r, r, r},   {r, -r, -r}};
     const Vec3 x = j.x[v];
     const bool ball = unplaced(v);
     const double radius2 = squared_norm(x - foot);
@@ -739,7 +947,7 @@ struct Optimizer {
     bool found = false;
     for (int round = 0, halvings = 0; round < kSearchRounds && halvings <= kSearchHalvings; ++round) {
       bool gained = false;
-      for (const Vec3& dir : kDirs) {
+      for (const Vec3& dir : kCompass) {
         Vec3 d = step * dir;
         for (int a = 0; a < 3; ++a)
           if (locked[v] >> a & 1) d[a] = 0;
@@ -792,10 +1000,25 @@ struct Optimizer {
     }
   }
 
+  // Starts the edge-ratio phase; `pair_min` is the pair's minimum scaled Jacobian now.
+  void begin_ratios(double pair_min) {
+    ratios = true;
+    ratio_floor = std::max(pair_min, kSearchBelow);
+    std::fill(dirty.begin(), dirty.end(), uint8_t(1));
+  }
+
+  // The sum over the hexes of their edge ratio's excess over the cap (in hex order).
+  double ratio_excess() const {
+    double e = 0;
+    for (double r : ratio) e += std::max(0.0, r - o.max_edge_ratio);
+    return e;
+  }
+
   struct Summary {
     double min = kInf, sum = 0, max_ratio = 0;
-    std::size_t certified = 0, below = 0, count = 0, worst = 0;
+    std::size_t certified = 0, below = 0, count = 0, worst = 0, above = 0;
     void join(Summary&& r) {
+      above += r.above;
       if (r.min < min) min = r.min, worst = r.worst;
       sum += r.sum;
       max_ratio = std::max(max_ratio, r.max_ratio);
@@ -814,6 +1037,9 @@ struct Optimizer {
         s.max_ratio = std::max(s.max_ratio, q.edge_ratio);
         s.certified += q.certified();
         s.below += q.scaled_jacobian < 0.3;
+        // Above by more than rounding: a hex taken to the cap exactly may read a few ulps above
+        // it here (the fitted torus: 20.0000000000016).
+        s.above += q.edge_ratio > o.max_edge_ratio * (1 + 1e-9);
         ++s.count;
       }
     });
@@ -855,6 +1081,7 @@ OptimizeStats optimize(MeshPair& meshes, const SignedDistance* surface, const Op
   st.max_edge_ratio_before = before.max_ratio;
   st.certified_before = before.certified;
   st.below_0_3_before = before.below;
+  st.above_edge_ratio_cap_before = before.above;
   const auto classes = opt.colour();
   st.colours = int(classes.size());
   double last_min = before.min, last_mean = st.mean_sj_before;
@@ -894,15 +1121,34 @@ OptimizeStats optimize(MeshPair& meshes, const SignedDistance* surface, const Op
     last_mean = mean;
     last_below = below;
   }
+  if (!opt.searching) st.plain_sweeps = st.sweeps, st.plain_sweep_seconds = now() - ts;
+  // The third phase (after the search; not in the plain optimiser): the edge ratios above the
+  // cap, while the sum of their excess falls by more than a thousandth per sweep.
+  if (options.search && options.ratio_sweeps > 0) {
+    const double tr = now();
+    opt.begin_ratios(*std::min_element(opt.sj.begin(), opt.sj.end()));
+    double last_excess = opt.ratio_excess();
+    for (int s = 0; s < options.ratio_sweeps && last_excess > 0; ++s) {
+      const std::size_t moved = opt.sweep(classes, st.moves_rejected);
+      st.moves_accepted += moved;
+      ++st.sweeps;
+      ++st.ratio_sweeps;
+      st.min_per_sweep.push_back(*std::min_element(opt.sj.begin(), opt.sj.end()));
+      const double excess = opt.ratio_excess();
+      if (moved == 0 || !(excess < (1 - 1e-3) * last_excess)) break;
+      last_excess = excess;
+    }
+    st.ratio_sweep_seconds = now() - tr;
+  }
   st.sweep_seconds = now() - ts;
   st.sweep_cpu_seconds = cpu_seconds() - cs;
-  if (!opt.searching) st.plain_sweeps = st.sweeps, st.plain_sweep_seconds = st.sweep_seconds;
   const Optimizer::Summary after = opt.summarize();
   st.min_sj_after = after.min;
   st.mean_sj_after = after.sum / double(after.count);
   st.max_edge_ratio_after = after.max_ratio;
   st.certified_after = after.certified;
   st.below_0_3_after = after.below;
+  st.above_edge_ratio_cap_after = after.above;
   for (std::size_t v = 0; v < j.x.size(); ++v) st.snapped_vertices += opt.snapped(uint32_t(v));
   for (std::size_t h = 0; h < j.hexes.size(); ++h) {
     if (opt.sj[h] >= 0.3) continue;

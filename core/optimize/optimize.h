@@ -21,7 +21,11 @@
 // more tangent directions for a surface vertex on the surface, projected; it visits a vertex away
 // from the surface only when one of its hexes is below OptimizeOptions::search_active_below, and
 // stops after three stalled sweeps in a row (fewer hexes below 0.3 is progress there). The result
-// is never below the plain sweeps' own.
+// is never below the plain sweeps' own. A third phase then lowers the edge ratios above
+// OptimizeOptions::max_edge_ratio: vertices of such hexes move to lower the hexes' summed excess
+// over it (steps that lengthen a shortest or shorten a longest edge, the candidates above, and
+// for free vertices the compass search), no hex's ratio rising past max(cap, its own), the
+// vertex's hexes kept at least at min(their minimum, max(the pair's minimum, 0.3)).
 //
 // Constraints. Vertices on the inside mesh's boundary (the interface) stay on the input surface:
 // each candidate is moved in the tangent plane and projected onto the surface (the exact closest
@@ -41,7 +45,8 @@
 // box along it; box corners are fixed.
 //
 // Guarantees. No hex that was certified loses its certificate; the minimum scaled Jacobian of the
-// pair never falls (each accepted move raises or keeps the minimum of the hexes it changes); the
+// pair never falls (each accepted move raises or keeps the minimum of the hexes it changes, or in
+// the third phase keeps them at least at the pair's minimum); the
 // result is the same on any number of threads; the interface stays shared (same coordinates in
 // both meshes); each sweep costs time linear in the hexes.
 #pragma once
@@ -79,6 +84,9 @@ struct OptimizeOptions {
   // two boundary quads that make their vertex a fold.
   double feature_angle = 40;
   double max_edge_ratio = 20;  // a move may not raise a hex's edge ratio past this (or past its own)
+  // After the search, at most this many sweeps that lower the edge ratios above max_edge_ratio
+  // (the third phase; not run without `search`).
+  int ratio_sweeps = 20;
   // Stop when a sweep raises the minimum scaled Jacobian by less than this and the mean by less
   // than ten times it.
   double tolerance = 1e-4;
@@ -112,16 +120,18 @@ struct OptimizeStats {
   std::size_t certified_before = 0, certified_after = 0;
   std::size_t below_0_3_before = 0, below_0_3_after = 0;  // hexes with scaled Jacobian < 0.3
   std::size_t below_0_3_touching_fixed = 0;               // of those after: with a fixed corner
-  std::size_t moves_accepted = 0, moves_rejected = 0;     // vertex visits with / without a move
-  std::vector<double> min_per_sweep;                      // min scaled Jacobian after each sweep
-  double seconds = 0;                                     // everything: setup, sweeps, statistics
-  double sweep_seconds = 0;                               // the sweeps alone, wall
-  double sweep_cpu_seconds = 0;                           // the same in CPU seconds of all threads (a loaded machine
-                                                          // distorts this far less than the wall time)
-  // The first phase (the plain sweeps) alone: its sweeps and their wall seconds; the rest of
-  // `sweeps` and `sweep_seconds` is the second phase's.
-  int plain_sweeps = 0;
-  double plain_sweep_seconds = 0;
+  // Hexes whose edge ratio is above max_edge_ratio by more than rounding (1e-9 relative).
+  std::size_t above_edge_ratio_cap_before = 0, above_edge_ratio_cap_after = 0;
+  std::size_t moves_accepted = 0, moves_rejected = 0;  // vertex visits with / without a move
+  std::vector<double> min_per_sweep;                   // min scaled Jacobian after each sweep
+  double seconds = 0;                                  // everything: setup, sweeps, statistics
+  double sweep_seconds = 0;                            // the sweeps alone, wall
+  double sweep_cpu_seconds = 0;                        // the same in CPU seconds of all threads (a loaded machine
+                                                       // distorts this far less than the wall time)
+  // The first phase (the plain sweeps) and the third (edge ratios): their sweeps and wall
+  // seconds; the rest of `sweeps` and `sweep_seconds` is the second phase's.
+  int plain_sweeps = 0, ratio_sweeps = 0;
+  double plain_sweep_seconds = 0, ratio_sweep_seconds = 0;
   WorstHex worst;
   // Hexes of the pair processed per second per sweep.
   double hexes_per_second() const { return sweep_seconds > 0 ? double(hexes) * sweeps / sweep_seconds : 0; }
@@ -130,9 +140,14 @@ struct OptimizeStats {
   double plain_hexes_per_second() const {
     return plain_sweep_seconds > 0 ? double(hexes) * plain_sweeps / plain_sweep_seconds : 0;
   }
+  int search_sweeps() const { return sweeps - plain_sweeps - ratio_sweeps; }
+  double search_sweep_seconds() const { return sweep_seconds - plain_sweep_seconds - ratio_sweep_seconds; }
   double search_hexes_per_second() const {
-    const double t = sweep_seconds - plain_sweep_seconds;
-    return sweeps > plain_sweeps && t > 0 ? double(hexes) * (sweeps - plain_sweeps) / t : 0;
+    const double t = search_sweep_seconds();
+    return search_sweeps() > 0 && t > 0 ? double(hexes) * search_sweeps() / t : 0;
+  }
+  double ratio_hexes_per_second() const {
+    return ratio_sweeps > 0 && ratio_sweep_seconds > 0 ? double(hexes) * ratio_sweeps / ratio_sweep_seconds : 0;
   }
 };
 

@@ -152,6 +152,8 @@ json optimize_json(const OptimizeStats& s) {
           {"certified", {{"before", s.certified_before}, {"after", s.certified_after}}},
           {"hexes_below_0_3", {{"before", s.below_0_3_before}, {"after", s.below_0_3_after}}},
           {"hexes_below_0_3_touching_fixed", s.below_0_3_touching_fixed},
+          {"hexes_above_edge_ratio_cap",
+           {{"before", s.above_edge_ratio_cap_before}, {"after", s.above_edge_ratio_cap_after}}},
           {"moves", {{"accepted", s.moves_accepted}, {"rejected", s.moves_rejected}}},
           {"min_per_sweep", s.min_per_sweep},
           {"worst",
@@ -174,9 +176,13 @@ json optimize_json(const OptimizeStats& s) {
               {"seconds", s.plain_sweep_seconds},
               {"hexes_per_second_per_sweep", s.plain_hexes_per_second()}}},
             {"search",
-             {{"sweeps", s.sweeps - s.plain_sweeps},
-              {"seconds", s.sweep_seconds - s.plain_sweep_seconds},
-              {"hexes_per_second_per_sweep", s.search_hexes_per_second()}}}}}};
+             {{"sweeps", s.search_sweeps()},
+              {"seconds", s.search_sweep_seconds()},
+              {"hexes_per_second_per_sweep", s.search_hexes_per_second()}}},
+            {"edge_ratio",
+             {{"sweeps", s.ratio_sweeps},
+              {"seconds", s.ratio_sweep_seconds},
+              {"hexes_per_second_per_sweep", s.ratio_hexes_per_second()}}}}}};
 }
 
 // Several regions (core/pipeline/regions.h): per region its hexes and volume against the volume

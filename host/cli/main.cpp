@@ -56,7 +56,10 @@ int main(int argc, char** argv) {
   optimize_cmd->add_option("-o,--output", oo.output, "optimised inside mesh")->required();
   optimize_cmd->add_option("--outside-output", oo.outside_output,
                            "optimised outside mesh (default: outside.EXT beside the output)");
-  optimize_cmd->add_option("--sweeps", oo.options.max_sweeps, "at most this many sweeps")
+  optimize_cmd->add_option("--sweeps", oo.options.max_sweeps, "as mesh --optimize-sweeps")
+      ->check(CLI::Range(0, 10000))
+      ->capture_default_str();
+  optimize_cmd->add_option("--ratio-sweeps", oo.options.ratio_sweeps, "as mesh --optimize-ratio-sweeps")
       ->check(CLI::Range(0, 10000))
       ->capture_default_str();
   optimize_cmd->add_option("--max-edge-ratio", oo.options.max_edge_ratio, "as mesh --optimize-max-edge-ratio")

@@ -182,7 +182,12 @@ MeshCli::MeshCli(CLI::App& app) {
                "move vertices after meshing to raise the minimum and mean scaled Jacobian: boundary vertices stay "
                "on the input surface, every hex stays Bernstein-certified (docs/optimize.md)");
   app.add_option("--optimize-sweeps", command.options.optimize_options.max_sweeps,
-                 "--optimize: at most this many sweeps")
+                 "--optimize: at most this many sweeps raising the scaled Jacobian (the plain sweeps and the search)")
+      ->check(CLI::Range(0, 10000))
+      ->capture_default_str();
+  app.add_option("--optimize-ratio-sweeps", command.options.optimize_options.ratio_sweeps,
+                 "--optimize: then at most this many sweeps lowering the edge ratios above "
+                 "--optimize-max-edge-ratio (docs/optimize.md)")
       ->check(CLI::Range(0, 10000))
       ->capture_default_str();
 

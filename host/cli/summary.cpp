@@ -76,10 +76,11 @@ std::string fidelity_line(const Fidelity& f) {
 std::string optimize_line(const OptimizeStats& s) {
   return fmt::format(
       "  optimize: min scaled Jacobian {:.4f} -> {:.4f} (mean {:.4f} -> {:.4f}), max edge ratio {:.3g} -> {:.3g}, "
-      "certified {} -> {} of {}, {} sweeps, {:.3g} hexes/s per sweep ({} plain at {:.3g}, {} search at {:.3g})\n",
+      "certified {} -> {} of {}, {} sweeps, {:.3g} hexes/s per sweep ({} plain at {:.3g}, {} search at {:.3g}, {} edge-ratio at {:.3g})\n",
       s.min_sj_before, s.min_sj_after, s.mean_sj_before, s.mean_sj_after, s.max_edge_ratio_before,
       s.max_edge_ratio_after, s.certified_before, s.certified_after, s.hexes, s.sweeps, s.hexes_per_second(),
-      s.plain_sweeps, s.plain_hexes_per_second(), s.sweeps - s.plain_sweeps, s.search_hexes_per_second());
+      s.plain_sweeps, s.plain_hexes_per_second(), s.search_sweeps(), s.search_hexes_per_second(), s.ratio_sweeps,
+      s.ratio_hexes_per_second());
 }
 
 }  // namespace mchex::cli
