@@ -709,8 +709,8 @@ struct Optimizer {
     if ((chosen < 0 || options[chosen].excess > 0) && searches(v) && !(flags[v] & kOnSurface)) {
       Vec3 y = chosen >= 0 ? cand[options[chosen].k] : x;
       double excess = chosen >= 0 ? options[chosen].excess : excess_now;
-      double found_mins[kMaxValence], found_ratios[kMaxValence], trial[kMaxValence], trial_ratios[kMaxValence];
-      if (ratio_search(v, visit, floor, own, y, excess, found_mins, found_ratios, star, trial, trial_ratios)) {
+      double found_mins[kMaxValence], found_ratios[kMaxValence];
+      if (ratio_search(v, visit, floor, own, y, excess, found_mins, found_ratios, star)) {
         place(v, y, false, found_mins, found_ratios, false);
         return true;
       }
@@ -724,41 +724,26 @@ struct Optimizer {
   // excess, then `y`, `excess`, `mins`, `ratios` are at the best point. The steps keep what
   // ratio_move's candidates keep.
   bool ratio_search(uint32_t v, const Visit& visit, double floor, const double* own, Vec3& y, double& excess,
-                    double* mins, double* ratios_out, Star& star, double* trial, double* trial_ratios) const {
+                    double* mins, double* ratios_out, Star& star) const {
     const uint32_t n = incident.start[v + 1] - incident.start[v];
     const double cap = o.max_edge_ratio;
-    double step = kSearchStart * visit.length;
-    bool found = false;
-    for (int round = 0, halvings = 0; round < kSearchRounds && halvings <= kSearchHalvings && excess > 0; ++round) {
-      bool gained = false;
-      for (const Vec3& dir : kCompass) {
-        Vec3 d = step * dir;
-        for (int a = 0; a < 3; ++a)
-          if (locked[v] >> a & 1) d[a] = 0;
-        if (d == Vec3{}) continue;
-        const Vec3 z = y + d;
-        double e = 0;
-        bool fits = true;
-        for (uint32_t i = 0; i < n && fits; ++i) {
-          trial_ratios[i] = star.at(i).edge_ratio(z);
-          fits = trial_ratios[i] <= std::max(cap, own[i]);
-          e += std::max(0.0, trial_ratios[i] - cap);
-        }
-        if (!fits || !(e < excess - 1e-9 * (excess + 1))) continue;
-        if (evaluate(v, z, floor, kInf, visit.worst, star, trial).min == -kInf || !keeps_certificates(v, z)) continue;
-        y = z;
-        excess = e;
-        std::copy_n(trial, n, mins);
-        std::copy_n(trial_ratios, n, ratios_out);
-        gained = found = true;
-        break;
+    double trial[kMaxValence], trial_ratios[kMaxValence];
+    const auto take = [&](Vec3 z) {
+      double e = 0;
+      bool fits = true;
+      for (uint32_t i = 0; i < n && fits; ++i) {
+        trial_ratios[i] = star.at(i).edge_ratio(z);
+        fits = trial_ratios[i] <= std::max(cap, own[i]);
+        e += std::max(0.0, trial_ratios[i] - cap);
       }
-      if (!gained) {
-        step *= 0.5;
-        ++halvings;
-      }
-    }
-    return found;
+      if (!fits || !(e < excess - 1e-9 * (excess + 1))) return false;
+      if (evaluate(v, z, floor, kInf, visit.worst, star, trial).min == -kInf || !keeps_certificates(v, z)) return false;
+      excess = e;
+      std::copy_n(trial, n, mins);
+      std::copy_n(trial_ratios, n, ratios_out);
+      return true;
+    };
+    return compass(v, y, kSearchStart * visit.length, take, [&] { return !(excess > 0); });
   }
 
   // One sweep; returns the vertices moved.
@@ -782,11 +767,6 @@ struct Optimizer {
           double lo = kInf;
           for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k)
             lo = std::min(lo, sj[incident.items[k] / 8]);
-          // A surface vertex not yet on the surface, or a feature vertex not yet on its target, is
-          // visited until a move puts it there.
-          // In the second phase an interior vertex is visited only near the hexes the search
-          // aims at: the mean was the first phase's work, and visiting every vertex below
-          // active_below again took most of the second phase's time (docs/optimize.md).
           if (ratios) {
             // The edge-ratio phase: vertices with a hex above the cap (not a feature vertex still
             // on its way to its target; one on it slides along its curve).
@@ -796,6 +776,11 @@ struct Optimizer {
             wanted[i] = above && !snapping(v);
             continue;
           }
+          // In the second phase an interior vertex is visited only near the hexes the search
+          // aims at: the mean was the first phase's work, and visiting every vertex below
+          // active_below again took most of the second phase's time (docs/optimize.md). A
+          // surface vertex not yet on the surface, or a feature vertex not yet on its target, is
+          // visited until a move puts it there.
           const bool interior = searching && !(flags[v] & (kOnSurface | kBesideSurface));
           wanted[i] = lo < (interior ? o.search_active_below : o.active_below) || unplaced(v) || snapping(v);
         }
@@ -943,9 +928,27 @@ struct Optimizer {
     if (ball && !is_finite(foot)) return false;
     const uint32_t n = incident.start[v + 1] - incident.start[v];
     double mins[kMaxValence], ratios[kMaxValence];
-    double step = kSearchStart * visit.length;
+    const auto take = [&](Vec3 z) {
+      if (ball && squared_norm(z - foot) > radius2) return false;
+      const Local m = evaluate(v, z, l.min, kInf, visit.worst, star, mins);
+      if (m.min == -kInf) return false;
+      if (!m.gains_over(l) || !keeps_certificates(v, z) || !within_ratio(v, z, cap, star, ratios)) return false;
+      l = m;
+      std::copy_n(mins, n, out);
+      std::copy_n(ratios, n, star.ratios.data());
+      return true;
+    };
+    return compass(v, y, kSearchStart * visit.length, take, [] { return false; });
+  }
+
+  // The compass walk of both searches: from `y`, the first of the 14 directions at `step` (a box
+  // vertex keeps its locked coordinates) whose point `take` accepts is where y goes; the step
+  // halves when none is; at most kSearchRounds rounds and kSearchHalvings halvings, or until
+  // `done`. True when y moved.
+  template <class Take, class Done>
+  bool compass(uint32_t v, Vec3& y, double step, Take&& take, Done&& done) const {
     bool found = false;
-    for (int round = 0, halvings = 0; round < kSearchRounds && halvings <= kSearchHalvings; ++round) {
+    for (int round = 0, halvings = 0; round < kSearchRounds && halvings <= kSearchHalvings && !done(); ++round) {
       bool gained = false;
       for (const Vec3& dir : kCompass) {
         Vec3 d = step * dir;
@@ -953,14 +956,8 @@ struct Optimizer {
           if (locked[v] >> a & 1) d[a] = 0;
         if (d == Vec3{}) continue;
         const Vec3 z = y + d;
-        if (ball && squared_norm(z - foot) > radius2) continue;
-        const Local m = evaluate(v, z, l.min, kInf, visit.worst, star, mins);
-        if (m.min == -kInf) continue;
-        if (!m.gains_over(l) || !keeps_certificates(v, z) || !within_ratio(v, z, cap, star, ratios)) continue;
+        if (!take(z)) continue;
         y = z;
-        l = m;
-        std::copy_n(mins, n, out);
-        std::copy_n(ratios, n, star.ratios.data());
         gained = found = true;
         break;
       }
