@@ -103,6 +103,8 @@ def main():
                   f"search {s['phases']['search']['hexes_per_second_per_sweep'] / 1e6:.2f})  {w['mesh']} {w['scaled_jacobian']:.3f} "
                   f"{w['edge_ratio']:.3g} {w['fixed_corners']}/{w['surface_corners']}/{w['box_corners']} "
                   f"(below 0.3: {s['hexes_below_0_3']['before']}->{s['hexes_below_0_3']['after']}, "
+                  f"above the edge-ratio cap: {s['hexes_above_edge_ratio_cap']['before']}->"
+                  f"{s['hexes_above_edge_ratio_cap']['after']}, "
                   f"{s['hexes_below_0_3_touching_fixed']} touch a fixed vertex)")
             print(json.dumps({"bench": "optimize", "input": name, "repel": o.repel, "threads": o.threads, "without": a, "with": b,
                               "optimize": s}), flush=True)

@@ -595,9 +595,9 @@ struct Optimizer {
 
   // The edge-ratio phase's own candidates (kQualityCandidates - kTangent slots): in each of v's two
   // hexes of largest edge ratio above the cap, where v ends that hex's shortest edge, steps away
-  // from its other end that would lengthen it to longest / cap (full, half, quarter, eighth);
-  // where v ends the longest edge, steps towards its other end that would shorten it to cap x
-  // shortest (at most half of it). Unused slots are NaN.
+  // from its other end that would lengthen it to longest / (kRatioAim cap) (full, half, quarter,
+  // eighth); else, where v ends the longest edge, steps towards its other end that would shorten
+  // it to kRatioAim cap x shortest (at most half of it). Unused slots are NaN.
   void ratio_candidates(uint32_t v, Vec3* out, double length) const {
     constexpr int kSlots = kQualityCandidates - kTangent, kRatioSteps = 4;
     // The full step aims a little below the cap: aimed at it, rounding left hexes at 8.3001.
