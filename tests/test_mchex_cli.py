@@ -60,7 +60,7 @@ class MchexMethod(ScratchTestCase):
             if tag == "repel":
                 self.assertGreater(rep["repel"]["moved"], 0)
                 self.assertEqual(rep["repel"]["delta"], 0.25)
-                for key in ("pinned", "relaxed", "restored", "rounds"):
+                for key in ("pinned", "relaxed", "restored", "rounds", "off_line", "off_line_rounds"):
                     self.assertIn(key, rep["repel"])
             else:
                 self.assertNotIn("repel", rep)

@@ -2,8 +2,9 @@
 // with analytic SDFs. Asserted against crossings recomputed here from the returned values: every
 // crossing ends at least delta from both of its edge's points, or the near point is reported
 // pinned; no point changes its sign; the returned values are the SDF at the returned points;
-// moves run along one grid line, within the cap, and points on the padded cube's faces stay on
-// them; a plane's one predicted move is exact; the result is the same on 1 thread and on many;
+// moves run along one grid line, within the cap (off-line moves: within their cap, |f| grown),
+// and points on the padded cube's faces stay on them; a plane's one predicted move is exact; the
+// off-line rounds leave fewer points pinned; the result is the same on 1 thread and on many;
 // relax_cells halves moves, then gives the grid back.
 #include <gtest/gtest.h>
 
@@ -54,7 +55,7 @@ Case plane_case(int depth, double x0) {
   return c;
 }
 
-bool inside(const HexComplex& cx, double v) { return v >= zero_tolerance_of(cx); }
+bool inside(double tiny, double v) { return v >= tiny; }
 
 void expect_rules_hold(const Case& c, const Repelled& r, double delta) {
   const double tiny = zero_tolerance_of(c.cx);
@@ -62,26 +63,32 @@ void expect_rules_hold(const Case& c, const Repelled& r, double delta) {
   // No sign changes, and the values are the SDF at the points.
   std::vector<double> fresh(r.points.size());
   c.sdf(r.points, fresh);
-  std::size_t moved = 0, pinned = 0;
+  std::size_t moved = 0, pinned = 0, off_line = 0;
   for (std::size_t p = 0; p < r.points.size(); ++p) {
-    ASSERT_EQ(inside(c.cx, r.values[p]), inside(c.cx, c.values[p])) << "point " << p << " changed sign";
+    ASSERT_EQ(inside(tiny, r.values[p]), inside(tiny, c.values[p])) << "point " << p << " changed sign";
     ASSERT_EQ(r.values[p], fresh[p]) << "point " << p;
     const Vec3 o = c.cx.points[p], d = r.points[p] - o;
     const int axes = (d.x != 0) + (d.y != 0) + (d.z != 0);
-    ASSERT_LE(axes, 1) << "point " << p << " left its grid lines";
-    ASSERT_LE(norm(d), 0.45 * h * (1 + 1e-12)) << "point " << p;
+    off_line += r.off_line[p];
+    if (r.off_line[p]) {
+      ASSERT_LE(norm(d), kOffLineCap * 0.45 * h * (1 + 1e-12)) << "point " << p;
+    } else {
+      ASSERT_LE(axes, 1) << "point " << p << " left its grid lines";
+      ASSERT_LE(norm(d), 0.45 * h * (1 + 1e-12)) << "point " << p;
+    }
     for (int i = 0; i < 3; ++i)
       if (o[i] == c.cube.lo[i] || o[i] == c.cube.hi[i]) {
         ASSERT_EQ(r.points[p][i], o[i]) << "point " << p << " left a face";
       }
-    moved += axes == 1;
+    moved += axes >= 1;
     pinned += r.state[p] == RepelState::kPinned;
-    if (axes == 1) {
+    if (axes >= 1) {
       ASSERT_NE(r.state[p], RepelState::kStill);
     }
   }
   EXPECT_EQ(r.stats.moved, moved);
   EXPECT_EQ(r.stats.pinned, pinned);
+  EXPECT_EQ(r.stats.off_line, off_line);
   // Every crossing delta from both ends, or the near end pinned.
   const ComplexTopology topo = build_topology(c.cx);
   std::size_t crossings = 0;
@@ -102,13 +109,45 @@ void expect_rules_hold(const Case& c, const Repelled& r, double delta) {
 }
 
 TEST(Repel, SphereCrossingsClearOrPinned) {
-  for (double delta : {0.1, 0.25, 0.45}) {
-    const Case c = sphere_case(3);
-    const Repelled r = repel(c.cx, c.cube, c.values, c.sdf, {delta});
-    EXPECT_GT(r.stats.moved, 0u) << delta;
-    EXPECT_GE(r.stats.rounds, 1);
-    EXPECT_LE(r.stats.rounds, 4);
-    expect_rules_hold(c, r, delta);
+  for (double delta : {0.1, 0.25, 0.45})
+    for (int off_line_rounds : {0, 4}) {
+      const Case c = sphere_case(3);
+      RepelOptions o;
+      o.delta = delta;
+      o.off_line_rounds = off_line_rounds;
+      const Repelled r = repel(c.cx, c.cube, c.values, c.sdf, o);
+      EXPECT_GT(r.stats.moved, 0u) << delta;
+      EXPECT_GE(r.stats.rounds, 1);
+      EXPECT_LE(r.stats.rounds, 4);
+      EXPECT_LE(r.stats.off_line_rounds, off_line_rounds);
+      expect_rules_hold(c, r, delta);
+    }
+}
+
+// The off-line rounds start where the grid-line rounds end (the run without them), and move
+// only points they left asking: each such point ends farther from the isosurface than it was
+// there (|f| grew), at the same sign; fewer points stay pinned.
+TEST(Repel, OffLineRoundsServeWhatTheGridLinesLeave) {
+  for (int depth : {3, 4}) {
+    const Case c = sphere_case(depth);
+    RepelOptions grid_only;
+    grid_only.off_line_rounds = 0;
+    const Repelled before = repel(c.cx, c.cube, c.values, c.sdf, grid_only);
+    const Repelled after = repel(c.cx, c.cube, c.values, c.sdf);
+    expect_rules_hold(c, after, 0.25);
+    EXPECT_EQ(before.stats.off_line, 0u);
+    EXPECT_GT(after.stats.off_line, 0u) << depth;
+    EXPECT_LT(after.stats.pinned, before.stats.pinned) << depth;
+    for (std::size_t p = 0; p < c.cx.points.size(); ++p) {
+      if (!after.off_line[p]) {
+        EXPECT_EQ(after.points[p].x, before.points[p].x) << p;
+        EXPECT_EQ(after.points[p].y, before.points[p].y) << p;
+        EXPECT_EQ(after.points[p].z, before.points[p].z) << p;
+        continue;
+      }
+      EXPECT_EQ(before.state[p], RepelState::kPinned) << p;
+      EXPECT_GT(std::abs(after.values[p]), std::abs(before.values[p])) << p;
+    }
   }
 }
 
@@ -209,7 +248,9 @@ TEST(Repel, SameOnOneThreadAndMany) {
     ASSERT_EQ(one.points[p].z, many.points[p].z);
     ASSERT_EQ(one.values[p], many.values[p]);
     ASSERT_EQ(one.state[p], many.state[p]);
+    ASSERT_EQ(one.off_line[p], many.off_line[p]);
   }
+  EXPECT_GT(one.stats.off_line, 0u);
   EXPECT_EQ(one.stats.moved, many.stats.moved);
   EXPECT_EQ(one.stats.rounds, many.stats.rounds);
 }

@@ -89,13 +89,29 @@ struct Repeller {
     return r;
   }
 
+  // The nearest crossing on p's edges, as a fraction of its edge from p, were p's value fp (the
+  // others' as they are): what an off-line move must raise, so that moving away from
+  // one crossing never brings another nearer (beside a crease of the field, the gradient of one
+  // side can point at the other).
+  double nearest_crossing(std::uint32_t p, double fp, std::span<const double> f) const {
+    double nearest = 1;
+    const double a = rule(fp);
+    for (std::uint32_t k = inc.begin[p]; k < inc.begin[p + 1]; ++k) {
+      const std::uint32_t q = inc.items[k][0];
+      const double b = rule(f[q]);
+      if ((a > 0) != (b > 0)) nearest = std::min(nearest, a / (a - b));
+    }
+    return nearest;
+  }
+  bool on_face(std::uint32_t p, int axis) const {
+    const double o = cx.points[p][axis];
+    return std::abs(o - cube.lo[axis]) <= face_tol || std::abs(o - cube.hi[axis]) <= face_tol;
+  }
+  bool on_cube_face(std::uint32_t p) const { return on_face(p, 0) || on_face(p, 1) || on_face(p, 2); }
   // Whether moving p along d would take it off a face of the padded cube it lies on.
   bool leaves_cube_face(std::uint32_t p, Vec3 d) const {
-    const Vec3 o = cx.points[p];
-    for (int i = 0; i < 3; ++i) {
-      const bool on_face = std::abs(o[i] - cube.lo[i]) <= face_tol || std::abs(o[i] - cube.hi[i]) <= face_tol;
-      if (on_face && std::abs(d[i]) > 1e-12) return true;
-    }
+    for (int i = 0; i < 3; ++i)
+      if (on_face(p, i) && std::abs(d[i]) > 1e-12) return true;
     return false;
   }
 };
@@ -130,6 +146,7 @@ Repelled repel(const HexComplex& cx, const Box& cube, std::span<const double> va
   Repelled out;
   out.points = cx.points;
   out.values.assign(values.begin(), values.end());
+  out.off_line.assign(n, 0);
   out.stats.delta = o.delta;
   const auto positive = [&](double v) { return inside_by_zero_rule(v, r.tiny); };
 
@@ -180,6 +197,86 @@ Repelled repel(const HexComplex& cx, const Box& cube, std::span<const double> va
     }
     if (!any) break;
     out.stats.rounds = round + 1;
+  }
+
+  // Off the grid lines, for the points still asking (repel.h). Jacobi as above: every point's
+  // gradient and target from the same positions and values.
+  for (int round = 0; round < o.off_line_rounds; ++round) {
+    std::vector<std::uint32_t> movers;
+    for (std::uint32_t p = 0; p < n; ++p)
+      if (r.cap[p] > 0 && !r.on_cube_face(p) && r.request(p, out.points, out.values).any) movers.push_back(p);
+    if (movers.empty()) break;
+    std::vector<Vec3> probes(6 * movers.size());
+    parallel_for(movers.size(), [&](std::size_t i) {
+      const std::uint32_t p = movers[i];
+      const double h = kGradientStep * r.cap[p];
+      for (int a = 0; a < 3; ++a) {
+        Vec3 step{};
+        step[a] = h;
+        probes[6 * i + 2 * a] = out.points[p] + step;
+        probes[6 * i + 2 * a + 1] = out.points[p] - step;
+      }
+    });
+    std::vector<double> probe_values(probes.size());
+    sdf(probes, probe_values);
+    std::vector<Vec3> at(movers.size());
+    std::vector<std::uint8_t> wants(movers.size(), 0);
+    parallel_for(movers.size(), [&](std::size_t i) {
+      const std::uint32_t p = movers[i];
+      const double fp = r.rule(out.values[p]);
+      const double h = kGradientStep * r.cap[p];
+      Vec3 g;
+      bool kink = false;
+      for (int a = 0; a < 3; ++a) {
+        const double ahead = probe_values[6 * i + 2 * a] - out.values[p];
+        const double behind = out.values[p] - probe_values[6 * i + 2 * a + 1];
+        g[a] = ahead + behind;
+        kink = kink || std::abs(ahead - behind) > kKinkSlope * h;
+      }
+      if (kink || !(norm(g) > 0)) return;  // a crease of the field, or no direction away
+      const Vec3 away = normalized(fp > 0 ? g : -1.0 * g);
+      double longest = 0;
+      for (std::uint32_t k = inc.begin[p]; k < inc.begin[p + 1]; ++k) {
+        const std::uint32_t q = inc.items[k][0];
+        if ((r.rule(out.values[q]) > 0) != (fp > 0)) longest = std::max(longest, norm(out.points[q] - out.points[p]));
+      }
+      const double amount = kOffLineMargin * o.delta * longest - std::abs(fp);
+      if (!(amount > 0)) return;
+      Vec3 y = out.points[p] + amount * away;
+      const Vec3 from_grid = y - cx.points[p];
+      const double len = norm(from_grid);
+      const double off_cap = kOffLineCap * r.cap[p];
+      if (len > off_cap) y = cx.points[p] + (off_cap / len) * from_grid;
+      at[i] = y;
+      wants[i] = 1;
+    });
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < movers.size(); ++i)
+      if (wants[i]) {
+        movers[kept] = movers[i];
+        at[kept++] = at[i];
+      }
+    movers.resize(kept);
+    at.resize(kept);
+    std::vector<double> v(at.size());
+    if (!at.empty()) sdf(at, v);
+    bool any = false;
+    for (std::size_t i = 0; i < movers.size(); ++i) {
+      const std::uint32_t p = movers[i];
+      if (!std::isfinite(v[i]) || positive(v[i]) != positive(values[p]) ||
+          !(r.nearest_crossing(p, v[i], out.values) > r.nearest_crossing(p, out.values[p], out.values)))
+        continue;
+      if (!out.off_line[p]) {
+        out.off_line[p] = 1;
+        out.stats.off_line += 1;
+      }
+      r.moved[p] = norm(at[i] - cx.points[p]);
+      out.points[p] = at[i];
+      out.values[p] = v[i];
+      any = true;
+    }
+    if (!any) break;
+    out.stats.off_line_rounds = round + 1;
   }
 
   out.halvings.assign(n, 0);

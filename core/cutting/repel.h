@@ -21,6 +21,17 @@
 //    or when the move would change its sign (the SDF is evaluated at the new position).
 //  - A point's displacement never exceeds max_move x its shortest incident edge (0.45: its
 //    cells stay close to the boxes they were and their edges never reverse).
+//  - Off-line rounds (our extension; Awad moves along grid lines only): a point whose request is
+//    still unmet after the grid-line rounds, and that lies on no face of the padded cube, moves
+//    along the SDF's gradient (central differences through the same batch), away from the
+//    isosurface, by what would make |f| at least kOffLineMargin x delta x its longest cut incident
+//    edge (then every crossing on its edges is at least delta from it, the SDF being 1-Lipschitz),
+//    within kOffLineCap of the cap from its grid position; taken only where the sign stays and
+//    the nearest crossing on its edges gets farther (no crossing is traded for another), and
+//    never at a crease of the field (kKinkSlope).
+//    Where the isosurface grazes a grid line, moving along the line barely moves the crossing,
+//    and a point a crossing asks to move along two lines may take only one: along the gradient
+//    both are served by the shortest move (docs/repel.md, "Off the grid lines").
 // Points are moved, values re-evaluated; the complex's topology is untouched, so the sign of
 // every point and therefore every edge's cut state stays the same. The moved cells are not boxes:
 // the mesher maps through each cell's actual corners and Bernstein-checks every hex; a moved cell
@@ -40,10 +51,25 @@
 namespace mchex {
 
 struct RepelOptions {
-  double delta = 0.25;     // wanted distance of a crossing from each end, a fraction of its edge
-  int max_rounds = 4;      // Jacobi rounds
-  double max_move = 0.45;  // displacement cap, a fraction of the point's shortest incident edge
+  double delta = 0.25;      // wanted distance of a crossing from each end, a fraction of its edge
+  int max_rounds = 4;       // Jacobi rounds along the grid lines
+  double max_move = 0.45;   // displacement cap, a fraction of the point's shortest incident edge
+  int off_line_rounds = 4;  // Jacobi rounds along the gradient for the points still pinned (0: Awad's rule alone)
 };
+
+// The off-line rounds aim |f| this much past delta x the longest cut edge: the field is not linear
+// along the edges, so a move to exactly that value leaves some crossings a little short.
+inline constexpr double kOffLineMargin = 1.05;
+// An off-line move's cap, a fraction of the grid-line cap (max_move x the shortest edge): a move
+// across the grid lines shears the point's cells, and at the full cap that made the worst hex of a
+// junction of three spheres 0.004 (docs/repel.md, "Off the grid lines").
+inline constexpr double kOffLineCap = 0.75;
+// The central differences' step, a fraction of the point's displacement cap.
+inline constexpr double kGradientStep = 1e-3;
+// A point where the one-sided differences along an axis differ by more than this slope lies on
+// a crease of the field (a junction of several shells, the medial sheet of a thin part): there
+// the gradient points nowhere useful, and the point stays.
+inline constexpr double kKinkSlope = 0.05;
 
 // The default delta (docs/repel.md measures the choice) and the accepted range (0, kMaxRepelDelta].
 inline constexpr double kDefaultRepelDelta = 0.25;
@@ -62,7 +88,9 @@ struct RepelStats {
   std::size_t pinned = 0;    // points with a request still unmet (RepelState::kPinned)
   std::size_t restored = 0;  // moved points given back their grid position (relax_cells)
   std::size_t relaxed = 0;   // moves halved by relax_cells (a point may count once per halving)
-  int rounds = 0;            // rounds that moved a point
+  std::size_t off_line = 0;  // points the off-line rounds moved (off their grid line)
+  int rounds = 0;            // grid-line rounds that moved a point
+  int off_line_rounds = 0;   // off-line rounds that moved a point
 };
 
 // The SDF at a batch of points (the run's backend: every backend gives the same values).
@@ -73,6 +101,7 @@ struct Repelled {
   std::vector<double> values;          // the SDF at them (re-evaluated where moved)
   std::vector<RepelState> state;       // per point
   std::vector<std::uint8_t> halvings;  // per point: how often relax_cells halved its move
+  std::vector<std::uint8_t> off_line;  // per point: 1 where an off-line round moved it
   RepelStats stats;
 };
 

@@ -246,6 +246,7 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
       run.clock.run("repel", [&] {
         RepelOptions ro;
         ro.delta = o.repel;
+        ro.off_line_rounds = o.repel_off_line_rounds;
         repelled = repel(*grid_cx, run.cube, values, field, ro);
         moved_cx.emplace(*grid_cx);
         moved_cx->points = repelled->points;

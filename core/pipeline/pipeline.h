@@ -60,6 +60,9 @@ struct MeshOptions {
   // > 0: grid points repelled from the isosurface before cutting (core/cutting/repel.h), every
   // crossing this fraction of its edge from both ends where the rules allow; 0: off.
   double repel = 0;
+  // With repel: rounds along the SDF's gradient for the points the grid-line rules leave unmet
+  // (core/cutting/repel.h RepelOptions::off_line_rounds); 0 keeps Awad's grid-aligned rule alone.
+  int repel_off_line_rounds = RepelOptions{}.off_line_rounds;
   // Several regions, method mchex: the parity field's lift around the junction curves, in cells
   // of the grid where each lies (core/pipeline/regions.h JunctionLift); 0: off.
   double junction_lift = kJunctionLiftRadius;

@@ -276,9 +276,10 @@ json report_json(const MeshRun& run, const MeshOutputs* outputs) {
   }
   // Grid-point repelling (core/cutting/repel.h), of the last meshing.
   if (run.repel)
-    report["repel"] = {{"delta", run.repel->delta},     {"moved", run.repel->moved},
-                       {"pinned", run.repel->pinned},   {"restored", run.repel->restored},
-                       {"relaxed", run.repel->relaxed}, {"rounds", run.repel->rounds}};
+    report["repel"] = {{"delta", run.repel->delta},       {"moved", run.repel->moved},
+                       {"pinned", run.repel->pinned},     {"restored", run.repel->restored},
+                       {"relaxed", run.repel->relaxed},   {"rounds", run.repel->rounds},
+                       {"off_line", run.repel->off_line}, {"off_line_rounds", run.repel->off_line_rounds}};
   if (run.optimize) report["optimize"] = optimize_json(*run.optimize);
   if (run.regions) report["regions"] = regions_json(*run.regions);
   if (run.fidelity) report["fidelity"] = fidelity_json(*run.fidelity);

@@ -103,9 +103,10 @@ void print_summary(const MeshRun& run, const MeshOutputs& outputs) {
                      q.quality.max_edge_ratio);
     }
   if (run.repel)
-    fmt::print("  repel: delta {}, {} points moved, {} pinned, {} moves halved, {} restored, {} rounds\n",
-               run.repel->delta, run.repel->moved, run.repel->pinned, run.repel->relaxed, run.repel->restored,
-               run.repel->rounds);
+    fmt::print("  repel: delta {}, {} points moved ({} off their grid line), {} pinned, {} moves halved, {} restored, "
+               "{} + {} rounds\n",
+               run.repel->delta, run.repel->moved, run.repel->off_line, run.repel->pinned, run.repel->relaxed,
+               run.repel->restored, run.repel->rounds, run.repel->off_line_rounds);
   if (run.optimize) fmt::print("{}", optimize_line(*run.optimize));
   fmt::print("{}", summary(run.check));
   if (run.fidelity) fmt::print("{}", fidelity_line(*run.fidelity));

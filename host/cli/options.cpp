@@ -178,6 +178,11 @@ MeshCli::MeshCli(CLI::App& app) {
                                       kMaxRepelDelta, kDefaultRepelDelta))
                ->expected(0, 1)
                ->type_name("[DELTA]");
+  app.add_option("--repel-off-line-rounds", command.options.repel_off_line_rounds,
+                 "--repel: then at most this many rounds moving the points the grid-line rules leave too near "
+                 "along the SDF's gradient instead (0: Awad's grid-aligned rule alone; docs/repel.md)")
+      ->check(CLI::Range(0, 100))
+      ->capture_default_str();
   app.add_flag("--optimize", command.options.optimize,
                "move vertices after meshing to raise the minimum and mean scaled Jacobian: boundary vertices stay "
                "on the input surface, every hex stays Bernstein-certified (docs/optimize.md)");
