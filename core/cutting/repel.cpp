@@ -199,12 +199,18 @@ Repelled repel(const HexComplex& cx, const Box& cube, std::span<const double> va
     out.stats.rounds = round + 1;
   }
 
-  // Off the grid lines, for the points still asking (repel.h). Jacobi as above: every point's
-  // gradient and target from the same positions and values.
+  // Off the grid lines, for the points still asking (repel.h). Every point's gradient and target
+  // come from the same positions and values; the moves are then kept in point order, each against
+  // its neighbours' values as they stand (one kept earlier in the round counts), so the result
+  // does not depend on the threads.
   for (int round = 0; round < o.off_line_rounds; ++round) {
+    parallel_for(n, [&](std::size_t i) {
+      const auto p = static_cast<std::uint32_t>(i);
+      wants[p] = r.cap[p] > 0 && !r.on_cube_face(p) && r.request(p, out.points, out.values).any;
+    });
     std::vector<std::uint32_t> movers;
     for (std::uint32_t p = 0; p < n; ++p)
-      if (r.cap[p] > 0 && !r.on_cube_face(p) && r.request(p, out.points, out.values).any) movers.push_back(p);
+      if (wants[p]) movers.push_back(p);
     if (movers.empty()) break;
     std::vector<Vec3> probes(6 * movers.size());
     parallel_for(movers.size(), [&](std::size_t i) {
@@ -220,7 +226,7 @@ Repelled repel(const HexComplex& cx, const Box& cube, std::span<const double> va
     std::vector<double> probe_values(probes.size());
     sdf(probes, probe_values);
     std::vector<Vec3> at(movers.size());
-    std::vector<std::uint8_t> wants(movers.size(), 0);
+    std::vector<std::uint8_t> aims(movers.size(), 0);
     parallel_for(movers.size(), [&](std::size_t i) {
       const std::uint32_t p = movers[i];
       const double fp = r.rule(out.values[p]);
@@ -248,11 +254,11 @@ Repelled repel(const HexComplex& cx, const Box& cube, std::span<const double> va
       const double off_cap = kOffLineCap * r.cap[p];
       if (len > off_cap) y = cx.points[p] + (off_cap / len) * from_grid;
       at[i] = y;
-      wants[i] = 1;
+      aims[i] = 1;
     });
     std::size_t kept = 0;
     for (std::size_t i = 0; i < movers.size(); ++i)
-      if (wants[i]) {
+      if (aims[i]) {
         movers[kept] = movers[i];
         at[kept++] = at[i];
       }
