@@ -103,6 +103,14 @@ def write_binary_stl(path, verts, tris):
         f.write(data.tobytes())
 
 
+def box_surface(lo, hi):
+    """An outward box, two triangles per face."""
+    v = np.array([[(lo, hi)[i & 1][0], (lo, hi)[(i >> 1) & 1][1], (lo, hi)[(i >> 2) & 1][2]] for i in range(8)], float)
+    quads = [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)]
+    tris = [t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))]
+    return v, np.array(tris)
+
+
 def uv_sphere(nu, nv, radius=1.0, centre=(0.0, 0.0, 0.0)):
     """A closed, outward sphere of nu longitudes and nv latitude bands (poles welded)."""
     verts = [[0.0, 0.0, -radius]]

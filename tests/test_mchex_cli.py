@@ -2,12 +2,15 @@
 `mchex-gpu check --json` and read back with meshio. Run by ctest with MCHEX_GPU pointing at the
 binary."""
 import json
+import math
 import os
 import unittest
 
 import meshio
+import numpy as np
 
 from harness import ScratchTestCase, run
+from models import box_surface, write_binary_stl
 
 
 
@@ -66,6 +69,53 @@ class MchexMethod(ScratchTestCase):
                 self.assertNotIn("repel", rep)
         self.assertLess(mins["plain"], 0.1)
         self.assertGreaterEqual(mins["repel"], 0.2)
+
+    def test_exact_crossings_fit_a_turned_box_closer(self):
+        # A cube of edge 1 turned so that its sharp edges run across the grid, meshed at depth 3
+        # with the two crossing rules: both meshes pass check, the report says what the search
+        # did, and the exact crossings (the grid edges' meetings with the facets) give the mesh a
+        # volume nearer the box's 1 and a higher IoU than the interpolated ones.
+        verts, tris = box_surface((-0.5, -0.5, -0.5), (0.5, 0.5, 0.5))
+        a, b = 0.5, 0.3
+        turned = []
+        for x, y, z in verts:
+            x, y = math.cos(a) * x - math.sin(a) * y, math.sin(a) * x + math.cos(a) * y
+            y, z = math.cos(b) * y - math.sin(b) * z, math.sin(b) * y + math.cos(b) * z
+            turned.append((x, y, z))
+        stl = os.path.join(self.dir, "box.stl")
+        write_binary_stl(stl, np.array(turned), tris)
+        got = {}
+        for rule in ("linear", "exact"):
+            inside, outside, report = (os.path.join(self.dir, f"{rule}.{n}") for n in ("in.vtu", "out.vtu", "r.json"))
+            r = run("mesh", stl, "--depth", 3, "--crossings", rule, "--fidelity", "-o", inside, "--outside", outside,
+                    "--report", report, "--quiet")
+            self.assertEqual(r.returncode, 0, r.stderr)
+            rep = json.load(open(report))
+            c = run("check", inside, "--outside", outside, "--json")
+            self.assertEqual(c.returncode, 0, c.stderr)
+            chk = json.loads(c.stdout)["check"]
+            self.assertTrue(chk["ok"])
+            self.assertEqual(chk["inside"]["boundary"]["euler_characteristic"], 2)
+            q = chk["inside"]["quality"]
+            self.assertEqual(q["certified"], q["count"])
+            x = rep["mchex"]["crossings"]
+            self.assertEqual(x["rule"], rule)
+            if rule == "exact":
+                self.assertGreater(x["searched_edges"], 0)
+                self.assertLessEqual(x["max_residual"], 1e-9)
+            else:
+                self.assertEqual(x["searched_edges"], 0)
+            got[rule] = (abs(q["volume"] - 1.0), rep["fidelity"]["iou"])
+        self.assertLess(got["exact"][0], got["linear"][0])
+        self.assertGreater(got["exact"][1], got["linear"][1])
+
+    def test_unknown_crossing_rule_is_a_usage_error(self):
+        out = os.path.join(self.dir, "in.vtu")
+        r = run("mesh", "--shape", "sphere", "--depth", 1, "--crossings", "nearest", "-o", out, "--quiet")
+        self.assertEqual(r.returncode, 1)
+        self.assertEqual(len(r.stderr.strip().splitlines()), 1, r.stderr)
+        self.assertIn("--crossings", r.stderr)
+        self.assertFalse(os.path.exists(out))
 
     def test_eps_out_of_range_is_a_usage_error(self):
         r = run("mesh", "--shape", "sphere", "--depth", 1, "--method", "mchex", "--eps", 0.7,

@@ -9,11 +9,15 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <functional>
 #include <numeric>
 #include <random>
+#include <span>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "core/base/parallel.h"
@@ -316,6 +320,124 @@ TEST(Mchex, FitsTheTorusBetterThanRemoveOutside) {
     // Samples whose hex the Newton inversion could not settle (thin hexes at crossings near
     // eps) are reported by measure_fidelity; they must be too few to move the IoU comparison.
     EXPECT_LT(double(a.unresolved), 1e-3 * 96 * 96 * 96) << "depth " << depth;
+  }
+}
+
+// Exact crossings (MchexCrossings): the field's own zero on every cut edge of the complex.
+
+// `f` meshed on the grid's complex: its values at the points and, with `exact`, f itself for the
+// crossings' search.
+struct FieldRun {
+  MeshPair mesh;
+  MchexStats stats;
+};
+FieldRun mesh_field(const UniformGrid& grid, const std::function<double(Vec3)>& f, bool exact) {
+  const HexComplex cx = uniform_complex(grid);
+  std::vector<double> values(cx.points.size());
+  for (std::size_t i = 0; i < values.size(); ++i) values[i] = f(cx.points[i]);
+  MchexCrossings crossings;
+  if (exact)
+    crossings.field = [&](std::span<const Vec3> p, std::span<double> v) {
+      for (std::size_t i = 0; i < p.size(); ++i) v[i] = f(p[i]);
+    };
+  FieldRun r;
+  r.mesh = mesh_mchex(cx, values, 1e-3, &r.stats, {}, crossings);
+  return r;
+}
+
+// The interface points (in both meshes) on a grid line of `grid`: the crossings.
+std::vector<Vec3> interface_points_on_grid_lines(const MeshPair& m, const UniformGrid& grid) {
+  std::vector<Vec3> outside = m.outside.points;
+  auto less = [](const Vec3& a, const Vec3& b) { return std::tie(a.x, a.y, a.z) < std::tie(b.x, b.y, b.z); };
+  std::sort(outside.begin(), outside.end(), less);
+  const double h = grid.cell_size();
+  auto on_plane = [&](double x, int axis) {
+    const double k = (x - grid.box().lo[axis]) / h;
+    return std::abs(k - std::round(k)) < 1e-9;
+  };
+  std::vector<Vec3> out;
+  for (const Vec3& p : m.inside.points) {
+    if (!std::binary_search(outside.begin(), outside.end(), p, less)) continue;
+    if (on_plane(p.x, 0) + on_plane(p.y, 1) + on_plane(p.z, 2) == 2) out.push_back(p);
+  }
+  return out;
+}
+
+TEST(Mchex, ExactCrossingsLieOnTheSurface) {
+  const ShapeSdf sphere(ShapeKind::kSphere);
+  const Box box = padded_cube(sphere.bounds(), 0.1);
+  auto f = [&](Vec3 p) {
+    double v;
+    sphere.evaluate(std::span<const Vec3>(&p, 1), std::span<double>(&v, 1));
+    return v;
+  };
+  for (int depth : {2, 3}) {
+    const UniformGrid grid(box, depth);
+    double worst[2] = {0, 0};
+    for (bool exact : {false, true}) {
+      const FieldRun r = mesh_field(grid, f, exact);
+      const MeshCheck check = check_mesh(r.mesh.inside, &r.mesh.outside, &box);
+      EXPECT_TRUE(check.ok) << (check.errors.empty() ? "" : check.errors.front());
+      EXPECT_EQ(check.inside.quality.certified, check.inside.quality.count);
+      EXPECT_EQ(check.outside->quality.certified, check.outside->quality.count);
+      const std::vector<Vec3> crossings = interface_points_on_grid_lines(r.mesh, grid);
+      ASSERT_GT(crossings.size(), 20u);
+      for (const Vec3& p : crossings) worst[exact] = std::max(worst[exact], std::abs(f(p)));
+      if (exact) {
+        EXPECT_GT(r.stats.exact_crossings, 0u);
+        EXPECT_LE(r.stats.crossing_residual, 1e-9);
+      }
+    }
+    std::printf("[mchex] sphere depth %d: largest |f| at a crossing: linear %.3g, exact %.3g (cell %.3g)\n", depth,
+                worst[0], worst[1], grid.cell_size());
+    // The linear crossings cut the chords of the sphere; the exact ones are on it (the eps clamp
+    // does not bind on this grid: no crossing lies within 1e-3 of a corner).
+    EXPECT_GT(worst[0], 1e-4 * grid.cell_size()) << "depth " << depth;
+    EXPECT_LE(worst[1], 1e-9 * grid.cell_size()) << "depth " << depth;
+  }
+}
+
+TEST(Mchex, ExactCrossingsOfALinearFieldAreTheLinearOnes) {
+  // Along every edge the field is linear, so the first point searched (the linear crossing) is
+  // its zero and the two rules give the same mesh, bit for bit.
+  const UniformGrid grid(Box{{-1, -1, -1}, {1, 1, 1}}, 3);
+  auto f = [](Vec3 p) { return 0.3 - 0.8 * p.x + 0.5 * p.y - 0.3 * p.z; };
+  const FieldRun a = mesh_field(grid, f, false), b = mesh_field(grid, f, true);
+  ASSERT_FALSE(a.mesh.inside.hexes.empty());
+  EXPECT_EQ(a.mesh.inside.hexes, b.mesh.inside.hexes);
+  EXPECT_EQ(a.mesh.outside.hexes, b.mesh.outside.hexes);
+  ASSERT_EQ(a.mesh.inside.points.size(), b.mesh.inside.points.size());
+  for (std::size_t i = 0; i < a.mesh.inside.points.size(); ++i)
+    ASSERT_EQ(std::memcmp(&a.mesh.inside.points[i], &b.mesh.inside.points[i], sizeof(Vec3)), 0) << "point " << i;
+  EXPECT_EQ(b.stats.crossing_batches, 1u);
+}
+
+TEST(Mchex, ExactCrossingsKeepASharpBoxSharper) {
+  // A cube of edge 1 turned about two axes, so that its sharp edges run across the grid: its
+  // signed distance (inside: to the nearest face; outside: to the box) is not linear along the
+  // grid edges near them, and the linear crossings round them off. Its volume is exactly 1.
+  const double c1 = std::cos(0.5), s1 = std::sin(0.5), c2 = std::cos(0.3), s2 = std::sin(0.3);
+  auto f = [&](Vec3 p) {
+    const Vec3 r{c1 * p.x - s1 * p.y, s1 * p.x + c1 * p.y, p.z};
+    const Vec3 q{std::abs(r.x) - 0.5, std::abs(c2 * r.y - s2 * r.z) - 0.5, std::abs(s2 * r.y + c2 * r.z) - 0.5};
+    const Vec3 out{std::max(q.x, 0.0), std::max(q.y, 0.0), std::max(q.z, 0.0)};
+    return -(norm(out) + std::min(std::max({q.x, q.y, q.z}), 0.0));
+  };
+  const Box box{{-1, -1, -1}, {1, 1, 1}};
+  for (int depth : {2, 3}) {
+    const UniformGrid grid(box, depth);
+    double error[2];
+    for (bool exact : {false, true}) {
+      const FieldRun r = mesh_field(grid, f, exact);
+      const MeshCheck check = check_mesh(r.mesh.inside, &r.mesh.outside, &box);
+      EXPECT_TRUE(check.ok) << (check.errors.empty() ? "" : check.errors.front());
+      EXPECT_EQ(check.inside.quality.certified, check.inside.quality.count);
+      EXPECT_EQ(check.outside->quality.certified, check.outside->quality.count);
+      EXPECT_TRUE(check.inside.boundary.closed_manifold());
+      error[exact] = std::abs(check.inside.quality.volume - 1.0);
+    }
+    std::printf("[mchex] turned cube depth %d: volume error linear %.4f, exact %.4f\n", depth, error[0], error[1]);
+    EXPECT_LT(error[1], 0.75 * error[0]) << "depth " << depth;
   }
 }
 

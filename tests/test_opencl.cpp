@@ -300,6 +300,14 @@ TEST(OpenclCli, ModelMeshIsByteIdenticalToCpu) {
   expect_same_mesh_files(gear.string() + " --depth 3 --method mchex", "gearwheel");
 }
 
+// Exact crossings search the field's zero on every cut edge through the run's SDF batch (on the
+// device here): the same points, so the same meshes.
+TEST(OpenclCli, ExactCrossingsMeshIsByteIdenticalToCpu) {
+  const fs::path gear = fs::path(MCHEX_TEST_DATA) / "npm/node_modules/stl-models/objects/gearwheel.bin.stl";
+  expect_same_mesh_files(gear.string() + " --depth 3 --crossings exact", "gearwheel-exact");
+  expect_same_mesh_files("--shape torus --depth 3 --crossings exact --repel", "torus-exact");
+}
+
 // The fp32 path end to end: the surface SDF from float candidates and host doubles, the shape's
 // values on the host; the meshes are the cpu reference's byte for byte.
 TEST(OpenclCli, Fp32PathMeshIsByteIdenticalToCpu) {

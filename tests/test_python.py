@@ -212,7 +212,7 @@ def test_bad_arrays_and_options_raise_input_error():
         with pytest.raises(mchex.InputError) as e:
             mchex.mesh(source, depth=1)
         assert str(e.value) == message
-    with pytest.raises(mchex.InputError, match=r"^mesh: unknown option dpeth \(the options: region_order, shells_as_regions, junction_lift, method, eps, depth,"):
+    with pytest.raises(mchex.InputError, match=r"^mesh: unknown option dpeth \(the options: region_order, shells_as_regions, junction_lift, method, crossings, eps, depth,"):
         mchex.mesh(shape="sphere", dpeth=3)
     with pytest.raises(mchex.InputError, match=r"^--depth: expected a value, got True$"):
         mchex.mesh(shape="sphere", depth=True)

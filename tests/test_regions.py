@@ -16,18 +16,11 @@ import meshio  # Debian's python3-meshio; tests/CMakeLists.txt runs /usr/bin/pyt
 import numpy as np
 
 import models
+from models import box_surface
 from harness import ScratchTestCase, run
 
 # The hex faces as corner positions of the .vtu/.mesh corner order (bottom 0-3, top 4-7).
 HEX_FACES = [[0, 1, 2, 3], [4, 5, 6, 7], [0, 1, 5, 4], [1, 2, 6, 5], [2, 3, 7, 6], [3, 0, 4, 7]]
-
-
-def box_surface(lo, hi):
-    """An outward box, two triangles per face."""
-    v = np.array([[(lo, hi)[i & 1][0], (lo, hi)[(i >> 1) & 1][1], (lo, hi)[(i >> 2) & 1][2]] for i in range(8)], float)
-    quads = [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)]
-    tris = [t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))]
-    return v, np.array(tris)
 
 
 def lens_volume(r, d):

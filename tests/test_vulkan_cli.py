@@ -86,6 +86,10 @@ class VulkanCli(ScratchTestCase):
         self.mesh_both(stl, "--depth", 3)
         self.mesh_both(os.path.join(STL_MODELS, "objects", "bunny.bin.stl"), "--depth", 3)
 
+    def test_exact_crossings_equal_cpu_byte_for_byte(self):
+        # The crossings' search runs the field on the device: the same points as on the cpu.
+        self.mesh_both(os.path.join(STL_MODELS, "objects", "gearwheel.bin.stl"), "--depth", 3, "--crossings", "exact")
+
     def test_fp32_path_meshes_equal_cpu_byte_for_byte(self):
         # MCHEX_FORCE_FP32=1: the surface SDF from the device's float candidates with the values
         # computed on the host in double (host/backends/fp32_path.h), the other stages on the host.

@@ -187,7 +187,10 @@ struct Mesher {
   double eps;
   double tiny;                                    // the zero rule's tolerance: virtual values are at least this
   std::span<const std::uint8_t> device_subcases;  // empty, or the device's (cross-checked)
-  std::vector<Vec3>& shared;                      // [0, slots.end): written by owners only
+  // Per edge of the complex: the crossing parameter from the edge's first point (edge_points[e][0])
+  // where MchexCrossings::field found the zero; empty for the linear rule, NaN on uncut edges.
+  std::span<const double> exact;
+  std::vector<Vec3>& shared;  // [0, slots.end): written by owners only
 
   // The points one cell makes for itself (loop centroids, volume centres, everything inside a
   // refined cell), by local name.
@@ -286,8 +289,16 @@ struct Mesher {
   // Cuts one (sub)cell and subdivides its polyhedra; `cls` already classified, tunnels resolved.
   void mesh_piece(std::uint32_t cell, const PieceFrame& fr, const std::array<Vec3, 8>& xc, CellClass cls,
                   LocalPoints& locals, ChunkOutput& out) const {
+    // The field's own zero on the edges of the complex, when it was searched (an edge inside a
+    // locally refined cell keeps the linear crossing of its interpolated values).
+    if (!exact.empty())
+      for (int e = 0; e < 12; ++e) {
+        const std::uint32_t g = fr.edge[e];
+        if (g == kNone || !(cls.cut_edges >> e & 1) || std::isnan(exact[g])) continue;
+        cls.crossing[e] = fr.global[kCubeEdges[e][0]] == topo.edge_points[g][0] ? exact[g] : 1 - exact[g];
+      }
     // Crossings clamped away from the corners (the eps of the paper's cutting): the value depends
-    // on the edge's two values only, so all cells around the edge agree.
+    // on the edge alone, so all cells around the edge agree.
     clamp_crossings(cls, eps);
 
     // Each face's corners in canonical order, as comparable names: global point ids on a face of
@@ -440,6 +451,92 @@ struct Mesher {
   }
 };
 
+// The field's zero on every cut edge of the complex (MchexCrossings): bracketed secant steps with
+// the Illinois rule (the end kept twice in a row has its value halved, so the bracket shrinks from
+// both sides), from the linear crossing, in batches of one point per edge still open. An edge is
+// done when |f| at the point is below kCrossingResidual of its length (the field is a distance)
+// or its bracket is narrower than kCrossingBracket; values go through the zero rule, so a point on
+// the surface counts as outside, as the grid points do. Deterministic: each edge's steps depend on
+// its own values alone.
+constexpr double kCrossingResidual = 1e-9;
+constexpr double kCrossingBracket = 1e-12;
+constexpr int kMaxCrossingSteps = 60;
+
+std::vector<double> find_crossings(const HexComplex& cx, const ComplexTopology& topo, std::span<const double> f,
+                                   double tiny, const MchexCrossings& how, MchexStats& stats) {
+  std::vector<double> t(topo.edge_points.size(), std::numeric_limits<double>::quiet_NaN());
+  struct Open {
+    std::uint32_t edge;
+    double lo, hi, f_lo, f_hi, at;
+    int kept;  // -1: lo moved last, +1: hi moved last, 0: neither yet
+  };
+  std::vector<Open> open;
+  for (std::uint32_t e = 0; e < topo.edge_points.size(); ++e) {
+    const double fa = f[topo.edge_points[e][0]], fb = f[topo.edge_points[e][1]];
+    if ((fa > 0) == (fb > 0)) continue;
+    open.push_back({e, 0, 1, fa, fb, fa / (fa - fb), 0});
+  }
+  stats.exact_crossings = open.size();
+  std::vector<Vec3> x;
+  std::vector<double> v;
+  std::vector<std::uint8_t> done;
+  double residual = 0;
+  for (int step = 0; step < kMaxCrossingSteps && !open.empty(); ++step) {
+    x.resize(open.size());
+    v.resize(open.size());
+    parallel_for(open.size(), [&](std::size_t i) {
+      const auto& ends = topo.edge_points[open[i].edge];
+      x[i] = (1 - open[i].at) * cx.points[ends[0]] + open[i].at * cx.points[ends[1]];
+    });
+    how.field(x, v);
+    ++stats.crossing_batches;
+    done.assign(open.size(), 0);
+    parallel_for(open.size(), [&](std::size_t i) {
+      Open& o = open[i];
+      const auto& ends = topo.edge_points[o.edge];
+      const double length = norm(cx.points[ends[1]] - cx.points[ends[0]]);
+      double y = v[i];
+      if (!std::isfinite(y)) {  // no better point than the one bracketed so far
+        done[i] = 1;
+        return;
+      }
+      if (std::abs(y) < tiny) y = -tiny;
+      if (std::abs(y) <= kCrossingResidual * length) {
+        done[i] = 1;
+        return;
+      }
+      if ((y > 0) == (o.f_lo > 0)) {
+        o.lo = o.at, o.f_lo = y;
+        if (o.kept == -1) o.f_hi *= 0.5;
+        o.kept = -1;
+      } else {
+        o.hi = o.at, o.f_hi = y;
+        if (o.kept == 1) o.f_lo *= 0.5;
+        o.kept = 1;
+      }
+      double next = (o.lo * o.f_hi - o.hi * o.f_lo) / (o.f_hi - o.f_lo);
+      if (!(next > o.lo && next < o.hi)) next = 0.5 * (o.lo + o.hi);
+      o.at = next;
+      done[i] = o.hi - o.lo <= kCrossingBracket;
+    });
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < open.size(); ++i) {
+      if (!done[i]) {
+        open[kept++] = open[i];
+        continue;
+      }
+      t[open[i].edge] = open[i].at;
+      const auto& ends = topo.edge_points[open[i].edge];
+      if (std::isfinite(v[i]))
+        residual = std::max(residual, std::abs(v[i]) / norm(cx.points[ends[1]] - cx.points[ends[0]]));
+    }
+    open.resize(kept);
+  }
+  for (const Open& o : open) t[o.edge] = o.at;  // out of steps: the last point, inside its bracket
+  stats.crossing_residual = residual;
+  return t;
+}
+
 }  // namespace
 
 static_assert(kMchexCaseSlots == kNumSubcases);
@@ -475,7 +572,7 @@ std::vector<double> apply_zero_rule(const HexComplex& cx, std::span<const double
 }
 
 MeshPair mesh_mchex(const HexComplex& cx, std::span<const double> values, double eps, MchexStats* stats_out,
-                    const DeviceClassification& device) {
+                    const DeviceClassification& device, const MchexCrossings& crossings) {
   if (!(eps > 0 && eps < 0.5)) throw InputError("eps must be in (0, 0.5), got " + std::to_string(eps));
   MchexStats stats;
   const std::vector<double> f = apply_zero_rule(cx, values, &stats.perturbed_values);
@@ -496,12 +593,16 @@ MeshPair mesh_mchex(const HexComplex& cx, std::span<const double> values, double
   std::copy(cx.points.begin(), cx.points.end(), points.begin());
   stats.seconds_topology = since(t0);
   t0 = Clock::now();
+  const std::vector<double> exact =
+      crossings.field ? find_crossings(cx, topo, f, tiny, crossings, stats) : std::vector<double>{};
+  stats.seconds_crossings = since(t0);
+  t0 = Clock::now();
 
   // Fixed chunks (never the thread count) so that the output order is the same on any machine.
   constexpr std::size_t kChunk = 1024;
   const std::size_t num_chunks = (cx.cells.size() + kChunk - 1) / kChunk;
   std::vector<ChunkOutput> chunks(num_chunks);
-  const Mesher mesher{cx, topo, slots, f, eps, tiny, device.subcases, points};
+  const Mesher mesher{cx, topo, slots, f, eps, tiny, device.subcases, exact, points};
   parallel_chunks(num_chunks, 1, [&](std::size_t b, std::size_t e) {
     for (std::size_t ch = b; ch < e; ++ch) {
       const std::size_t end = std::min(cx.cells.size(), (ch + 1) * kChunk);

@@ -29,6 +29,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <span>
 #include <string_view>
 #include <vector>
@@ -56,9 +57,14 @@ struct MchexStats {
   // (core/pipeline/remedy.h). Empty in every run measured so far; the guarantee does not rest on it.
   std::vector<std::uint32_t> uncertified_cells;
   std::size_t points = 0;  // distinct global points (both meshes together)
+  // Exact crossings (MchexCrossings::field): the cut edges whose zero was searched, the field
+  // evaluations that took (batches of one point per edge still open), and the largest |f| left
+  // at a crossing taken, relative to its edge's length.
+  std::size_t exact_crossings = 0, crossing_batches = 0;
+  double crossing_residual = 0;
   // Wall time of the stages: numbering the complex's edges and faces, cutting + subdividing the
   // cells (parallel), and assembling the two meshes from the chunks.
-  double seconds_topology = 0, seconds_cells = 0, seconds_assembly = 0;
+  double seconds_topology = 0, seconds_crossings = 0, seconds_cells = 0, seconds_assembly = 0;
 };
 
 // Zero rule: a grid value with |f| < zero_tolerance(h) = 1e-10 * h (h the smallest cell size of
@@ -90,12 +96,26 @@ struct DeviceClassification {
   std::span<const std::uint64_t> hex_offsets;
 };
 
+// Where a cut edge's crossing lies. By default where the linear interpolation of the edge's two
+// values is zero (Marching Cubes; the paper's Eq. 6), which depends on the two values alone. With
+// `field` (the field the values came from, at any points: the SDF batch of the run's backend),
+// the crossing is the field's own zero on the edge, found by bracketed secant steps (Illinois)
+// from the linear one: the point where the grid edge meets the input's facets, as the MCHex
+// prototype computes it and as Awad et al. cut their cells. The interpolated crossing misses it
+// most near a sharp edge, where the distance to the nearest facet stops being linear along the
+// grid edge (docs/pipeline.md, "Exact crossings"). Either depends only on the edge (its two ends
+// and the field), so every cell around it agrees; edges inside a locally refined cell keep the
+// linear rule.
+struct MchexCrossings {
+  std::function<void(std::span<const Vec3>, std::span<double>)> field;
+};
+
 // values: the SDF (f > 0 inside) at every point of the complex.
 // eps in (0, 0.5): crossing parameters are clamped to [eps, 1 - eps] so that no polyhedron has
 // a (near-)zero-length edge. Deterministic for any thread count.
 // Throws InputError for a bad eps, a values size mismatch or a non-finite value.
 MeshPair mesh_mchex(const HexComplex& complex, std::span<const double> values, double eps, MchexStats* stats = nullptr,
-                    const DeviceClassification& device = {});
+                    const DeviceClassification& device = {}, const MchexCrossings& crossings = {});
 // The uniform grid (values in UniformGrid::vertex_index order) through uniform_complex().
 MeshPair mesh_mchex(const UniformGrid& grid, std::span<const double> values, double eps, MchexStats* stats = nullptr);
 

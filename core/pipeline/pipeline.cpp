@@ -155,6 +155,8 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
   run.clock = std::move(clock);
   const MeshOptions& o = run.options;
   if (o.method != "mchex" && o.method != "ro") throw InputError("method must be mchex or ro, got " + o.method);
+  if (o.crossings != "linear" && o.crossings != "exact")
+    throw InputError("crossings must be linear or exact, got " + o.crossings);
   if ((request.backend != nullptr) == bool(request.open_backend))
     throw std::invalid_argument("run_pipeline: give a backend or open_backend, exactly one");
   run.input = solid.facts();
@@ -283,8 +285,13 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
       if (o.method != "mchex") return run.clock.run("ro", [&] { return mesh_remove_outside(where, mesh_values); });
       return run.clock.run("mchex", [&] {
         run.mchex = {};
+        MchexCrossings crossings;
+        if (o.crossings == "exact")
+          crossings.field = [&](std::span<const Vec3> p, std::span<double> v) { field(p, v); };
         if constexpr (std::is_same_v<std::decay_t<decltype(where)>, HexComplex>)
-          return mesh_mchex(where, mesh_values, o.eps, &run.mchex, {device_subcases, device_offsets});
+          return mesh_mchex(where, mesh_values, o.eps, &run.mchex, {device_subcases, device_offsets}, crossings);
+        else if (crossings.field)
+          return mesh_mchex(uniform_complex(where), mesh_values, o.eps, &run.mchex, {}, crossings);
         else return mesh_mchex(where, mesh_values, o.eps, &run.mchex);
       });
     };

@@ -57,6 +57,9 @@ struct MeshOptions {
   std::size_t max_hexes = 0;
   double pad = 0.1;   // padding around the solid, as a fraction of its largest extent
   double eps = 1e-3;  // method mchex: crossings clamped to [eps, 1 - eps]
+  // Method mchex: "linear", the zero of the values interpolated along each cut edge (Marching
+  // Cubes), or "exact", the field's own zero on the edge (core/cutting/mchex_mesher.h MchexCrossings).
+  std::string crossings = "linear";
   // > 0: grid points repelled from the isosurface before cutting (core/cutting/repel.h), every
   // crossing this fraction of its edge from both ends where the rules allow; 0: off.
   double repel = 0;

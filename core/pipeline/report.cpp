@@ -60,9 +60,15 @@ json adaptive_grid_json(const AdaptiveGrid& g, std::size_t unsampled, const Octr
           {"finest_cell_size", (cube.hi.x - cube.lo.x) / std::pow(3.0, g.levels - 1)}};
 }
 
-json mchex_json(const MchexStats& s, double eps) {
+json mchex_json(const MchexStats& s, double eps, const std::string& crossings) {
   return {
       {"eps", eps},
+      {"crossings",
+       {{"rule", crossings},
+        {"searched_edges", s.exact_crossings},
+        {"batches", s.crossing_batches},
+        {"max_residual", s.crossing_residual},
+        {"seconds", s.seconds_crossings}}},
       {"refined_cells", s.refined_cells},
       {"refined_cells_two_levels", s.refined_cells_two_levels},
       {"moved_volume_centres", s.moved_centres},
@@ -267,7 +273,7 @@ json report_json(const MeshRun& run, const MeshOutputs* outputs) {
     json cases = json::object();
     for (int i = 0; i < kMchexCaseSlots; ++i) cases[std::string(mchex_case_name(i))] = run.mchex.cases[i];
     report["cases"] = cases;
-    report["mchex"] = mchex_json(run.mchex, run.options.eps);
+    report["mchex"] = mchex_json(run.mchex, run.options.eps, run.options.crossings);
     // The certification remedy (docs/templates.md): cut cells whose polyhedron no certificate
     // covered, and the leaves refined for them before the grid was meshed again.
     if (run.adaptive)

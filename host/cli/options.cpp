@@ -71,6 +71,12 @@ MeshCli::MeshCli(CLI::App& app) {
                  "values sum above 0 (the paper's baseline)")
       ->check(CLI::IsMember({"ro", "mchex"}))
       ->capture_default_str();
+  app.add_option("--crossings", command.options.crossings,
+                 "--method mchex: where a cut grid edge's crossing lies: linear, the zero of the two values "
+                 "interpolated along it (Marching Cubes); exact, the field's own zero on the edge, where it meets the "
+                 "input's facets (sharper at sharp edges; docs/pipeline.md)")
+      ->check(CLI::IsMember({"linear", "exact"}))
+      ->capture_default_str();
   eps_ = app.add_option("--eps", command.options.eps,
                         fmt::format("--method mchex: clamp edge crossings to [eps, 1 - eps], eps in (0, 0.5); "
                                     "with --optimize the default is {}",
