@@ -57,7 +57,8 @@ Case plane_case(int depth, double x0) {
 
 bool inside(double tiny, double v) { return v >= tiny; }
 
-void expect_rules_hold(const Case& c, const Repelled& r, double delta) {
+// exact: the crossings are the field's own zeros on the edges (RepelOptions::exact_crossings).
+void expect_rules_hold(const Case& c, const Repelled& r, double delta, bool exact = false) {
   const double tiny = zero_tolerance_of(c.cx);
   const double h = c.cx.cell_size.empty() ? 0 : c.cx.cell_size[0];
   // No sign changes, and the values are the SDF at the points.
@@ -91,13 +92,16 @@ void expect_rules_hold(const Case& c, const Repelled& r, double delta) {
   EXPECT_EQ(r.stats.off_line, off_line);
   // Every crossing delta from both ends, or the near end pinned.
   const ComplexTopology topo = build_topology(c.cx);
+  std::vector<double> zeros(topo.edge_points.size());
+  if (exact) search_crossings(r.points, topo.edge_points, r.values, tiny, c.sdf, {}, zeros);
   std::size_t crossings = 0;
-  for (const auto& e : topo.edge_points) {
+  for (std::size_t id = 0; id < topo.edge_points.size(); ++id) {
+    const auto& e = topo.edge_points[id];
     auto rule = [&](double v) { return std::abs(v) < tiny ? -tiny : v; };
     const double fa = rule(r.values[e[0]]), fb = rule(r.values[e[1]]);
     if ((fa > 0) == (fb > 0)) continue;
     ++crossings;
-    const double t = fa / (fa - fb);
+    const double t = exact ? zeros[id] : fa / (fa - fb);
     if (t < delta - 1e-9) {
       EXPECT_EQ(r.state[e[0]], RepelState::kPinned) << "edge " << e[0] << "-" << e[1] << " t " << t;
     }
@@ -122,6 +126,36 @@ TEST(Repel, SphereCrossingsClearOrPinned) {
       EXPECT_LE(r.stats.off_line_rounds, off_line_rounds);
       expect_rules_hold(c, r, delta);
     }
+}
+
+// Measured at the field's own zeros (what `--crossings exact` cuts at), the rules hold for those:
+// every exact crossing DELTA from both ends or its near end pinned. The linear rule's result
+// does not give that on the sphere (its crossings sit on chords, inside the exact ones).
+TEST(Repel, ExactCrossingsClearOrPinned) {
+  for (double delta : {0.1, 0.25}) {
+    const Case c = sphere_case(3);
+    RepelOptions o;
+    o.delta = delta;
+    o.exact_crossings = true;
+    const Repelled r = repel(c.cx, c.cube, c.values, c.sdf, o);
+    EXPECT_GT(r.stats.moved, 0u) << delta;
+    expect_rules_hold(c, r, delta, true);
+    // The linear rule's points: some exact crossing ends nearer than DELTA to a point that is
+    // not pinned (a sphere's field is concave along a line, so its zero lies beyond the chord's).
+    const Repelled linear = repel(c.cx, c.cube, c.values, c.sdf, RepelOptions{delta});
+    const ComplexTopology topo = build_topology(c.cx);
+    std::vector<double> zeros(topo.edge_points.size());
+    const double tiny = zero_tolerance_of(c.cx);
+    search_crossings(linear.points, topo.edge_points, linear.values, tiny, c.sdf, {}, zeros);
+    std::size_t short_of_delta = 0;
+    for (std::size_t id = 0; id < zeros.size(); ++id) {
+      if (std::isnan(zeros[id])) continue;
+      const auto& e = topo.edge_points[id];
+      short_of_delta += (zeros[id] < delta - 1e-9 && linear.state[e[0]] != RepelState::kPinned) ||
+                        (1 - zeros[id] < delta - 1e-9 && linear.state[e[1]] != RepelState::kPinned);
+    }
+    EXPECT_GT(short_of_delta, 0u) << delta;
+  }
 }
 
 // The off-line rounds start where the grid-line rounds end (the run without them), and move

@@ -451,56 +451,68 @@ struct Mesher {
   }
 };
 
-// The field's zero on every cut edge of the complex (MchexCrossings): bracketed secant steps with
-// the Illinois rule (the end kept twice in a row has its value halved, so the bracket shrinks from
-// both sides), from the linear crossing, in batches of one point per edge still open. An edge is
-// done when |f| at the point is below kCrossingResidual of its length (the field is a distance)
-// or its bracket is narrower than kCrossingBracket; values go through the zero rule, so a point on
-// the surface counts as outside, as the grid points do. Deterministic: each edge's steps depend on
-// its own values alone.
+}  // namespace
+
+static_assert(kMchexCaseSlots == kNumSubcases);
+
+std::string_view mchex_case_name(int slot) { return subcase_name(static_cast<Subcase>(slot)); }
+
+double zero_tolerance(double cell_size) { return 1e-10 * cell_size; }
+
+double zero_tolerance_of(const HexComplex& cx) {
+  double smallest = std::numeric_limits<double>::infinity();
+  for (double h : cx.cell_size) smallest = std::min(smallest, h);
+  if (!std::isfinite(smallest)) smallest = cx.box.empty() ? 1.0 : cx.box.diagonal();
+  return zero_tolerance(smallest);
+}
+
 constexpr double kCrossingResidual = 1e-9;
 constexpr double kCrossingBracket = 1e-12;
 constexpr int kMaxCrossingSteps = 60;
 
-std::vector<double> find_crossings(const HexComplex& cx, const ComplexTopology& topo, std::span<const double> f,
-                                   double tiny, const MchexCrossings& how, MchexStats& stats) {
-  std::vector<double> t(topo.edge_points.size(), std::numeric_limits<double>::quiet_NaN());
+void search_crossings(std::span<const Vec3> points, std::span<const std::array<std::uint32_t, 2>> edges,
+                      std::span<const double> values, double tiny, const FieldBatch& field,
+                      std::span<const std::uint32_t> which, std::span<double> t, CrossingSearch* stats) {
   struct Open {
     std::uint32_t edge;
     double lo, hi, f_lo, f_hi, at;
     int kept;  // -1: lo moved last, +1: hi moved last, 0: neither yet
   };
+  auto rule = [tiny](double v) { return std::abs(v) < tiny ? -tiny : v; };
   std::vector<Open> open;
-  for (std::uint32_t e = 0; e < topo.edge_points.size(); ++e) {
-    const double fa = f[topo.edge_points[e][0]], fb = f[topo.edge_points[e][1]];
-    if ((fa > 0) == (fb > 0)) continue;
-    open.push_back({e, 0, 1, fa, fb, fa / (fa - fb), 0});
-  }
-  stats.exact_crossings = open.size();
+  auto consider = [&](std::uint32_t e) {
+    const double fa = rule(values[edges[e][0]]), fb = rule(values[edges[e][1]]);
+    t[e] = std::numeric_limits<double>::quiet_NaN();
+    if ((fa > 0) != (fb > 0)) open.push_back({e, 0, 1, fa, fb, fa / (fa - fb), 0});
+  };
+  if (which.empty())
+    for (std::uint32_t e = 0; e < edges.size(); ++e) consider(e);
+  else
+    for (std::uint32_t e : which) consider(e);
+  CrossingSearch got;
+  got.edges = open.size();
   std::vector<Vec3> x;
   std::vector<double> v;
   std::vector<std::uint8_t> done;
-  double residual = 0;
   for (int step = 0; step < kMaxCrossingSteps && !open.empty(); ++step) {
     x.resize(open.size());
     v.resize(open.size());
     parallel_for(open.size(), [&](std::size_t i) {
-      const auto& ends = topo.edge_points[open[i].edge];
-      x[i] = (1 - open[i].at) * cx.points[ends[0]] + open[i].at * cx.points[ends[1]];
+      const auto& ends = edges[open[i].edge];
+      x[i] = (1 - open[i].at) * points[ends[0]] + open[i].at * points[ends[1]];
     });
-    how.field(x, v);
-    ++stats.crossing_batches;
+    field(x, v);
+    ++got.batches;
     done.assign(open.size(), 0);
     parallel_for(open.size(), [&](std::size_t i) {
       Open& o = open[i];
-      const auto& ends = topo.edge_points[o.edge];
-      const double length = norm(cx.points[ends[1]] - cx.points[ends[0]]);
-      double y = v[i];
-      if (!std::isfinite(y)) {  // no better point than the one bracketed so far
+      const auto& ends = edges[o.edge];
+      const double length = norm(points[ends[1]] - points[ends[0]]);
+      if (!std::isfinite(v[i])) {  // no better point than the one bracketed so far
         done[i] = 1;
         return;
       }
-      if (std::abs(y) < tiny) y = -tiny;
+      const double y = rule(v[i]);
       if (std::abs(y) <= kCrossingResidual * length) {
         done[i] = 1;
         return;
@@ -526,30 +538,18 @@ std::vector<double> find_crossings(const HexComplex& cx, const ComplexTopology& 
         continue;
       }
       t[open[i].edge] = open[i].at;
-      const auto& ends = topo.edge_points[open[i].edge];
+      const auto& ends = edges[open[i].edge];
       if (std::isfinite(v[i]))
-        residual = std::max(residual, std::abs(v[i]) / norm(cx.points[ends[1]] - cx.points[ends[0]]));
+        got.residual = std::max(got.residual, std::abs(v[i]) / norm(points[ends[1]] - points[ends[0]]));
     }
     open.resize(kept);
   }
   for (const Open& o : open) t[o.edge] = o.at;  // out of steps: the last point, inside its bracket
-  stats.crossing_residual = residual;
-  return t;
-}
-
-}  // namespace
-
-static_assert(kMchexCaseSlots == kNumSubcases);
-
-std::string_view mchex_case_name(int slot) { return subcase_name(static_cast<Subcase>(slot)); }
-
-double zero_tolerance(double cell_size) { return 1e-10 * cell_size; }
-
-double zero_tolerance_of(const HexComplex& cx) {
-  double smallest = std::numeric_limits<double>::infinity();
-  for (double h : cx.cell_size) smallest = std::min(smallest, h);
-  if (!std::isfinite(smallest)) smallest = cx.box.empty() ? 1.0 : cx.box.diagonal();
-  return zero_tolerance(smallest);
+  if (stats) {
+    stats->edges += got.edges;
+    stats->batches += got.batches;
+    stats->residual = std::max(stats->residual, got.residual);
+  }
 }
 
 std::vector<double> apply_zero_rule(const HexComplex& cx, std::span<const double> values, std::size_t* perturbed) {
@@ -593,8 +593,15 @@ MeshPair mesh_mchex(const HexComplex& cx, std::span<const double> values, double
   std::copy(cx.points.begin(), cx.points.end(), points.begin());
   stats.seconds_topology = since(t0);
   t0 = Clock::now();
-  const std::vector<double> exact =
-      crossings.field ? find_crossings(cx, topo, f, tiny, crossings, stats) : std::vector<double>{};
+  std::vector<double> exact;
+  if (crossings.field) {
+    exact.resize(topo.edge_points.size());
+    CrossingSearch search;
+    search_crossings(cx.points, topo.edge_points, f, tiny, crossings.field, {}, exact, &search);
+    stats.exact_crossings = search.edges;
+    stats.crossing_batches = search.batches;
+    stats.crossing_residual = search.residual;
+  }
   stats.seconds_crossings = since(t0);
   t0 = Clock::now();
 

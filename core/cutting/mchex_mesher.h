@@ -106,9 +106,31 @@ struct DeviceClassification {
 // grid edge (docs/pipeline.md, "Exact crossings"). Either depends only on the edge (its two ends
 // and the field), so every cell around it agrees; edges inside a locally refined cell keep the
 // linear rule.
+// A field at a batch of points (the run's SDF batch).
+using FieldBatch = std::function<void(std::span<const Vec3>, std::span<double>)>;
+
 struct MchexCrossings {
-  std::function<void(std::span<const Vec3>, std::span<double>)> field;
+  FieldBatch field;
 };
+
+// What a search of crossings did: edges searched, batches of `field`, the largest |f| left at a
+// crossing relative to its edge's length.
+struct CrossingSearch {
+  std::size_t edges = 0, batches = 0;
+  double residual = 0;
+};
+
+// The search of MchexCrossings: for each edge e of `which` (every edge when empty), t[e] = where
+// the field is zero on the segment points[edges[e][0]] -> points[edges[e][1]] (0 at the first),
+// bracketed secant steps with the Illinois rule (the end kept twice in a row has its value
+// halved) from the linear crossing, in batches of one point per edge still open, until |f| is
+// below 1e-9 of the edge's length or the bracket below 1e-12; NaN where the values (after the
+// zero rule with `tiny`: a point on the surface counts as outside) have one sign. Each edge's
+// steps depend on its own values alone, so the result does not depend on the threads or the
+// order of `which`. `stats` (optional) accumulates.
+void search_crossings(std::span<const Vec3> points, std::span<const std::array<std::uint32_t, 2>> edges,
+                      std::span<const double> values, double tiny, const FieldBatch& field,
+                      std::span<const std::uint32_t> which, std::span<double> t, CrossingSearch* stats = nullptr);
 
 // values: the SDF (f > 0 inside) at every point of the complex.
 // eps in (0, 0.5): crossing parameters are clamped to [eps, 1 - eps] so that no polyhedron has

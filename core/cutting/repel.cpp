@@ -62,6 +62,16 @@ struct Repeller {
   std::vector<double> cap;    // max displacement
   std::vector<double> moved;  // displacement along dir
   std::vector<std::uint8_t> stuck;
+  // With RepelOptions::exact_crossings: per edge, the field's zero from edge_points[e][0] at the
+  // current positions (NaN on uncut edges); empty for the linear rule.
+  std::vector<double> exact;
+  const std::vector<std::array<std::uint32_t, 2>>* edge_points = nullptr;
+
+  // Where p's edge `id` to q is crossed, from p, were p's value fp.
+  double crossing(std::uint32_t p, std::uint32_t id, double fp, double fq) const {
+    if (exact.empty() || std::isnan(exact[id])) return fp / (fp - fq);
+    return (*edge_points)[id][0] == p ? exact[id] : 1 - exact[id];
+  }
 
   double rule(double v) const { return zero_rule(v, tiny); }
 
@@ -74,7 +84,7 @@ struct Repeller {
       const std::uint32_t q = inc.items[k][0];
       const double fq = rule(f[q]);
       if ((fp > 0) == (fq > 0)) continue;
-      const double t = fp / (fp - fq);
+      const double t = crossing(p, inc.items[k][1], fp, fq);
       if (!(t < delta - kSlack)) continue;
       const double amount = (delta - t) * norm(x[q] - x[p]) / (1 - delta);
       const Vec3 d = normalized(cx.points[p] - cx.points[q]);
@@ -131,7 +141,8 @@ Repelled repel(const HexComplex& cx, const Box& cube, std::span<const double> va
   const std::size_t n = cx.points.size();
   const ComplexTopology topo = build_topology(cx);
   const Incidence inc = incidence(n, topo);
-  Repeller r{cx, cube, inc, o.delta, zero_tolerance_of(cx), 1e-9 * std::max(cube.diagonal(), 1e-300), {}, {}, {}, {}};
+  Repeller r{cx, cube, inc, o.delta, zero_tolerance_of(cx), 1e-9 * std::max(cube.diagonal(), 1e-300), {}, {},
+             {}, {},   {},  nullptr};
   r.dir.assign(n, Vec3{});
   r.moved.assign(n, 0.0);
   r.stuck.assign(n, 0);
@@ -146,6 +157,26 @@ Repelled repel(const HexComplex& cx, const Box& cube, std::span<const double> va
   Repelled out;
   out.points = cx.points;
   out.values.assign(values.begin(), values.end());
+  // The exact crossings at the current positions: all of them first, then those on the edges of
+  // the points a round moved (no other changed).
+  r.edge_points = &topo.edge_points;
+  std::vector<std::uint32_t> touched;
+  auto refresh = [&](std::span<const std::uint32_t> moved_points) {
+    if (!o.exact_crossings) return;
+    if (r.exact.empty()) {
+      r.exact.resize(topo.edge_points.size());
+      search_crossings(out.points, topo.edge_points, out.values, r.tiny, sdf, {}, r.exact);
+      return;
+    }
+    touched.clear();
+    for (std::uint32_t p : moved_points)
+      for (std::uint32_t k = inc.begin[p]; k < inc.begin[p + 1]; ++k) touched.push_back(inc.items[k][1]);
+    std::sort(touched.begin(), touched.end());
+    touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
+    if (!touched.empty()) search_crossings(out.points, topo.edge_points, out.values, r.tiny, sdf, touched, r.exact);
+  };
+  refresh({});
+  std::vector<std::uint32_t> applied;
   out.off_line.assign(n, 0);
   out.stats.delta = o.delta;
   const auto positive = [&](double v) { return inside_by_zero_rule(v, r.tiny); };
@@ -193,8 +224,11 @@ Repelled repel(const HexComplex& cx, const Box& cube, std::span<const double> va
       r.moved[p] = norm(at[i] - cx.points[p]);
       out.points[p] = at[i];
       out.values[p] = v[i];
+      applied.push_back(p);
       any = true;
     }
+    refresh(applied);
+    applied.clear();
     if (!any) break;
     out.stats.rounds = round + 1;
   }
@@ -279,8 +313,11 @@ Repelled repel(const HexComplex& cx, const Box& cube, std::span<const double> va
       r.moved[p] = norm(at[i] - cx.points[p]);
       out.points[p] = at[i];
       out.values[p] = v[i];
+      applied.push_back(p);
       any = true;
     }
+    refresh(applied);
+    applied.clear();
     if (!any) break;
     out.stats.off_line_rounds = round + 1;
   }

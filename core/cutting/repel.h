@@ -7,8 +7,9 @@
 // cells as well as cubes.
 //
 // The rules (docs/repel.md):
-//  - Crossings are the linear ones the mesher uses, t = f_a / (f_a - f_b) on an edge with a sign
-//    change (the zero rule's sign: v >= zero_tolerance is inside). Edge e = (a, b) asks a to
+//  - Crossings are the ones the mesher uses: the linear t = f_a / (f_a - f_b) on an edge with a
+//    sign change (the zero rule's sign: v >= zero_tolerance is inside), or with exact_crossings
+//    the field's own zero on the edge (search_crossings). Edge e = (a, b) asks a to
 //    move when t < delta, b when 1 - t < delta, by the distance that puts the crossing at delta
 //    of the edge if the isosurface stays where it is.
 //  - Jacobi rounds (at most max_rounds): every point gathers its requests from the current
@@ -55,6 +56,10 @@ struct RepelOptions {
   int max_rounds = 4;       // Jacobi rounds along the grid lines
   double max_move = 0.45;   // displacement cap, a fraction of the point's shortest incident edge
   int off_line_rounds = 4;  // Jacobi rounds along the gradient for the points still pinned (0: Awad's rule alone)
+  // The crossings the rules measure: false, where the edge's two values interpolated linearly are
+  // zero; true, the field's own zero on the edge (core/cutting/mchex_mesher.h search_crossings),
+  // which is where the mesher's `--crossings exact` puts them.
+  bool exact_crossings = false;
 };
 
 // The off-line rounds aim |f| this much past delta x the longest cut edge: the field is not linear

@@ -249,6 +249,7 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
         RepelOptions ro;
         ro.delta = o.repel;
         ro.off_line_rounds = o.repel_off_line_rounds;
+        ro.exact_crossings = o.method == "mchex" && o.crossings == "exact";  // what the mesher will cut at
         repelled = repel(*grid_cx, run.cube, values, field, ro);
         moved_cx.emplace(*grid_cx);
         moved_cx->points = repelled->points;
