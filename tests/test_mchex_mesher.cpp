@@ -345,6 +345,15 @@ FieldRun mesh_field(const UniformGrid& grid, const std::function<double(Vec3)>& 
   return r;
 }
 
+// check_mesh of the pair in `box`, asserted: no error, every hex certified.
+MeshCheck expect_valid_pair(const MeshPair& m, const Box& box) {
+  MeshCheck check = check_mesh(m.inside, &m.outside, &box);
+  EXPECT_TRUE(check.ok) << (check.errors.empty() ? "" : check.errors.front());
+  EXPECT_EQ(check.inside.quality.certified, check.inside.quality.count);
+  EXPECT_EQ(check.outside->quality.certified, check.outside->quality.count);
+  return check;
+}
+
 // The interface points (in both meshes) on a grid line of `grid`: the crossings.
 std::vector<Vec3> interface_points_on_grid_lines(const MeshPair& m, const UniformGrid& grid) {
   std::vector<Vec3> outside = m.outside.points;
@@ -376,10 +385,7 @@ TEST(Mchex, ExactCrossingsLieOnTheSurface) {
     double worst[2] = {0, 0};
     for (bool exact : {false, true}) {
       const FieldRun r = mesh_field(grid, f, exact);
-      const MeshCheck check = check_mesh(r.mesh.inside, &r.mesh.outside, &box);
-      EXPECT_TRUE(check.ok) << (check.errors.empty() ? "" : check.errors.front());
-      EXPECT_EQ(check.inside.quality.certified, check.inside.quality.count);
-      EXPECT_EQ(check.outside->quality.certified, check.outside->quality.count);
+      expect_valid_pair(r.mesh, box);
       const std::vector<Vec3> crossings = interface_points_on_grid_lines(r.mesh, grid);
       ASSERT_GT(crossings.size(), 20u);
       for (const Vec3& p : crossings) worst[exact] = std::max(worst[exact], std::abs(f(p)));
@@ -429,10 +435,7 @@ TEST(Mchex, ExactCrossingsKeepASharpBoxSharper) {
     double error[2];
     for (bool exact : {false, true}) {
       const FieldRun r = mesh_field(grid, f, exact);
-      const MeshCheck check = check_mesh(r.mesh.inside, &r.mesh.outside, &box);
-      EXPECT_TRUE(check.ok) << (check.errors.empty() ? "" : check.errors.front());
-      EXPECT_EQ(check.inside.quality.certified, check.inside.quality.count);
-      EXPECT_EQ(check.outside->quality.certified, check.outside->quality.count);
+      const MeshCheck check = expect_valid_pair(r.mesh, box);
       EXPECT_TRUE(check.inside.boundary.closed_manifold());
       error[exact] = std::abs(check.inside.quality.volume - 1.0);
     }
