@@ -129,7 +129,8 @@ def mesh_once(exe, model_file, setting_args, o, tmp, backend="cpu", fidelity=Tru
         if os.path.exists(os.path.join(tmp, f)):
             os.remove(os.path.join(tmp, f))
     measure = ["--fidelity", "--lattice", str(o.lattice)] if fidelity else ["--no-fidelity"]
-    cmd = [exe, "mesh", model_file, *setting_args, "--backend", backend, *measure, "--max-memory", o.max_memory, "--report", report, "-o", os.path.join(tmp, "in.mesh"), "--outside",
+    crossings = ["--crossings", o.crossings] if getattr(o, "crossings", "linear") != "linear" else []
+    cmd = [exe, "mesh", model_file, *setting_args, *crossings, "--backend", backend, *measure, "--max-memory", o.max_memory, "--report", report, "-o", os.path.join(tmp, "in.mesh"), "--outside",
            os.path.join(tmp, "out.mesh"), "--quiet"]
     if o.threads:
         cmd += ["--threads", str(o.threads)]
@@ -248,7 +249,8 @@ def run(o):
         sys.exit(f"curves.py: the npm test models are missing ({os.path.relpath(NPM, ROOT)}): run setup.sh, "
                  f"or choose --models from {', '.join(n for n in MODELS if not MODELS[n][2])}")
     label = o.label or git_label()
-    header = [f"perf/curves.py run: mchex-gpu at {label}, --backend cpu, fidelity lattice {o.lattice}, "
+    header = [f"perf/curves.py run: mchex-gpu at {label}, --backend cpu, --crossings {o.crossings}, "
+              f"fidelity lattice {o.lattice}, "
               f"{datetime.datetime.utcnow():%Y-%m-%d %H:%M} UTC, {platform.node() or 'host'} "
               f"({os.cpu_count()} cores)",
               "seconds = report times.total - times.fidelity; peak_mb = report peak_memory_bytes / 1e6 "
@@ -443,6 +445,8 @@ def main():
     r.add_argument("--no-uniform", action="store_true")
     r.add_argument("--no-adaptive", action="store_true")
     r.add_argument("--lattice", type=int, default=128, help="the CLI's --lattice (IoU samples per axis)")
+    r.add_argument("--crossings", default="linear", choices=("linear", "exact"),
+                   help="the CLI's --crossings (docs/pipeline.md, \"Exact crossings\")")
     r.add_argument("--threads", type=int, default=0, help="the CLI's --threads (default: all cores)")
     r.add_argument("--max-hexes", type=float, default=5e6)
     r.add_argument("--max-memory", default="4G", help="the CLI's --max-memory")
