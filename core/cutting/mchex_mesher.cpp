@@ -471,7 +471,7 @@ constexpr double kCrossingBracket = 1e-12;
 constexpr int kMaxCrossingSteps = 60;
 
 void search_crossings(std::span<const Vec3> points, std::span<const std::array<std::uint32_t, 2>> edges,
-                      std::span<const double> values, double tiny, const FieldBatch& field,
+                      std::span<const double> values, double tiny, const SdfBatch& field,
                       std::span<const std::uint32_t> which, std::span<double> t, CrossingSearch* stats) {
   struct Open {
     std::uint32_t edge;

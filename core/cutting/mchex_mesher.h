@@ -96,6 +96,9 @@ struct DeviceClassification {
   std::span<const std::uint64_t> hex_offsets;
 };
 
+// The SDF at a batch of points (the run's backend: every backend gives the same values).
+using SdfBatch = std::function<void(std::span<const Vec3>, std::span<double>)>;
+
 // Where a cut edge's crossing lies. By default where the linear interpolation of the edge's two
 // values is zero (Marching Cubes; the paper's Eq. 6), which depends on the two values alone. With
 // `field` (the field the values came from, at any points: the SDF batch of the run's backend),
@@ -106,11 +109,8 @@ struct DeviceClassification {
 // grid edge (docs/pipeline.md, "Exact crossings"). Either depends only on the edge (its two ends
 // and the field), so every cell around it agrees; edges inside a locally refined cell keep the
 // linear rule.
-// A field at a batch of points (the run's SDF batch).
-using FieldBatch = std::function<void(std::span<const Vec3>, std::span<double>)>;
-
 struct MchexCrossings {
-  FieldBatch field;
+  SdfBatch field;
 };
 
 // What a search of crossings did: edges searched, batches of `field`, the largest |f| left at a
@@ -129,7 +129,7 @@ struct CrossingSearch {
 // steps depend on its own values alone, so the result does not depend on the threads or the
 // order of `which`. `stats` (optional) accumulates.
 void search_crossings(std::span<const Vec3> points, std::span<const std::array<std::uint32_t, 2>> edges,
-                      std::span<const double> values, double tiny, const FieldBatch& field,
+                      std::span<const double> values, double tiny, const SdfBatch& field,
                       std::span<const std::uint32_t> which, std::span<double> t, CrossingSearch* stats = nullptr);
 
 // values: the SDF (f > 0 inside) at every point of the complex.

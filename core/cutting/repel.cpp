@@ -157,26 +157,34 @@ Repelled repel(const HexComplex& cx, const Box& cube, std::span<const double> va
   Repelled out;
   out.points = cx.points;
   out.values.assign(values.begin(), values.end());
-  // The exact crossings at the current positions: all of them first, then those on the edges of
-  // the points a round moved (no other changed).
+  // A move kept: p at y, where the field is v. Both kinds of round keep their moves through this
+  // and then call end_round, which searches the exact crossings again on the edges of the points
+  // the round moved (no other changed); before the first round, all of them.
+  std::vector<std::uint32_t> applied, touched;
+  auto place = [&](std::uint32_t p, Vec3 y, double v) {
+    r.moved[p] = norm(y - cx.points[p]);
+    out.points[p] = y;
+    out.values[p] = v;
+    applied.push_back(p);
+  };
   r.edge_points = &topo.edge_points;
-  std::vector<std::uint32_t> touched;
-  auto refresh = [&](std::span<const std::uint32_t> moved_points) {
-    if (!o.exact_crossings) return;
-    if (r.exact.empty()) {
+  auto end_round = [&] {
+    if (o.exact_crossings && r.exact.empty()) {
       r.exact.resize(topo.edge_points.size());
       search_crossings(out.points, topo.edge_points, out.values, r.tiny, sdf, {}, r.exact);
-      return;
+    } else if (o.exact_crossings) {
+      touched.clear();
+      for (std::uint32_t p : applied)
+        for (std::uint32_t k = inc.begin[p]; k < inc.begin[p + 1]; ++k) touched.push_back(inc.items[k][1]);
+      std::sort(touched.begin(), touched.end());
+      touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
+      if (!touched.empty()) search_crossings(out.points, topo.edge_points, out.values, r.tiny, sdf, touched, r.exact);
     }
-    touched.clear();
-    for (std::uint32_t p : moved_points)
-      for (std::uint32_t k = inc.begin[p]; k < inc.begin[p + 1]; ++k) touched.push_back(inc.items[k][1]);
-    std::sort(touched.begin(), touched.end());
-    touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
-    if (!touched.empty()) search_crossings(out.points, topo.edge_points, out.values, r.tiny, sdf, touched, r.exact);
+    const bool any = !applied.empty();
+    applied.clear();
+    return any;
   };
-  refresh({});
-  std::vector<std::uint32_t> applied;
+  end_round();
   out.off_line.assign(n, 0);
   out.stats.delta = o.delta;
   const auto positive = [&](double v) { return inside_by_zero_rule(v, r.tiny); };
@@ -213,7 +221,6 @@ Repelled repel(const HexComplex& cx, const Box& cube, std::span<const double> va
     std::vector<double> v(movers.size());
     for (std::size_t i = 0; i < movers.size(); ++i) at[i] = candidate[movers[i]];
     sdf(at, v);
-    bool any = false;
     for (std::size_t i = 0; i < movers.size(); ++i) {
       const std::uint32_t p = movers[i];
       if (!std::isfinite(v[i]) || positive(v[i]) != positive(values[p])) {
@@ -221,15 +228,9 @@ Repelled repel(const HexComplex& cx, const Box& cube, std::span<const double> va
         if (r.moved[p] == 0) r.dir[p] = Vec3{};
         continue;
       }
-      r.moved[p] = norm(at[i] - cx.points[p]);
-      out.points[p] = at[i];
-      out.values[p] = v[i];
-      applied.push_back(p);
-      any = true;
+      place(p, at[i], v[i]);
     }
-    refresh(applied);
-    applied.clear();
-    if (!any) break;
+    if (!end_round()) break;
     out.stats.rounds = round + 1;
   }
 
@@ -300,7 +301,6 @@ Repelled repel(const HexComplex& cx, const Box& cube, std::span<const double> va
     at.resize(kept);
     std::vector<double> v(at.size());
     if (!at.empty()) sdf(at, v);
-    bool any = false;
     for (std::size_t i = 0; i < movers.size(); ++i) {
       const std::uint32_t p = movers[i];
       if (!std::isfinite(v[i]) || positive(v[i]) != positive(values[p]) ||
@@ -310,15 +310,9 @@ Repelled repel(const HexComplex& cx, const Box& cube, std::span<const double> va
         out.off_line[p] = 1;
         out.stats.off_line += 1;
       }
-      r.moved[p] = norm(at[i] - cx.points[p]);
-      out.points[p] = at[i];
-      out.values[p] = v[i];
-      applied.push_back(p);
-      any = true;
+      place(p, at[i], v[i]);
     }
-    refresh(applied);
-    applied.clear();
-    if (!any) break;
+    if (!end_round()) break;
     out.stats.off_line_rounds = round + 1;
   }
 

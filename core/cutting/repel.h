@@ -28,7 +28,8 @@
 //    isosurface, by what would make |f| at least kOffLineMargin x delta x its longest cut incident
 //    edge (then every crossing on its edges is at least delta from it, the SDF being 1-Lipschitz),
 //    within kOffLineCap of the cap from its grid position; taken only where the sign stays and
-//    the nearest crossing on its edges gets farther (no crossing is traded for another), and
+//    the nearest crossing on its edges gets farther (no crossing is traded for another; measured
+//    on the linear crossings, even with exact_crossings: a candidate's zeros are not searched), and
 //    never at a crease of the field (kKinkSlope).
 //    Where the isosurface grazes a grid line, moving along the line barely moves the crossing,
 //    and a point a crossing asks to move along two lines may take only one: along the gradient
@@ -42,11 +43,11 @@
 
 #include <cstddef>
 #include <cstdint>
-#include <functional>
 #include <span>
 #include <vector>
 
 #include "core/base/geometry.h"
+#include "core/cutting/mchex_mesher.h"
 #include "core/grid/hex_complex.h"
 
 namespace mchex {
@@ -97,9 +98,6 @@ struct RepelStats {
   int rounds = 0;            // grid-line rounds that moved a point
   int off_line_rounds = 0;   // off-line rounds that moved a point
 };
-
-// The SDF at a batch of points (the run's backend: every backend gives the same values).
-using SdfBatch = std::function<void(std::span<const Vec3>, std::span<double>)>;
 
 struct Repelled {
   std::vector<Vec3> points;            // the complex's points, moved

@@ -287,8 +287,7 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
       return run.clock.run("mchex", [&] {
         run.mchex = {};
         MchexCrossings crossings;
-        if (o.crossings == "exact")
-          crossings.field = [&](std::span<const Vec3> p, std::span<double> v) { field(p, v); };
+        if (o.crossings == "exact") crossings.field = field;
         if constexpr (std::is_same_v<std::decay_t<decltype(where)>, HexComplex>)
           return mesh_mchex(where, mesh_values, o.eps, &run.mchex, {device_subcases, device_offsets}, crossings);
         else if (crossings.field)
