@@ -70,6 +70,32 @@ class MchexMethod(ScratchTestCase):
         self.assertLess(mins["plain"], 0.1)
         self.assertGreaterEqual(mins["repel"], 0.2)
 
+    def test_repel_keeps_the_box_faces_flat(self):
+        # openscad's issue1580 model (two boxes back to back; Debian's openscad-testing-data) at
+        # depth 2 with --repel: a face of the input lies a cell below the box's top face, its grid
+        # points move off their grid lines, and the subdivision points of the top cells' faces on
+        # the box used to land an ulp below the box's plane, so the union's boundary did not close
+        # on the box (154 gap faces, exit 3). Every boundary point of the union on a side of the
+        # box has that side's coordinate exactly.
+        stl = "/usr/share/openscad/testdata/scad/bugs/issue1580-back-to-back2.stl"
+        inside, outside, report = (os.path.join(self.dir, n) for n in ("in.vtu", "out.vtu", "r.json"))
+        r = run("mesh", stl, "--depth", 2, "--repel", "-o", inside, "--outside", outside, "--report", report,
+                "--quiet", "--no-fidelity")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        rep = json.load(open(report))
+        self.assertGreater(rep["repel"]["off_line"], 0)
+        self.assertEqual(rep["check"]["union"]["gap_faces"], 0)
+        lo, hi = (np.array(rep["grid"]["box"][k]) for k in ("lo", "hi"))
+        pts = meshio.read(outside).points
+        for axis in range(3):
+            for plane in (lo[axis], hi[axis]):
+                near = np.abs(pts[:, axis] - plane) < 1e-9 * np.linalg.norm(hi - lo)
+                self.assertGreater(near.sum(), 0)
+                self.assertTrue(np.all(pts[near, axis] == plane), (axis, plane))
+        c = run("check", inside, "--outside", outside, "--json")
+        self.assertEqual(c.returncode, 0, c.stderr)
+        self.assertTrue(json.loads(c.stdout)["check"]["ok"])
+
     def test_exact_crossings_fit_a_turned_box_closer(self):
         # A cube of edge 1 turned so that its sharp edges run across the grid, meshed at depth 3
         # with the two crossing rules: both meshes pass check, the report says what the search

@@ -121,6 +121,42 @@ HexCorners mirrored(const HexCorners& c) {
   return m;
 }
 
+// A point of a cell face whose four corners share a coordinate keeps it exactly, whatever the
+// other four corners: subdivision points on the box stay on the box when repel moves the corners
+// inside it. Every face of random cells, at random parameters and at the subdivision's 0, 1/3,
+// 1/2, 2/3, 1; and exact_lerp's ends.
+TEST(quality, TrilinearMapKeepsAFacesSharedCoordinate) {
+  std::mt19937_64 rng(20261205);
+  std::uniform_real_distribution<double> coord(-3.7, 2.9), param(0.0, 1.0);
+  const double fixed[] = {0.0, 1.0 / 3, 0.5, 2.0 / 3, 1.0};
+  int points = 0;
+  for (int trial = 0; trial < 200; ++trial) {
+    for (int axis = 0; axis < 3; ++axis) {
+      for (int side = 0; side < 2; ++side) {
+        HexCorners c;
+        for (Vec3& p : c) p = {coord(rng), coord(rng), coord(rng)};
+        const double plane = coord(rng);
+        for (int i = 0; i < 8; ++i)
+          if (static_cast<int>(reference_corner(i)[axis]) == side) c[i][axis] = plane;
+        for (int k = 0; k < 40; ++k) {
+          Vec3 t{k < 25 ? fixed[k % 5] : param(rng), k < 25 ? fixed[k / 5] : param(rng), 0};
+          std::swap(t[axis], t[2]);  // the two free parameters on the face's axes
+          t[axis] = side;
+          ASSERT_EQ(trilinear_map(c, t)[axis], plane) << trial << " axis " << axis << " side " << side;
+          ++points;
+        }
+      }
+    }
+  }
+  EXPECT_EQ(points, 200 * 6 * 40);
+  for (int trial = 0; trial < 1000; ++trial) {
+    const double a = coord(rng), b = coord(rng), s = param(rng);
+    ASSERT_EQ(exact_lerp(a, b, 0.0), a);
+    ASSERT_EQ(exact_lerp(a, b, 1.0), b);
+    ASSERT_EQ(exact_lerp(a, a, s), a);
+  }
+}
+
 TEST(quality, UnitCube) {
   const BernsteinCoefficients beta = bernstein_jacobian(kUnitCube);
   for (double b : beta) EXPECT_EQ(b, 1.0);

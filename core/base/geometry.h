@@ -43,6 +43,12 @@ constexpr Vec3 closest_on_segment(Vec3 p, Vec3 a, Vec3 b) {
   return a + t * d;
 }
 
+// a + s (b - a) for s in [0, 1], exact at both ends (s = 0 gives a, s = 1 gives b) and where
+// a == b. The plain a + s (b - a) can miss b by an ulp at s = 1: a subdivision point on the face of
+// a cell that lies in a face of the box would leave the box's plane when the cell's other corners
+// are moved (repel), and the boundary would no longer close on the box.
+constexpr double exact_lerp(double a, double b, double s) { return s < 0.5 ? a + s * (b - a) : b - (1 - s) * (b - a); }
+
 // Two doubles in one SSE2 register (a GCC and Clang vector extension; elsewhere two scalars). Each
 // operation is the IEEE operation on each lane, so a lane holds what the scalar code computes: for
 // the few loops that run billions of times (certify) and that the compiler does not vectorize.

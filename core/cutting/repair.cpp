@@ -229,19 +229,25 @@ bool solve_lp(const std::vector<LpRow>& rows, std::array<double, 4>& best) {
 }
 
 // trilinear_map (quality.h) of every hex corner, two corners per operation: on each lane, per
-// coordinate, trilinear_map's lerps a + s * (b - a), the first four of whose differences b - a are
-// the cell's own and computed once. Every mapped coordinate is trilinear_map's double.
+// coordinate, trilinear_map's exact_lerp (geometry.h), whose first four differences b - a are the
+// cell's own and computed once. Every mapped coordinate is trilinear_map's double.
 void map_corners(const HexCorners& cell, std::vector<SubdivisionHex>& hexes) {
   auto both = [](double v) { return Double2{v, v}; };
-  // Per coordinate: the four lerps along x, (c0, c1), (c3, c2), (c4, c5), (c7, c6), as base and
-  // difference.
-  std::array<std::array<Double2, 8>, 3> lerps;
+  // exact_lerp on each lane, given b - a.
+  auto lerp = [](Double2 a, Double2 b, Double2 d, Double2 s) {
+    const Double2 from_a = a + s * d, from_b = b - (1.0 - s) * d;
+    return s < 0.5 ? from_a : from_b;
+  };
+  // Per coordinate: the four lerps along x, (c0, c1), (c3, c2), (c4, c5), (c7, c6), as a, b and
+  // b - a.
+  std::array<std::array<Double2, 12>, 3> lerps;
   for (int j = 0; j < 3; ++j) {
     const int pairs[4][2] = {{0, 1}, {3, 2}, {4, 5}, {7, 6}};
     for (int q = 0; q < 4; ++q) {
       const double a = cell[pairs[q][0]][j], b = cell[pairs[q][1]][j];
-      lerps[j][2 * q] = both(a);
-      lerps[j][2 * q + 1] = both(b - a);
+      lerps[j][3 * q] = both(a);
+      lerps[j][3 * q + 1] = both(b);
+      lerps[j][3 * q + 2] = both(b - a);
     }
   }
   for (SubdivisionHex& h : hexes)
@@ -251,11 +257,11 @@ void map_corners(const HexCorners& cell, std::vector<SubdivisionHex>& hexes) {
       const Double2 tx{p.x, q.x}, ty{p.y, q.y}, tz{p.z, q.z};
       Double2 mapped[3];
       for (int j = 0; j < 3; ++j) {
-        const std::array<Double2, 8>& l = lerps[j];
-        const Double2 a01 = l[0] + tx * l[1], a32 = l[2] + tx * l[3];
-        const Double2 a45 = l[4] + tx * l[5], a76 = l[6] + tx * l[7];
-        const Double2 y0 = a01 + ty * (a32 - a01), y1 = a45 + ty * (a76 - a45);
-        mapped[j] = y0 + tz * (y1 - y0);
+        const std::array<Double2, 12>& l = lerps[j];
+        const Double2 a01 = lerp(l[0], l[1], l[2], tx), a32 = lerp(l[3], l[4], l[5], tx);
+        const Double2 a45 = lerp(l[6], l[7], l[8], tx), a76 = lerp(l[9], l[10], l[11], tx);
+        const Double2 y0 = lerp(a01, a32, a32 - a01, ty), y1 = lerp(a45, a76, a76 - a45, ty);
+        mapped[j] = lerp(y0, y1, y1 - y0, tz);
       }
       p = {mapped[0][0], mapped[1][0], mapped[2][0]};
       q = {mapped[0][1], mapped[1][1], mapped[2][1]};

@@ -29,10 +29,12 @@ constexpr int bernstein_index(int i, int j, int k) { return i + 3 * j + 9 * k; }
 
 // The element map (paper Eq. 7, shape functions Eq. 8): the point of the hex with corners c at
 // parametric point t in the unit cube. Every cell of a complex is this map of the unit cube.
-// Nested linear interpolation (x, then y, then z): a lerp between equal values is exact, so a
-// point on a cell face whose corners share a coordinate (a face on the box) keeps it exactly.
+// Nested linear interpolation (x, then y, then z) by exact_lerp, so a point on a cell face whose
+// corners share a coordinate (a face on the box) keeps it exactly, whatever the other corners.
 inline Vec3 trilinear_map(const HexCorners& c, Vec3 t) {
-  auto lerp = [](const Vec3& a, const Vec3& b, double s) { return a + s * (b - a); };
+  auto lerp = [](const Vec3& a, const Vec3& b, double s) {
+    return Vec3{exact_lerp(a.x, b.x, s), exact_lerp(a.y, b.y, s), exact_lerp(a.z, b.z, s)};
+  };
   const Vec3 y0 = lerp(lerp(c[0], c[1], t.x), lerp(c[3], c[2], t.x), t.y);
   const Vec3 y1 = lerp(lerp(c[4], c[5], t.x), lerp(c[7], c[6], t.x), t.y);
   return lerp(y0, y1, t.z);
