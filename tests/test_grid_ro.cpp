@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <random>
 
 #include "core/base/error.h"
 #include "core/check/fidelity.h"
@@ -10,6 +11,7 @@
 #include "core/cutting/ro.h"
 #include "core/grid/grid.h"
 #include "core/grid/hex_complex.h"
+#include "core/mesh/quality.h"
 #include "core/sdf/shapes.h"
 
 namespace mchex {
@@ -119,6 +121,35 @@ TEST(Fidelity, CubeOfCellsAgainstTheUnitSphere) {
   EXPECT_NEAR(f.hausdorff_ratio, 0.5 / std::sqrt(12.0), 1e-3);
   EXPECT_EQ(f.unresolved, 0u);
   EXPECT_EQ(boundary_quads(cube).size(), 6u * 9);
+}
+
+// A hex far smaller than its distance from the origin (the clamped crossings' slivers at the
+// surface are 1e-3 of a cell) is located like any other: its inverse map is known only to about
+// eps |x| / size, and a fixed step tolerance below that left the sample unresolved (not counted),
+// so the IoU moved with the last bits of the corners. One sample at (1.5, 1.5, 1.5) in each of 200
+// random distorted hexes of 1e-7 to 1e-4 that hold it at a random parametric point.
+TEST(Fidelity, TinyHexesFarFromTheOriginHoldTheirSample) {
+  const ShapeSdf sphere(ShapeKind::kSphere);
+  const Box box{{0, 0, 0}, {3, 3, 3}};  // lattice 3: samples at 0.5, 1.5, 2.5
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> unit(0, 1), wobble(-0.2, 0.2);
+  const Vec3 sample{1.5, 1.5, 1.5};
+  for (int trial = 0; trial < 200; ++trial) {
+    const double h = std::pow(10.0, -7 + 3 * unit(rng));
+    std::array<Vec3, 8> unit_cube = {
+        {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {0, 0, 1}, {1, 0, 1}, {1, 1, 1}, {0, 1, 1}}};
+    HexCorners c;
+    for (int k = 0; k < 8; ++k) c[k] = h * (unit_cube[k] + Vec3{wobble(rng), wobble(rng), wobble(rng)});
+    // Placed so that the sample is the map of a random parametric point.
+    const Vec3 at = trilinear_map(c, {0.1 + 0.8 * unit(rng), 0.1 + 0.8 * unit(rng), 0.1 + 0.8 * unit(rng)});
+    HexMesh m;
+    for (const Vec3& p : c) m.points.push_back(sample + (p - at));
+    m.hexes = {{0, 1, 2, 3, 4, 5, 6, 7}};
+    m.region = {kInside};
+    const Fidelity f = measure_fidelity(m, sphere, {}, box, 3, 0.5);
+    ASSERT_EQ(f.unresolved, 0u) << trial << " size " << h;
+    ASSERT_EQ(f.mesh_volume, 1.0) << trial << " size " << h;  // the one sample, of a unit lattice cell
+  }
 }
 
 TEST(Fidelity, ShearedHexesAreLocatedByTheirTrilinearMap) {
