@@ -50,9 +50,10 @@ inline constexpr double kFinestCellPerHausdorff = 3.0;
 // The refinement threshold the rule uses, in finest cells (core/grid/octree.h AdaptiveOptions).
 inline constexpr double kFitThreshold = 0.05;
 // The measured rounds of the fitted grid (core/pipeline/pipeline.cpp) may refine this many levels
-// below the error test's deepest level, in at most kFitRounds rounds.
+// below the error test's deepest level, in at most kFitRounds rounds (the npm gearwheel, whose far
+// samples move one leaf a round along its tooth roots, takes 6; docs/pipeline.md).
 inline constexpr int kFitExtraLevels = 2;
-inline constexpr int kFitRounds = 3;
+inline constexpr int kFitRounds = 8;
 // A leaf is refined for the IoU when this many lattice samples in it disagree with the solid.
 inline constexpr std::size_t kFitMisclassifiedPerLeaf = 2;
 // ... while the measured IoU is below this at the default H (the MCHex prototype's defaults reach
