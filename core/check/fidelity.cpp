@@ -15,23 +15,29 @@
 namespace mchex {
 namespace {
 
-// Newton on the trilinear map (paper Eq. 7) from the centre. Returns false when it does not
-// converge; *inside tells whether the preimage lies in the closed unit cube.
+// Newton's tolerances for a hex whose corners span `box`, on points within it: the step below
+// which it stops, in parametric units, and the margin of the unit cube that still counts as inside.
 // The step's floor is rounding's: the residual p - x(t) is a difference of coordinates of size
 // |x|, known to an ulp or so of that, which is a parametric error of about eps |x| / L in a hex of
 // extent L. On a hex much smaller than its distance from the origin (the clamped slivers at the
 // surface: edges of 1e-3 of a cell) a fixed 1e-13 was below that floor, Newton never got there,
 // and the sample counted as unresolved: which samples did depended on the last bits of the
 // corners, moving the IoU by up to 0.001 on the bumpy torus.
-bool invert_trilinear(const std::array<Vec3, 8>& x, Vec3 p, bool* inside) {
-  Box box;
-  for (const Vec3& c : x) box.extend(c);
+struct InverseTolerance {
+  double step = 0, inside = 0;
+};
+InverseTolerance inverse_tolerance(const Box& box) {
   const Vec3 size = box.size();
   const double extent = std::max({size.x, size.y, size.z});
-  double magnitude = std::max({std::abs(p.x), std::abs(p.y), std::abs(p.z)});
-  for (const Vec3& c : x) magnitude = std::max({magnitude, std::abs(c.x), std::abs(c.y), std::abs(c.z)});
+  double magnitude = 0;
+  for (const Vec3& c : {box.lo, box.hi}) magnitude = std::max({magnitude, std::abs(c.x), std::abs(c.y), std::abs(c.z)});
   const double floor = 64 * std::numeric_limits<double>::epsilon() * magnitude / extent;
-  const double step_tol = std::max(1e-13, floor), inside_tol = std::max(1e-10, 4 * floor);
+  return {std::max(1e-13, floor), std::max(1e-10, 4 * floor)};
+}
+
+// Newton on the trilinear map (paper Eq. 7) from the centre. Returns false when it does not
+// converge; *inside tells whether the preimage lies in the closed unit cube.
+bool invert_trilinear(const std::array<Vec3, 8>& x, Vec3 p, const InverseTolerance& tol, bool* inside) {
   Vec3 t{0.5, 0.5, 0.5};
   for (int it = 0; it < 30; ++it) {
     const auto [du, dv, dw] = jacobian(x, t.x, t.y, t.z);
@@ -41,9 +47,9 @@ bool invert_trilinear(const std::array<Vec3, 8>& x, Vec3 p, bool* inside) {
     // Cramer's rule for J * delta = r.
     const Vec3 delta{triple(r, dv, dw) / det, triple(du, r, dw) / det, triple(du, dv, r) / det};
     t += delta;
-    if (std::max({std::abs(delta.x), std::abs(delta.y), std::abs(delta.z)}) < step_tol) {
-      *inside = t.x >= -inside_tol && t.x <= 1 + inside_tol && t.y >= -inside_tol && t.y <= 1 + inside_tol &&
-                t.z >= -inside_tol && t.z <= 1 + inside_tol;
+    if (std::max({std::abs(delta.x), std::abs(delta.y), std::abs(delta.z)}) < tol.step) {
+      const double m = tol.inside;
+      *inside = t.x >= -m && t.x <= 1 + m && t.y >= -m && t.y <= 1 + m && t.z >= -m && t.z <= 1 + m;
       return true;
     }
     // Far outside the cube the map is not meaningful; the point is not in this hex.
@@ -267,13 +273,14 @@ Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, co
     const auto [j0, j1] = index_range(b.lo.y, b.hi.y, lo.y, step.y);
     const auto [k0, k1] = index_range(b.lo.z, b.hi.z, lo.z, step.z);
     if (b.hi.x < lo.x + 0.5 * step.x || b.hi.y < lo.y + 0.5 * step.y || b.hi.z < lo.z + 0.5 * step.z) return;
+    const InverseTolerance tol = inverse_tolerance(b);  // the samples tried lie in b
     for (std::size_t k = k0; k <= k1 && k < lattice; ++k)
       for (std::size_t j = j0; j <= j1 && j < lattice; ++j)
         for (std::size_t i = i0; i <= i1 && i < lattice; ++i) {
           const std::size_t s = i + lattice * (j + lattice * k);
           if (covered[s].load(std::memory_order_relaxed) & kCovered) continue;
           bool in = false;
-          if (!invert_trilinear(x, grid.sample(i, j, k), &in)) {
+          if (!invert_trilinear(x, grid.sample(i, j, k), tol, &in)) {
             covered[s].fetch_or(kFailed, std::memory_order_relaxed);
             continue;
           }
