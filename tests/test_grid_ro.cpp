@@ -1,9 +1,12 @@
 // The uniform grid, the RO method and the fidelity measures against hand-computed answers.
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <random>
+#include <stdexcept>
 
 #include "core/base/error.h"
 #include "core/check/fidelity.h"
@@ -128,6 +131,54 @@ TEST(Fidelity, CubeOfCellsAgainstTheUnitSphere) {
 // eps |x| / size, and a fixed step tolerance below that left the sample unresolved (not counted),
 // so the IoU moved with the last bits of the corners. One sample at (1.5, 1.5, 1.5) in each of 200
 // random distorted hexes of 1e-7 to 1e-4 that hold it at a random parametric point.
+TEST(Fidelity, BoundaryDistanceIsTheSameInChunksOfAnySize) {
+  // A block of 24 x 24 x 6 hexes over jittered points (1,728 curved boundary quads) and points
+  // around and inside it: in chunks of any size the distances are those of one chunk (the whole
+  // boundary's tree) bit for bit, and those are the least over every quad's four triangles
+  // through its bilinear centre (brute force).
+  const int n[3] = {24, 24, 6};
+  HexMesh mesh;
+  std::mt19937_64 rng(21);
+  std::uniform_real_distribution<double> u(-1, 1);
+  auto id = [&](int i, int j, int k) { return uint32_t(i + (n[0] + 1) * (j + (n[1] + 1) * k)); };
+  for (int k = 0; k <= n[2]; ++k)
+    for (int j = 0; j <= n[1]; ++j)
+      for (int i = 0; i <= n[0]; ++i) mesh.points.push_back({i + 0.3 * u(rng), j + 0.3 * u(rng), k + 0.3 * u(rng)});
+  for (int k = 0; k < n[2]; ++k)
+    for (int j = 0; j < n[1]; ++j)
+      for (int i = 0; i < n[0]; ++i)
+        mesh.hexes.push_back({id(i, j, k), id(i + 1, j, k), id(i + 1, j + 1, k), id(i, j + 1, k), id(i, j, k + 1),
+                              id(i + 1, j, k + 1), id(i + 1, j + 1, k + 1), id(i, j + 1, k + 1)});
+  mesh.region.assign(mesh.hexes.size(), 1);
+  std::vector<Vec3> points(3000);
+  for (Vec3& p : points) p = {12 + 15 * u(rng), 12 + 15 * u(rng), 3 + 6 * u(rng)};
+
+  const std::vector<double> whole = distance_to_boundary(mesh, points, std::size_t(1) << 30);
+  for (std::size_t chunk : {1, 7, 100, 1000}) {
+    const std::vector<double> d = distance_to_boundary(mesh, points, chunk);
+    ASSERT_EQ(d.size(), points.size());
+    for (std::size_t i = 0; i < points.size(); ++i)
+      ASSERT_EQ(std::bit_cast<uint64_t>(d[i]), std::bit_cast<uint64_t>(whole[i]))
+          << "chunk " << chunk << " point " << i;
+  }
+  const auto quads = boundary_quads(mesh);
+  ASSERT_EQ(quads.size(), 2u * (24 * 24 + 24 * 6 + 24 * 6));
+  for (std::size_t i = 0; i < 300; ++i) {
+    double least = std::numeric_limits<double>::infinity();
+    for (const auto& q : quads) {
+      const Vec3 c[4] = {mesh.points[q[0]], mesh.points[q[1]], mesh.points[q[2]], mesh.points[q[3]]};
+      const Vec3 centre = 0.25 * (c[0] + c[1] + c[2] + c[3]);
+      for (int e = 0; e < 4; ++e)
+        least = std::min(least, closest_point_on_triangle(points[i], c[e], c[(e + 1) % 4], centre).squared_distance);
+    }
+    ASSERT_EQ(whole[i], std::sqrt(least)) << "point " << i;
+  }
+  EXPECT_THROW(distance_to_boundary(mesh, points, 0), std::invalid_argument);
+  // No boundary: nothing is near.
+  const std::vector<double> none = distance_to_boundary(HexMesh{}, std::span<const Vec3>(points).first(3));
+  EXPECT_EQ(none, std::vector<double>(3, std::numeric_limits<double>::infinity()));
+}
+
 TEST(Fidelity, TinyHexesFarFromTheOriginHoldTheirSample) {
   const ShapeSdf sphere(ShapeKind::kSphere);
   const Box box{{0, 0, 0}, {3, 3, 3}};  // lattice 3: samples at 0.5, 1.5, 2.5

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <stdexcept>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -212,7 +214,177 @@ struct Lattice {
   Vec3 sample(std::size_t s) const { return sample(s % n, (s / n) % n, s / (n * n)); }
 };
 
+// distance_to_boundary over the boundary's quads, chunk by chunk: one chunk's search tree at a
+// time. The whole boundary's tree was the run's largest allocation but for the meshes (on the npm
+// gearwheel's 169k boundary quads about 100 MiB of its 429 MiB peak). First each point is measured
+// against its home chunk, the one whose box is nearest it; then against the quads of every other
+// chunk that can be nearer than that answer. A box holds its quads' triangles, so nothing skipped
+// is nearer, and a triangle's distance is computed the same way in any chunk: the answers are the
+// whole tree's, bit for bit (tests: Fidelity.BoundaryDistanceIsTheSameInChunksOfAnySize).
+std::vector<double> distance_to_quads(const HexMesh& mesh, std::span<const std::array<uint32_t, 4>> quads,
+                                      std::span<const Vec3> points, std::size_t chunk_quads) {
+  if (chunk_quads == 0) throw std::invalid_argument("distance_to_boundary: chunks of no quads");
+  // The chunks: halves of the quads' centres at the median along the longest side, until each
+  // holds at most chunk_quads. Their boxes overlap only by a quad's reach, so a point is near few
+  // of them (Morton ranges of the same size overlapped so much that the second pass measured
+  // each point twice more).
+  std::vector<uint32_t> order(quads.size());
+  std::vector<std::pair<std::size_t, std::size_t>> ranges;
+  {
+    std::vector<Vec3> centres(quads.size());
+    parallel_for(quads.size(), [&](std::size_t q) {
+      const auto& v = quads[q];
+      centres[q] = 0.25 * (mesh.points[v[0]] + mesh.points[v[1]] + mesh.points[v[2]] + mesh.points[v[3]]);
+    });
+    for (std::size_t q = 0; q < order.size(); ++q) order[q] = uint32_t(q);
+    std::vector<std::pair<std::size_t, std::size_t>> stack{{0, quads.size()}};
+    while (!stack.empty()) {
+      const auto [first, last] = stack.back();
+      stack.pop_back();
+      if (last - first <= chunk_quads) {
+        ranges.emplace_back(first, last);
+        continue;
+      }
+      Box box;
+      for (std::size_t k = first; k < last; ++k) box.extend(centres[order[k]]);
+      const Vec3 size = box.size();
+      const int axis = size.x >= size.y && size.x >= size.z ? 0 : size.y >= size.z ? 1 : 2;
+      const std::size_t middle = first + (last - first) / 2;
+      std::nth_element(order.begin() + first, order.begin() + middle, order.begin() + last,
+                       [&](uint32_t a, uint32_t b) {
+                         const double ca = centres[a][axis], cb = centres[b][axis];
+                         return ca < cb || (ca == cb && a < b);
+                       });
+      stack.emplace_back(middle, last);
+      stack.emplace_back(first, middle);
+    }
+  }
+  const std::size_t chunks = ranges.size();
+  std::vector<Box> boxes(chunks);
+  parallel_for(chunks, [&](std::size_t c) {
+    for (std::size_t k = ranges[c].first; k < ranges[c].second; ++k)
+      for (uint32_t v : quads[order[k]]) boxes[c].extend(mesh.points[v]);
+  });
+  auto box_distance = [](const Box& b, Vec3 p) {
+    const Vec3 e{std::max({b.lo.x - p.x, p.x - b.hi.x, 0.0}), std::max({b.lo.y - p.y, p.y - b.hi.y, 0.0}),
+                 std::max({b.lo.z - p.z, p.z - b.hi.z, 0.0})};
+    return norm(e);
+  };
+  std::vector<double> best(points.size(), std::numeric_limits<double>::infinity());
+  // Quads as a surface of their own (a quad's corners repeated in each quad: the distances do not
+  // depend on shared vertices).
+  auto quad_surface = [&](std::span<const uint32_t> ids) {
+    TriangleSurface s;
+    s.vertices.resize(5 * ids.size());
+    s.triangles.resize(4 * ids.size());
+    parallel_for(ids.size(), [&](std::size_t i) {
+      const auto& q = quads[ids[i]];
+      const uint32_t base = uint32_t(5 * i);
+      for (int e = 0; e < 4; ++e) s.vertices[base + e] = mesh.points[q[e]];
+      s.vertices[base + 4] = 0.25 * (mesh.points[q[0]] + mesh.points[q[1]] + mesh.points[q[2]] + mesh.points[q[3]]);
+      for (uint32_t e = 0; e < 4; ++e) s.triangles[4 * i + e] = {base + e, base + (e + 1) % 4, base + 4};
+    });
+    return s;
+  };
+  auto quad_box = [&](uint32_t q) {
+    Box b;
+    for (uint32_t v : quads[q]) b.extend(mesh.points[v]);
+    return b;
+  };
+  // The quads of chunk c that can be nearer to a point of `batch` than its answer so far: a
+  // point's candidates are found through a grid of cells at least as wide as every answer and
+  // every quad, so a quad's box grown by the widest answer meets at most 4 cells a side.
+  auto needed_quads = [&](std::size_t c, const std::vector<uint32_t>& batch) {
+    const std::span<const uint32_t> all(order.data() + ranges[c].first, ranges[c].second - ranges[c].first);
+    double reach = 0, widest = 0;
+    for (uint32_t i : batch) reach = std::max(reach, best[i]);
+    for (uint32_t q : all) {
+      const Vec3 size = quad_box(q).size();
+      widest = std::max({widest, size.x, size.y, size.z});
+    }
+    const double cell = std::max(reach, widest);
+    if (!(cell > 0 && cell < std::numeric_limits<double>::infinity()))
+      return std::vector<uint32_t>(all.begin(), all.end());
+    auto at = [cell](double x) { return int64_t(std::floor(x / cell)); };
+    auto key = [](int64_t i, int64_t j, int64_t k) {
+      return uint64_t(i & 0x1FFFFF) << 42 | uint64_t(j & 0x1FFFFF) << 21 | uint64_t(k & 0x1FFFFF);
+    };
+    std::unordered_map<uint64_t, std::vector<uint32_t>> cells;
+    for (uint32_t i : batch) cells[key(at(points[i].x), at(points[i].y), at(points[i].z))].push_back(i);
+    std::vector<uint8_t> keep(all.size(), 0);
+    parallel_for(all.size(), [&](std::size_t k) {
+      const Box b = quad_box(all[k]);
+      for (int64_t i = at(b.lo.x - reach); i <= at(b.hi.x + reach) && !keep[k]; ++i)
+        for (int64_t j = at(b.lo.y - reach); j <= at(b.hi.y + reach) && !keep[k]; ++j)
+          for (int64_t l = at(b.lo.z - reach); l <= at(b.hi.z + reach) && !keep[k]; ++l) {
+            const auto found = cells.find(key(i, j, l));
+            if (found == cells.end()) continue;
+            for (uint32_t p : found->second)
+              if (box_distance(b, points[p]) < best[p]) {
+                keep[k] = 1;
+                break;
+              }
+          }
+    });
+    std::vector<uint32_t> kept;
+    for (std::size_t k = 0; k < all.size(); ++k)
+      if (keep[k]) kept.push_back(all[k]);
+    return kept;
+  };
+  std::vector<uint32_t> home(points.size());
+  parallel_for(points.size(), [&](std::size_t i) {
+    double nearest = std::numeric_limits<double>::infinity();
+    for (std::size_t c = 0; c < chunks; ++c)
+      if (const double b = box_distance(boxes[c], points[i]); b < nearest) nearest = b, home[i] = uint32_t(c);
+  });
+  // Each chunk's batch, by a counting sort on the chunk: one pass over the points, not one a chunk.
+  std::vector<std::vector<uint32_t>> batches(chunks);
+  auto fill_batches = [&](auto&& in_chunk) {
+    for (auto& b : batches) b.clear();
+    for (std::size_t i = 0; i < points.size(); ++i)
+      in_chunk(uint32_t(i), [&](std::size_t c) { batches[c].push_back(uint32_t(i)); });
+  };
+  // A chunk's batch measured against the chunk's quads: all of them the first time, then only
+  // those that can still be nearer (most of a chunk is far from the few points near its side).
+  auto measure = [&](std::size_t c, bool all) {
+    const std::vector<uint32_t>& batch = batches[c];
+    if (batch.empty()) return;
+    const std::vector<uint32_t> ids = all ? std::vector<uint32_t>(order.begin() + std::ptrdiff_t(ranges[c].first),
+                                                                  order.begin() + std::ptrdiff_t(ranges[c].second))
+                                          : needed_quads(c, batch);
+    if (ids.empty()) return;
+    std::vector<Vec3> batch_points(batch.size());
+    std::vector<double> batch_values(batch.size(), 0);
+    for (std::size_t k = 0; k < batch.size(); ++k) batch_points[k] = points[batch[k]];
+    const SurfaceSdf chunk(quad_surface(ids), SignRule::kPseudonormal, SearchUse::kOneBatchInFours);
+    chunk.distance(batch_points, batch_values);
+    for (std::size_t k = 0; k < batch.size(); ++k) best[batch[k]] = std::min(best[batch[k]], batch_values[k]);
+  };
+  fill_batches([&](uint32_t i, auto&& add) { add(home[i]); });
+  for (std::size_t c = 0; c < chunks; ++c) measure(c, true);
+  // Which points another chunk may hold a nearer triangle for: flagged in parallel (most are
+  // not), then listed.
+  std::vector<uint8_t> beyond(points.size());
+  parallel_for(points.size(), [&](std::size_t i) {
+    for (std::size_t c = 0; c < chunks && !beyond[i]; ++c)
+      beyond[i] = c != home[i] && box_distance(boxes[c], points[i]) < best[i];
+  });
+  fill_batches([&](uint32_t i, auto&& add) {
+    if (beyond[i])
+      for (std::size_t c = 0; c < chunks; ++c)
+        if (c != home[i] && box_distance(boxes[c], points[i]) < best[i]) add(c);
+  });
+  for (std::size_t c = 0; c < chunks; ++c) measure(c, false);
+  return best;
+}
+
 }  // namespace
+
+std::vector<double> distance_to_boundary(const HexMesh& inside, std::span<const Vec3> points, std::size_t chunk_quads) {
+  const auto quads = boundary_quads(inside);
+  if (quads.empty()) return std::vector<double>(points.size(), std::numeric_limits<double>::infinity());
+  return distance_to_quads(inside, quads, points, chunk_quads);
+}
 
 FidelityReference fidelity_reference(const SignedDistance& solid, std::vector<Vec3> surface_samples,
                                      const Box& lattice_box, std::size_t lattice, double spacing,
@@ -312,38 +484,24 @@ Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, co
   // than the spacing, the common case on a fine grid), so the maximum is over the same points.
   const auto quads = boundary_quads(inside);
   std::vector<Vec3> mesh_samples;
-  // The boundary as triangles over its own points only (the inside mesh's are mostly interior):
-  // boundary points in ascending order, then a centre per quad.
-  constexpr uint32_t kInterior = std::numeric_limits<uint32_t>::max();
-  std::vector<uint32_t> boundary_id(inside.points.size(), kInterior);
-  for (const auto& q : quads)
-    for (uint32_t v : q) boundary_id[v] = 0;
-  TriangleSurface boundary;
-  for (std::size_t p = 0; p < boundary_id.size(); ++p)
-    if (boundary_id[p] != kInterior) {
-      boundary_id[p] = uint32_t(boundary.vertices.size());
-      boundary.vertices.push_back(inside.points[p]);
+  {
+    std::vector<uint8_t> on_boundary(inside.points.size(), 0);
+    for (const auto& q : quads)
+      for (uint32_t v : q) on_boundary[v] = 1;
+    for (const auto& q : quads) {
+      const Vec3 c[4] = {inside.points[q[0]], inside.points[q[1]], inside.points[q[2]], inside.points[q[3]]};
+      const double longest = std::max({norm(c[1] - c[0]), norm(c[2] - c[1]), norm(c[3] - c[2]), norm(c[0] - c[3])});
+      const int k = std::max(1, int(std::ceil(longest / spacing)));
+      for (int a = 0; a <= k; ++a)
+        for (int b = 0; b <= k; ++b) {
+          if ((a == 0 || a == k) && (b == 0 || b == k)) continue;  // a corner
+          const double u = double(a) / k, v = double(b) / k;
+          mesh_samples.push_back((1 - u) * (1 - v) * c[0] + u * (1 - v) * c[1] + u * v * c[2] + (1 - u) * v * c[3]);
+        }
     }
-  boundary.vertices.reserve(boundary.vertices.size() + quads.size());
-  boundary.triangles.reserve(4 * quads.size());
-  for (const auto& q : quads) {
-    const Vec3 c[4] = {inside.points[q[0]], inside.points[q[1]], inside.points[q[2]], inside.points[q[3]]};
-    const double longest = std::max({norm(c[1] - c[0]), norm(c[2] - c[1]), norm(c[3] - c[2]), norm(c[0] - c[3])});
-    const int k = std::max(1, int(std::ceil(longest / spacing)));
-    for (int a = 0; a <= k; ++a)
-      for (int b = 0; b <= k; ++b) {
-        if ((a == 0 || a == k) && (b == 0 || b == k)) continue;  // a corner
-        const double u = double(a) / k, v = double(b) / k;
-        mesh_samples.push_back((1 - u) * (1 - v) * c[0] + u * (1 - v) * c[1] + u * v * c[2] + (1 - u) * v * c[3]);
-      }
-    // Four triangles through the bilinear centre stand in for the quad on the other side.
-    const uint32_t centre = uint32_t(boundary.vertices.size());
-    boundary.vertices.push_back(0.25 * (c[0] + c[1] + c[2] + c[3]));
-    for (int e = 0; e < 4; ++e) boundary.triangles.push_back({boundary_id[q[e]], boundary_id[q[(e + 1) % 4]], centre});
+    for (std::size_t p = 0; p < on_boundary.size(); ++p)
+      if (on_boundary[p]) mesh_samples.push_back(inside.points[p]);
   }
-  for (std::size_t p = 0; p < boundary_id.size(); ++p)
-    if (boundary_id[p] != kInterior) mesh_samples.push_back(inside.points[p]);
-  boundary_id = {};
   std::vector<double> d(mesh_samples.size());
   if (distance) {
     distance(mesh_samples, d);
@@ -354,19 +512,13 @@ Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, co
   if (far_tolerance > 0)
     for (std::size_t i = 0; i < d.size(); ++i)
       if (!(std::abs(d[i]) <= far_tolerance)) fid.far_points.push_back(mesh_samples[i]);
-
-  // The mesh side's samples are done with: what is left of the measure is the search tree of the
-  // boundary, the run's largest allocation but for the meshes (so its peak memory when the
-  // fidelity is measured).
   mesh_samples = {};
-  d = {};
-  if (boundary.triangles.empty()) {
+
+  if (quads.empty()) {
     // No mesh surface at all: nothing of the input is matched.
     fid.surface_to_mesh = surface_samples.empty() ? 0 : std::numeric_limits<double>::infinity();
   } else if (!surface_samples.empty()) {
-    const SurfaceSdf mesh_surface(std::move(boundary), SignRule::kPseudonormal, SearchUse::kOneBatchInFours);
-    d.assign(surface_samples.size(), 0);
-    mesh_surface.distance(surface_samples, d);
+    d = distance_to_quads(inside, quads, surface_samples, kBoundaryChunkQuads);
     for (double v : d) fid.surface_to_mesh = std::max(fid.surface_to_mesh, v);
     if (far_tolerance > 0)
       for (std::size_t i = 0; i < d.size(); ++i)

@@ -66,6 +66,13 @@ FidelityReference fidelity_reference(const SignedDistance& solid, std::vector<Ve
                                      const Box& lattice_box, std::size_t lattice, double spacing,
                                      bool distance_bounds_sign = false);
 
+// The distance from each point to the boundary of `inside` (its quads that belong to one hex),
+// each quad stood in for by four triangles through its bilinear centre: the Hausdorff distance's
+// input side. Searched at most chunk_quads quads at a time (their search tree, not the whole
+// boundary's, is what the measure holds); the answers are the same bit for bit at any chunk size.
+constexpr std::size_t kBoundaryChunkQuads = std::size_t(1) << 15;
+std::vector<double> distance_to_boundary(const HexMesh& inside, std::span<const Vec3> points,
+                                         std::size_t chunk_quads = kBoundaryChunkQuads);
 // `distance` (optional) measures the mesh side of the Hausdorff distance; |solid| when empty.
 Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, const FidelityReference& reference,
                           const SurfaceDistance& distance = {}, double far_tolerance = 0);
