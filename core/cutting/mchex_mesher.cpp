@@ -586,46 +586,58 @@ MeshPair mesh_mchex(const HexComplex& cx, std::span<const double> values, double
   using Clock = std::chrono::steady_clock;
   auto since = [](Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); };
   auto t0 = Clock::now();
-  const ComplexTopology topo = build_topology(cx);
-  const SlotLayout slots = lay_out_slots(cx, topo, f);
-  if (slots.end >= kLocal) throw ResourceError("mesh_mchex: more than 2^31 points");
-  std::vector<Vec3> points(slots.end);
-  std::copy(cx.points.begin(), cx.points.end(), points.begin());
-  stats.seconds_topology = since(t0);
-  t0 = Clock::now();
-  std::vector<double> exact;
-  if (crossings.field) {
-    exact.resize(topo.edge_points.size());
-    CrossingSearch search;
-    search_crossings(cx.points, topo.edge_points, f, tiny, crossings.field, {}, exact, &search);
-    stats.exact_crossings = search.edges;
-    stats.crossing_batches = search.batches;
-    stats.crossing_residual = search.residual;
-  }
-  stats.seconds_crossings = since(t0);
-  t0 = Clock::now();
-
   // Fixed chunks (never the thread count) so that the output order is the same on any machine.
   constexpr std::size_t kChunk = 1024;
   const std::size_t num_chunks = (cx.cells.size() + kChunk - 1) / kChunk;
   std::vector<ChunkOutput> chunks(num_chunks);
-  const Mesher mesher{cx, topo, slots, f, eps, tiny, device.subcases, exact, points};
-  parallel_chunks(num_chunks, 1, [&](std::size_t b, std::size_t e) {
-    for (std::size_t ch = b; ch < e; ++ch) {
-      const std::size_t end = std::min(cx.cells.size(), (ch + 1) * kChunk);
-      for (std::size_t c = ch * kChunk; c < end; ++c) mesher.mesh_cell(static_cast<std::uint32_t>(c), chunks[ch]);
-      if (device.hex_offsets.empty()) continue;
-      // The device counts from subcases alone (it does not see the cells' shapes): its sum over
-      // the chunk must be the subcase count of what the cells were, and bounds what they made.
-      const std::uint64_t expected = device.hex_offsets[end] - device.hex_offsets[ch * kChunk];
-      const std::uint64_t made = chunks[ch].inside.size() + chunks[ch].outside.size();
-      if (chunks[ch].subcase_hexes != expected || made > expected)
-        throw std::logic_error("mesh_mchex: cells " + std::to_string(ch * kChunk) + " to " + std::to_string(end - 1) +
-                               " made " + std::to_string(made) + " hexes (" + std::to_string(chunks[ch].subcase_hexes) +
-                               " by their subcases), the device's prefix sum says " + std::to_string(expected));
+  std::vector<Vec3> points;
+  {
+    // The complex's topology and slots serve the cells alone: freed before the chunks are
+    // assembled, whose arrays and the meshes' are the run's peak (33 MiB of 1.76 M hexes' peak on
+    // the npm gearwheel).
+    const ComplexTopology topo = build_topology(cx);
+    const SlotLayout slots = lay_out_slots(cx, topo, f);
+    if (slots.end >= kLocal) throw ResourceError("mesh_mchex: more than 2^31 points");
+    points.resize(slots.end);
+    std::copy(cx.points.begin(), cx.points.end(), points.begin());
+    stats.seconds_topology = since(t0);
+    t0 = Clock::now();
+    std::vector<double> exact;
+    if (crossings.field) {
+      exact.resize(topo.edge_points.size());
+      CrossingSearch search;
+      search_crossings(cx.points, topo.edge_points, f, tiny, crossings.field, {}, exact, &search);
+      stats.exact_crossings = search.edges;
+      stats.crossing_batches = search.batches;
+      stats.crossing_residual = search.residual;
     }
-  });
+    stats.seconds_crossings = since(t0);
+    t0 = Clock::now();
 
+    const Mesher mesher{cx, topo, slots, f, eps, tiny, device.subcases, exact, points};
+    parallel_chunks(num_chunks, 1, [&](std::size_t b, std::size_t e) {
+      for (std::size_t ch = b; ch < e; ++ch) {
+        const std::size_t end = std::min(cx.cells.size(), (ch + 1) * kChunk);
+        for (std::size_t c = ch * kChunk; c < end; ++c) mesher.mesh_cell(static_cast<std::uint32_t>(c), chunks[ch]);
+        // Grown by doubling, the chunk's arrays hold up to twice what they use until assembled:
+        // trimmed now, the room is the next chunk's on this thread (the chunks' arrays were 83 MB at
+        // the npm gearwheel's peak, for 56 MB of hexes).
+        chunks[ch].inside.shrink_to_fit();
+        chunks[ch].outside.shrink_to_fit();
+        chunks[ch].locals.shrink_to_fit();
+        if (device.hex_offsets.empty()) continue;
+        // The device counts from subcases alone (it does not see the cells' shapes): its sum over
+        // the chunk must be the subcase count of what the cells were, and bounds what they made.
+        const std::uint64_t expected = device.hex_offsets[end] - device.hex_offsets[ch * kChunk];
+        const std::uint64_t made = chunks[ch].inside.size() + chunks[ch].outside.size();
+        if (chunks[ch].subcase_hexes != expected || made > expected)
+          throw std::logic_error("mesh_mchex: cells " + std::to_string(ch * kChunk) + " to " + std::to_string(end - 1) +
+                                 " made " + std::to_string(made) + " hexes (" +
+                                 std::to_string(chunks[ch].subcase_hexes) +
+                                 " by their subcases), the device's prefix sum says " + std::to_string(expected));
+      }
+    });
+  }
   stats.seconds_cells = since(t0);
   t0 = Clock::now();
 
@@ -647,16 +659,16 @@ MeshPair mesh_mchex(const HexComplex& cx, std::span<const double> values, double
     stats.uncertified_cells.insert(stats.uncertified_cells.end(), ch.stats.uncertified_cells.begin(),
                                    ch.stats.uncertified_cells.end());
   }
+  // The chunks' own points stay where they are, read through point_at (gathering them after the
+  // shared ones grew that array: its old and new copies and every chunk were live at once).
   const std::size_t shared_points = points.size();
-  if (shared_points + local_at[num_chunks] >= kLocal) throw ResourceError("mesh_mchex: more than 2^31 points");
-  points.resize(shared_points + local_at[num_chunks]);
+  const std::size_t point_count = shared_points + local_at[num_chunks];
+  if (point_count >= kLocal) throw ResourceError("mesh_mchex: more than 2^31 points");
   std::vector<Hex> inside(in_at[num_chunks]), outside(out_at[num_chunks]);
   parallel_chunks(num_chunks, 1, [&](std::size_t b, std::size_t e) {
     for (std::size_t c = b; c < e; ++c) {
       ChunkOutput& ch = chunks[c];
       const auto base = static_cast<std::uint32_t>(shared_points + local_at[c]);
-      std::copy(ch.locals.begin(), ch.locals.end(),
-                points.begin() + static_cast<std::ptrdiff_t>(local_at[c] + shared_points));
       auto fix = [base](Hex h) {
         for (std::uint32_t& v : h)
           if (v & kLocal) v = base + (v & ~kLocal);
@@ -665,13 +677,20 @@ MeshPair mesh_mchex(const HexComplex& cx, std::span<const double> values, double
       std::transform(ch.inside.begin(), ch.inside.end(), inside.begin() + static_cast<std::ptrdiff_t>(in_at[c]), fix);
       std::transform(ch.outside.begin(), ch.outside.end(), outside.begin() + static_cast<std::ptrdiff_t>(out_at[c]),
                      fix);
-      ch = ChunkOutput{};
+      ch.inside = {};
+      ch.outside = {};
     }
   });
+  const auto point_at = [&](std::uint32_t v) -> const Vec3& {
+    if (v < shared_points) return points[v];
+    const std::size_t local = v - shared_points;
+    const std::size_t c = std::size_t(std::upper_bound(local_at.begin(), local_at.end(), local) - local_at.begin()) - 1;
+    return chunks[c].locals[local - local_at[c]];
+  };
 
   // Distinct points of both meshes: the interface points are counted once.
   {
-    std::vector<std::uint8_t> used(points.size(), 0);
+    std::vector<std::uint8_t> used(point_count, 0);
     for (const auto* hs : {&inside, &outside})
       parallel_for(hs->size(), [&](std::size_t h) {
         for (std::uint32_t v : (*hs)[h]) std::atomic_ref<std::uint8_t>(used[v]).store(1, std::memory_order_relaxed);
@@ -684,8 +703,8 @@ MeshPair mesh_mchex(const HexComplex& cx, std::span<const double> values, double
         std::plus<>());
   }
   MeshPair out;
-  out.inside = compact_mesh(points, std::move(inside), kInside);
-  out.outside = compact_mesh(points, std::move(outside), kOutside);
+  out.inside = compact_mesh(point_count, point_at, std::move(inside), kInside);
+  out.outside = compact_mesh(point_count, point_at, std::move(outside), kOutside);
   stats.seconds_assembly = since(t0);
   if (stats_out) *stats_out = stats;
   return out;

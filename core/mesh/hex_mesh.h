@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <span>
 #include <vector>
 
@@ -41,5 +42,27 @@ struct MeshPair {
 HexMesh compact_mesh(std::span<const Vec3> points, std::span<const Hex> hexes, int32_t region);
 // The same, renumbering `hexes` in place: the mesher's largest arrays are not copied again.
 HexMesh compact_mesh(std::span<const Vec3> points, std::vector<Hex>&& hexes, int32_t region);
+// The same over `point_count` points read through point_at(id): points kept in several arrays
+// (the mesher's shared points and its chunks' own) need not be gathered into one first.
+template <class PointAt>
+HexMesh compact_mesh(std::size_t point_count, PointAt&& point_at, std::vector<Hex>&& hexes, int32_t region) {
+  constexpr uint32_t kUnused = std::numeric_limits<uint32_t>::max();
+  std::vector<uint32_t> remap(point_count, kUnused);
+  uint32_t used = 0;
+  for (Hex& h : hexes)
+    for (uint32_t& v : h) {
+      uint32_t& r = remap[v];
+      if (r == kUnused) r = used++;
+      v = r;
+    }
+  HexMesh m;
+  // Sized once: grown point by point the array would be faulted in and copied several times.
+  m.points.resize(used);
+  for (std::size_t v = 0; v < remap.size(); ++v)
+    if (remap[v] != kUnused) m.points[remap[v]] = point_at(uint32_t(v));
+  m.hexes = std::move(hexes);
+  m.region.assign(m.hexes.size(), region);
+  return m;
+}
 
 }  // namespace mchex
