@@ -201,10 +201,15 @@ void expect_matches_definition(const TriangleSurface& s, std::size_t per_kind, u
   expect_matches_definition(s, WindingNumber(s), per_kind, seed);
 }
 
-// Coarse enough that the tree is built over bisected triangles (edges above a 64th of the box's
+// Coarse enough that the tree is built over bisected triangles (edges above a 16th of the box's
 // diagonal).
-TEST(WindingNumber, FastEqualsDefinitionOnBumpyTorus) { expect_matches_definition(bumpy_torus(96, 40), 1200, 1); }
-TEST(WindingNumber, FastEqualsDefinitionOnSphere) { expect_matches_definition(sphere({0.1, -0.2, 0.3}, 1.3), 1200, 2); }
+TEST(WindingNumber, FastEqualsDefinitionOnBumpyTorus) { expect_matches_definition(bumpy_torus(16, 8), 1200, 1); }
+TEST(WindingNumber, FastEqualsDefinitionOnSphere) {
+  expect_matches_definition(sphere({0.1, -0.2, 0.3}, 1.3, false, 12), 1200, 2);
+}
+// Fine enough that nothing is bisected (no edge above a 16th of the diagonal), over a tree of
+// its own.
+TEST(WindingNumber, FastEqualsDefinitionOnAFinerBumpyTorus) { expect_matches_definition(bumpy_torus(96, 40), 600, 13); }
 // Fine enough that nothing is bisected and the tree is the one given (SurfaceSdf shares its own).
 TEST(WindingNumber, FastEqualsDefinitionOnAFineBumpyTorusOverAGivenTree) {
   const TriangleSurface s = bumpy_torus(320, 84);
