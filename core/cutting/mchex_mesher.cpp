@@ -593,8 +593,8 @@ MeshPair mesh_mchex(const HexComplex& cx, std::span<const double> values, double
   std::vector<Vec3> points;
   {
     // The complex's topology and slots serve the cells alone: freed before the chunks are
-    // assembled, whose arrays and the meshes' are the run's peak (33 MiB of 1.76 M hexes' peak on
-    // the npm gearwheel).
+    // assembled, when the chunks' arrays and the meshes' are all live (about 30 MB of them for
+    // the npm gearwheel's 177k cells: 72 bytes a cell and about 12 a face or an edge).
     const ComplexTopology topo = build_topology(cx);
     const SlotLayout slots = lay_out_slots(cx, topo, f);
     if (slots.end >= kLocal) throw ResourceError("mesh_mchex: more than 2^31 points");
