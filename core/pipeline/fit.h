@@ -30,6 +30,7 @@
 #pragma once
 
 #include <cstddef>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -51,7 +52,7 @@ inline constexpr double kFinestCellPerHausdorff = 3.0;
 inline constexpr double kFitThreshold = 0.05;
 // The measured rounds of the fitted grid (core/pipeline/pipeline.cpp) may refine this many levels
 // below the error test's deepest level, in at most kFitRounds rounds (the npm gearwheel, whose far
-// samples move one leaf a round along its tooth roots, takes 6; docs/pipeline.md).
+// samples move along its tooth roots, takes 4 with chase_ahead below, 7 without; docs/pipeline.md).
 inline constexpr int kFitExtraLevels = 2;
 inline constexpr int kFitRounds = 8;
 // A leaf is refined for the IoU when this many lattice samples in it disagree with the solid.
@@ -73,6 +74,17 @@ inline constexpr double fit_iou(double hausdorff_ratio) {
 // D + kFitExtraLevels (at most kMaxAdaptiveDepth), threshold kFitThreshold. InputError for a ratio
 // that is not positive and finite.
 AdaptiveOptions adaptive_for_hausdorff(double hausdorff_ratio, const Box& bounds, const Box& cube);
+
+// The measured rounds' chase (core/pipeline/pipeline.cpp): where a round's far samples all moved
+// from the last round's without the HR or the IoU improving, refining the far leaves only made
+// their neighbours along a run of same-level leaves the next far ones (the npm gearwheel's tooth
+// roots, one leaf a round; docs/pipeline.md). Each far sample p steps on from the nearest of the
+// last round's samples q, when that step is about a leaf of p's level long: the points p + k (p -
+// q), k = 1 to kChaseSteps, up to the first that leaves the cube, lies in a leaf of another level
+// or lies farther from the surface than its leaf's half diagonal. Sorted and without repeats.
+inline constexpr int kChaseSteps = 3;
+std::vector<Vec3> chase_ahead(const Octree& tree, const SignedDistance& sdf, std::span<const Vec3> far,
+                              std::span<const Vec3> previous);
 
 // Output hexes (inside and outside together) that `method` ("mchex" | "ro") makes from `grid`
 // given the SDF at every point of its complex (`values`; NaN-free): an upper bound, exact but for

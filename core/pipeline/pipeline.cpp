@@ -389,18 +389,31 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
         !last_far.empty() && std::none_of(fid.far_points.begin(), fid.far_points.end(), [&](const Vec3& p) {
           return std::binary_search(last_far.begin(), last_far.end(), p, lexicographic);
         });
-    const bool stalled = !run.fit_rounds.empty() && !(fid.hausdorff_ratio < run.fit_rounds.back().hausdorff_ratio) &&
-                         !(fid.iou > run.fit_rounds.back().iou) && !moved;
+    const bool same = !run.fit_rounds.empty() && !(fid.hausdorff_ratio < run.fit_rounds.back().hausdorff_ratio) &&
+                      !(fid.iou > run.fit_rounds.back().iou);
+    const bool stalled = same && !moved;
+    // The chase's signature: the same HR (to rounding: the same distance one leaf on) from samples
+    // that all moved.
+    const bool chase =
+        moved && !run.fit_rounds.empty() && !(fid.hausdorff_ratio < run.fit_rounds.back().hausdorff_ratio * (1 - 1e-9));
     const double iou_target = fit_iou(o.hausdorff);
     if ((fid.far_points.empty() && !(fid.iou < iou_target)) || stalled || round == kFitRounds) break;
-    last_far = fid.far_points;
+    const std::vector<Vec3> previous_far = std::exchange(last_far, fid.far_points);
     FitRound& r = run.fit_rounds.emplace_back();
     r.hausdorff_ratio = run.fidelity->hausdorff_ratio;
     r.iou = run.fidelity->iou;
     r.far_points = run.fidelity->far_points.size();
     r.hexes = run.meshes.inside.hexes.size() + run.meshes.outside.hexes.size();
     r.refined_leaves = run.clock.run("fit-rounds", [&] {
-      std::size_t n = refine_leaves_at_points(*tree, run.fidelity->far_points);
+      // In a chase along a run of same-level leaves (a gearwheel's tooth roots: refining a far
+      // leaf makes its neighbour along the run the next far one) the run is refined a few leaves
+      // ahead of the far samples too (chase_ahead, core/pipeline/fit.h), all in one refinement.
+      std::vector<Vec3> at = run.fidelity->far_points;
+      if (chase) {
+        const std::vector<Vec3> ahead = chase_ahead(*tree, solid.sdf(), fid.far_points, previous_far);
+        at.insert(at.end(), ahead.begin(), ahead.end());
+      }
+      std::size_t n = refine_leaves_at_points(*tree, at);
       if (fid.iou < iou_target)
         n += refine_leaves_at_points(*tree, run.fidelity->misclassified_points, kFitMisclassifiedPerLeaf);
       if (n) run.adaptive = build_adaptive_complex(*tree);
