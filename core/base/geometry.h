@@ -77,4 +77,19 @@ struct Box {
   }
 };
 
+// The squared distance from p to the closed box b (0 inside it).
+inline double squared_distance_to_box(Vec3 p, const Box& b) {
+  double d = 0;
+  for (int a = 0; a < 3; ++a) {
+    const double e = std::max({b.lo[a] - p[a], 0.0, p[a] - b.hi[a]});
+    d += e * e;
+  }
+  return d;
+}
+
+// x, then y, then z: an order to sort and search sets of points by, not a geometric one.
+constexpr bool lexicographic_less(Vec3 a, Vec3 b) {
+  return a.x != b.x ? a.x < b.x : a.y != b.y ? a.y < b.y : a.z < b.z;
+}
+
 }  // namespace mchex

@@ -228,14 +228,15 @@ std::vector<double> distance_to_quads(const HexMesh& mesh, std::span<const std::
   // holds at most chunk_quads. Their boxes overlap only by a quad's reach, so a point is near few
   // of them (Morton ranges of the same size overlapped so much that the second pass measured
   // each point twice more).
+  // A quad's bilinear centre, the apex of its four triangles.
+  auto quad_centre = [&](const std::array<uint32_t, 4>& q) {
+    return 0.25 * (mesh.points[q[0]] + mesh.points[q[1]] + mesh.points[q[2]] + mesh.points[q[3]]);
+  };
   std::vector<uint32_t> order(quads.size());
   std::vector<std::pair<std::size_t, std::size_t>> ranges;
   {
     std::vector<Vec3> centres(quads.size());
-    parallel_for(quads.size(), [&](std::size_t q) {
-      const auto& v = quads[q];
-      centres[q] = 0.25 * (mesh.points[v[0]] + mesh.points[v[1]] + mesh.points[v[2]] + mesh.points[v[3]]);
-    });
+    parallel_for(quads.size(), [&](std::size_t q) { centres[q] = quad_centre(quads[q]); });
     for (std::size_t q = 0; q < order.size(); ++q) order[q] = uint32_t(q);
     std::vector<std::pair<std::size_t, std::size_t>> stack{{0, quads.size()}};
     while (!stack.empty()) {
@@ -265,10 +266,16 @@ std::vector<double> distance_to_quads(const HexMesh& mesh, std::span<const std::
     for (std::size_t k = ranges[c].first; k < ranges[c].second; ++k)
       for (uint32_t v : quads[order[k]]) boxes[c].extend(mesh.points[v]);
   });
-  auto box_distance = [](const Box& b, Vec3 p) {
-    const Vec3 e{std::max({b.lo.x - p.x, p.x - b.hi.x, 0.0}), std::max({b.lo.y - p.y, p.y - b.hi.y, 0.0}),
-                 std::max({b.lo.z - p.z, p.z - b.hi.z, 0.0})};
-    return norm(e);
+  // Whether a triangle in box b can measure nearer to p than `best`: the box's distance, less what
+  // rounding can take off a triangle's computed distance (a few ulps of the largest coordinate),
+  // so that skipping a box never changes an answer, not even a tie in the last bits.
+  double magnitude = 0;
+  for (const Box& b : boxes)
+    for (const Vec3& c : {b.lo, b.hi}) magnitude = std::max({magnitude, std::abs(c.x), std::abs(c.y), std::abs(c.z)});
+  for (const Vec3& p : points) magnitude = std::max({magnitude, std::abs(p.x), std::abs(p.y), std::abs(p.z)});
+  const double slack = 64 * std::numeric_limits<double>::epsilon() * magnitude;
+  auto may_be_nearer = [slack](const Box& b, Vec3 p, double best) {
+    return std::sqrt(squared_distance_to_box(p, b)) < best + slack;
   };
   std::vector<double> best(points.size(), std::numeric_limits<double>::infinity());
   // Quads as a surface of their own (a quad's corners repeated in each quad: the distances do not
@@ -281,7 +288,7 @@ std::vector<double> distance_to_quads(const HexMesh& mesh, std::span<const std::
       const auto& q = quads[ids[i]];
       const uint32_t base = uint32_t(5 * i);
       for (int e = 0; e < 4; ++e) s.vertices[base + e] = mesh.points[q[e]];
-      s.vertices[base + 4] = 0.25 * (mesh.points[q[0]] + mesh.points[q[1]] + mesh.points[q[2]] + mesh.points[q[3]]);
+      s.vertices[base + 4] = quad_centre(q);
       for (uint32_t e = 0; e < 4; ++e) s.triangles[4 * i + e] = {base + e, base + (e + 1) % 4, base + 4};
     });
     return s;
@@ -297,7 +304,7 @@ std::vector<double> distance_to_quads(const HexMesh& mesh, std::span<const std::
   auto needed_quads = [&](std::size_t c, const std::vector<uint32_t>& batch) {
     const std::span<const uint32_t> all(order.data() + ranges[c].first, ranges[c].second - ranges[c].first);
     double reach = 0, widest = 0;
-    for (uint32_t i : batch) reach = std::max(reach, best[i]);
+    for (uint32_t i : batch) reach = std::max(reach, best[i] + slack);
     for (uint32_t q : all) {
       const Vec3 size = quad_box(q).size();
       widest = std::max({widest, size.x, size.y, size.z});
@@ -320,7 +327,7 @@ std::vector<double> distance_to_quads(const HexMesh& mesh, std::span<const std::
             const auto found = cells.find(key(i, j, l));
             if (found == cells.end()) continue;
             for (uint32_t p : found->second)
-              if (box_distance(b, points[p]) < best[p]) {
+              if (may_be_nearer(b, points[p], best[p])) {
                 keep[k] = 1;
                 break;
               }
@@ -335,7 +342,8 @@ std::vector<double> distance_to_quads(const HexMesh& mesh, std::span<const std::
   parallel_for(points.size(), [&](std::size_t i) {
     double nearest = std::numeric_limits<double>::infinity();
     for (std::size_t c = 0; c < chunks; ++c)
-      if (const double b = box_distance(boxes[c], points[i]); b < nearest) nearest = b, home[i] = uint32_t(c);
+      if (const double d = squared_distance_to_box(points[i], boxes[c]); d < nearest)
+        nearest = d, home[i] = uint32_t(c);
   });
   // Each chunk's batch, by a counting sort on the chunk: one pass over the points, not one a chunk.
   std::vector<std::vector<uint32_t>> batches(chunks);
@@ -367,12 +375,12 @@ std::vector<double> distance_to_quads(const HexMesh& mesh, std::span<const std::
   std::vector<uint8_t> beyond(points.size());
   parallel_for(points.size(), [&](std::size_t i) {
     for (std::size_t c = 0; c < chunks && !beyond[i]; ++c)
-      beyond[i] = c != home[i] && box_distance(boxes[c], points[i]) < best[i];
+      beyond[i] = c != home[i] && may_be_nearer(boxes[c], points[i], best[i]);
   });
   fill_batches([&](uint32_t i, auto&& add) {
     if (beyond[i])
       for (std::size_t c = 0; c < chunks; ++c)
-        if (c != home[i] && box_distance(boxes[c], points[i]) < best[i]) add(c);
+        if (c != home[i] && may_be_nearer(boxes[c], points[i], best[i])) add(c);
   });
   for (std::size_t c = 0; c < chunks; ++c) measure(c, false);
   return best;

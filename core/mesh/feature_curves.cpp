@@ -9,15 +9,6 @@ namespace {
 
 constexpr uint32_t kLeafSize = 4;
 
-double squared_distance_to_box(Vec3 p, const Box& b) {
-  double d = 0;
-  for (int a = 0; a < 3; ++a) {
-    const double e = std::max({b.lo[a] - p[a], 0.0, p[a] - b.hi[a]});
-    d += e * e;
-  }
-  return d;
-}
-
 }  // namespace
 
 FeatureCurves::FeatureCurves(const TriangleSurface& surface, double angle_degrees) {

@@ -118,37 +118,32 @@ FitResult fit_max_hexes(const SignedDistance& sdf, const Box& cube, const Adapti
 
 std::vector<Vec3> chase_ahead(const Octree& tree, const SignedDistance& sdf, std::span<const Vec3> far,
                               std::span<const Vec3> previous) {
+  if (previous.empty()) return {};
   const Box& cube = tree.cube();
-  const double edge = cube.size().x;
-  auto inside = [&](Vec3 x) {
-    return x.x >= cube.lo.x && x.x <= cube.hi.x && x.y >= cube.lo.y && x.y <= cube.hi.y && x.z >= cube.lo.z &&
-           x.z <= cube.hi.z;
-  };
-  // Per far sample its run's candidates, in order, with the leaf size they must keep.
+  // Per far sample its run's candidates, in order, and how near the surface they must stay.
   struct Run {
     std::size_t first, count;
-    int level;
+    double reach;  // the half diagonal of the run's leaves
   };
   std::vector<Run> runs;
   std::vector<Vec3> candidates;
   for (const Vec3& p : far) {
-    if (previous.empty()) break;
     const Vec3* q = &previous[0];
     for (const Vec3& c : previous)
       if (squared_norm(c - p) < squared_norm(*q - p)) q = &c;
     const int level = leaf_level_at(tree, p);
     if (level < 0) continue;
-    const double leaf = edge / std::pow(3.0, level);
+    const double leaf = cube.size().x / std::pow(3.0, level);
     // One leaf on along a grid axis, as a run of same-level leaves repeats (a step across a run,
     // or a diagonal one, would spread the refinement over the surface).
     const Vec3 step = p - *q;
     const double length = norm(step);
     const double along = std::max({std::abs(step.x), std::abs(step.y), std::abs(step.z)});
     if (!(length >= 0.9 * leaf && length <= 1.1 * leaf && along >= 0.99 * length)) continue;
-    Run run{candidates.size(), 0, level};
+    Run run{candidates.size(), 0, 0.5 * std::sqrt(3.0) * leaf};
     for (int k = 1; k <= kChaseSteps; ++k) {
       const Vec3 x = p + double(k) * step;
-      if (!inside(x) || leaf_level_at(tree, x) != level) break;
+      if (!cube.contains(x) || leaf_level_at(tree, x) != level) break;
       candidates.push_back(x);
       ++run.count;
     }
@@ -157,16 +152,11 @@ std::vector<Vec3> chase_ahead(const Octree& tree, const SignedDistance& sdf, std
   std::vector<double> f(candidates.size());
   if (!candidates.empty()) sdf.evaluate(candidates, f);
   std::vector<Vec3> ahead;
-  for (const Run& run : runs) {
-    const double reach = 0.5 * std::sqrt(3.0) * edge / std::pow(3.0, run.level);
-    for (std::size_t i = run.first; i < run.first + run.count && std::abs(f[i]) <= reach; ++i)
+  for (const Run& run : runs)
+    for (std::size_t i = run.first; i < run.first + run.count && std::abs(f[i]) <= run.reach; ++i)
       ahead.push_back(candidates[i]);
-  }
-  std::sort(ahead.begin(), ahead.end(), [](const Vec3& a, const Vec3& b) {
-    return a.x != b.x ? a.x < b.x : a.y != b.y ? a.y < b.y : a.z < b.z;
-  });
-  ahead.erase(std::unique(ahead.begin(), ahead.end(), [](const Vec3& a, const Vec3& b) { return a == b; }),
-              ahead.end());
+  std::sort(ahead.begin(), ahead.end(), lexicographic_less);
+  ahead.erase(std::unique(ahead.begin(), ahead.end()), ahead.end());
   return ahead;
 }
 

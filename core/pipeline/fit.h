@@ -76,7 +76,7 @@ inline constexpr double fit_iou(double hausdorff_ratio) {
 AdaptiveOptions adaptive_for_hausdorff(double hausdorff_ratio, const Box& bounds, const Box& cube);
 
 // The measured rounds' chase (core/pipeline/pipeline.cpp): where a round's far samples all moved
-// from the last round's without the HR or the IoU improving, refining the far leaves only made
+// from the last round's with the same HR (to rounding), refining the far leaves only made
 // their neighbours along a run of same-level leaves the next far ones (the npm gearwheel's tooth
 // roots, one leaf a round; docs/pipeline.md). Each far sample p steps on from the nearest of the
 // last round's samples q, when that step is about a leaf of p's level long: the points p + k (p -

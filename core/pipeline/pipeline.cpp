@@ -360,9 +360,6 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
   // rounds under max_hexes.
   const bool rounds = tree && o.fidelity && o.hausdorff > 0 && o.max_hexes == 0;
   const double far = o.hausdorff * solid.sdf().bounds().diagonal();
-  const auto lexicographic = [](const Vec3& a, const Vec3& b) {
-    return a.x != b.x ? a.x < b.x : a.y != b.y ? a.y < b.y : a.z < b.z;
-  };
   std::vector<Vec3> last_far;  // the last round's far samples, sorted
   for (int round = 0; rounds; ++round) {
     run.fidelity =
@@ -384,10 +381,10 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
     // gearwheel's tooth roots), refining the far leaves makes their neighbours transition cells,
     // which can be as far, so the same HR turns up one leaf on until the run is refined
     // (docs/pipeline.md, "Why the gearwheel's HR stopped at 0.614 %"); such rounds go on.
-    std::sort(run.fidelity->far_points.begin(), run.fidelity->far_points.end(), lexicographic);
+    std::sort(run.fidelity->far_points.begin(), run.fidelity->far_points.end(), lexicographic_less);
     const bool moved =
         !last_far.empty() && std::none_of(fid.far_points.begin(), fid.far_points.end(), [&](const Vec3& p) {
-          return std::binary_search(last_far.begin(), last_far.end(), p, lexicographic);
+          return std::binary_search(last_far.begin(), last_far.end(), p, lexicographic_less);
         });
     const bool same = !run.fit_rounds.empty() && !(fid.hausdorff_ratio < run.fit_rounds.back().hausdorff_ratio) &&
                       !(fid.iou > run.fit_rounds.back().iou);
