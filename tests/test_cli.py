@@ -168,7 +168,7 @@ class HeapTunables(ScratchTestCase):
         with open("/sys/kernel/mm/transparent_hugepage/enabled") as f:
             modes = f.read()
         usable = "[always]" in modes or "[madvise]" in modes
-        ours = ("glibc.malloc.hugetlb=1:glibc.malloc.mmap_threshold=4194304:glibc.malloc.top_pad=67108864:"
+        ours = ("glibc.malloc.hugetlb=1:glibc.malloc.mmap_threshold=4194304:glibc.malloc.top_pad=8388608:"
                 "glibc.malloc.trim_threshold=1073741824")
         plain, plain_bytes = self.mesh("plain", None)
         self.assertEqual(plain, ours if usable else None)

@@ -128,13 +128,15 @@ void restart_with_heap_tunables(char** argv) {
   if (!transparent_huge_pages_usable()) return;
   // hugetlb=1: glibc advises its heap (and aligns its growth) to 2 MiB pages. mmap_threshold:
   // blocks from kHugeBlock up are mapped on their own (advised by operator new above, returned to
-  // the system when freed); smaller ones come from the heap, whose freed memory top_pad and
-  // trim_threshold keep for the next stage instead of returning it to be faulted in again.
-  // Measured on the bumpy torus at depth 4 (4.36 M hexes, this project's 2-core VM): page faults
-  // 67k -> 13k, system time 1.1-1.5 s -> 0.3-0.5 s, wall 2.9-3.8 s -> 2.3-2.7 s.
+  // the system when freed); smaller ones come from the heap, whose freed memory trim_threshold
+  // keeps for the next stage instead of returning it to be faulted in again, and which top_pad
+  // grows 8 MiB at a time. Measured on the bumpy torus at depth 4 (4.36 M hexes, this project's
+  // 2-core VM): page faults 67k -> 13k, system time 1.1-1.5 s -> 0.3-0.5 s, wall 2.9-3.8 s ->
+  // 2.3-2.7 s (with a 64 MiB top_pad; 8 MiB: 32-38k faults, the same wall time within the
+  // noise, and 5 to 20 MiB less peak memory on the default runs: docs/pipeline.md).
   std::string value = tunables && *tunables ? std::string(tunables) + ":" : std::string();
   value += "glibc.malloc.hugetlb=1:glibc.malloc.mmap_threshold=" + std::to_string(kHugeBlock) +
-           ":glibc.malloc.top_pad=" + std::to_string(std::size_t(64) << 20) +
+           ":glibc.malloc.top_pad=" + std::to_string(std::size_t(8) << 20) +
            ":glibc.malloc.trim_threshold=" + std::to_string(std::size_t(1) << 30);
   if (setenv("GLIBC_TUNABLES", value.c_str(), 1) != 0) return;
   execv("/proc/self/exe", argv);
