@@ -490,9 +490,31 @@ Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, co
   // the surface. A quad's corners are boundary vertices that several quads share: each is
   // measured once, the quads add only their edge and interior samples (none on a quad shorter
   // than the spacing, the common case on a fine grid), so the maximum is over the same points.
+  // The samples are measured kMeshSampleBlock at a time, in the same order, and only their
+  // maximum and the far ones kept: a coarse mesh's large flat quads take many samples each (1.3 M
+  // on the npm cube at its default grid, 30 MB held at once before).
   const auto quads = boundary_quads(inside);
-  std::vector<Vec3> mesh_samples;
   {
+    std::vector<Vec3> block;
+    block.reserve(kMeshSampleBlock);
+    std::vector<double> d(kMeshSampleBlock);
+    auto measure = [&] {
+      const std::span<double> out(d.data(), block.size());
+      if (distance) {
+        distance(block, out);
+      } else {
+        solid.evaluate(block, out);
+      }
+      for (std::size_t i = 0; i < block.size(); ++i) {
+        fid.mesh_to_surface = std::max(fid.mesh_to_surface, std::abs(out[i]));
+        if (far_tolerance > 0 && !(std::abs(out[i]) <= far_tolerance)) fid.far_points.push_back(block[i]);
+      }
+      block.clear();
+    };
+    auto add = [&](Vec3 p) {
+      block.push_back(p);
+      if (block.size() == kMeshSampleBlock) measure();
+    };
     std::vector<uint8_t> on_boundary(inside.points.size(), 0);
     for (const auto& q : quads)
       for (uint32_t v : q) on_boundary[v] = 1;
@@ -504,29 +526,19 @@ Fidelity measure_fidelity(const HexMesh& inside, const SignedDistance& solid, co
         for (int b = 0; b <= k; ++b) {
           if ((a == 0 || a == k) && (b == 0 || b == k)) continue;  // a corner
           const double u = double(a) / k, v = double(b) / k;
-          mesh_samples.push_back((1 - u) * (1 - v) * c[0] + u * (1 - v) * c[1] + u * v * c[2] + (1 - u) * v * c[3]);
+          add((1 - u) * (1 - v) * c[0] + u * (1 - v) * c[1] + u * v * c[2] + (1 - u) * v * c[3]);
         }
     }
     for (std::size_t p = 0; p < on_boundary.size(); ++p)
-      if (on_boundary[p]) mesh_samples.push_back(inside.points[p]);
+      if (on_boundary[p]) add(inside.points[p]);
+    if (!block.empty()) measure();
   }
-  std::vector<double> d(mesh_samples.size());
-  if (distance) {
-    distance(mesh_samples, d);
-  } else {
-    solid.evaluate(mesh_samples, d);
-  }
-  for (double v : d) fid.mesh_to_surface = std::max(fid.mesh_to_surface, std::abs(v));
-  if (far_tolerance > 0)
-    for (std::size_t i = 0; i < d.size(); ++i)
-      if (!(std::abs(d[i]) <= far_tolerance)) fid.far_points.push_back(mesh_samples[i]);
-  mesh_samples = {};
 
   if (quads.empty()) {
     // No mesh surface at all: nothing of the input is matched.
     fid.surface_to_mesh = surface_samples.empty() ? 0 : std::numeric_limits<double>::infinity();
   } else if (!surface_samples.empty()) {
-    d = distance_to_quads(inside, quads, surface_samples, kBoundaryChunkQuads);
+    const std::vector<double> d = distance_to_quads(inside, quads, surface_samples, kBoundaryChunkQuads);
     for (double v : d) fid.surface_to_mesh = std::max(fid.surface_to_mesh, v);
     if (far_tolerance > 0)
       for (std::size_t i = 0; i < d.size(); ++i)

@@ -71,6 +71,8 @@ FidelityReference fidelity_reference(const SignedDistance& solid, std::vector<Ve
 // input side. Searched at most chunk_quads quads at a time (their search tree, not the whole
 // boundary's, is what the measure holds); the answers are the same bit for bit at any chunk size.
 constexpr std::size_t kBoundaryChunkQuads = std::size_t(1) << 15;
+// The Hausdorff distance's mesh side measures its samples this many at a time (measure_fidelity).
+constexpr std::size_t kMeshSampleBlock = std::size_t(1) << 16;
 std::vector<double> distance_to_boundary(const HexMesh& inside, std::span<const Vec3> points,
                                          std::size_t chunk_quads = kBoundaryChunkQuads);
 // `distance` (optional) measures the mesh side of the Hausdorff distance; |solid| when empty.
