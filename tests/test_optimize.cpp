@@ -117,6 +117,14 @@ std::map<std::tuple<double, double, double>, int> coordinate_set(const std::vect
   return s;
 }
 
+// Outside points with an inside point at the same coordinates: the interface, shared bit for bit.
+std::size_t interface_points(const MeshPair& pair) {
+  const auto in = coordinate_set(pair.inside.points);
+  std::size_t shared = 0;
+  for (const Vec3& x : pair.outside.points) shared += in.count({x.x, x.y, x.z});
+  return shared;
+}
+
 TEST(Optimize, SphereBoundaryStaysOnTheSphereAndTheInterfaceShared) {
   MeshPair pair = sphere_pair(2);
   const MeshPair original = pair;
@@ -136,11 +144,7 @@ TEST(Optimize, SphereBoundaryStaysOnTheSphereAndTheInterfaceShared) {
       }
   EXPECT_GT(moved, 0u);
   // The interface: the outside points on it still have an inside point at the same place.
-  const auto in = coordinate_set(pair.inside.points), in0 = coordinate_set(original.inside.points);
-  std::size_t shared = 0, shared0 = 0;
-  for (const Vec3& x : pair.outside.points) shared += in.count({x.x, x.y, x.z});
-  for (const Vec3& x : original.outside.points) shared0 += in0.count({x.x, x.y, x.z});
-  EXPECT_EQ(shared, shared0);
+  EXPECT_EQ(interface_points(pair), interface_points(original));
   const MeshCheck c1 = check_mesh(pair.inside, &pair.outside, nullptr);
   EXPECT_TRUE(c1.ok) << (c1.errors.empty() ? "" : c1.errors.front());
   EXPECT_EQ(c1.combined->interface_faces, c0.combined->interface_faces);
@@ -166,6 +170,80 @@ TEST(Optimize, SameResultOnOneAndTwoThreads) {
   ASSERT_EQ(a.inside.points.size(), b.inside.points.size());
   for (std::size_t i = 0; i < a.inside.points.size(); ++i) ASSERT_EQ(a.inside.points[i], b.inside.points[i]) << i;
   for (std::size_t i = 0; i < a.outside.points.size(); ++i) ASSERT_EQ(a.outside.points[i], b.outside.points[i]) << i;
+}
+
+// The boundary snap (snap_boundary): the analytic sphere's boundary moves onto |p| = 1 where the
+// hexes allow it, each hex stays certified and within the limits (its scaled Jacobian at least
+// min(its own, floor), its edge ratio at most max(its own, max_edge_ratio)), the hexes and the
+// interface are kept, and the boundary comes nearer the sphere; by default most of it reaches it.
+TEST(Snap, BoundaryGoesOntoTheSphereKeepingCertificatesAndLimits) {
+  for (const SnapLimits limits : {SnapLimits{}, kSnapKeepingQuality})
+    for (int depth : {2, 3}) {
+      SCOPED_TRACE(testing::Message() << "depth " << depth << " floor " << limits.floor);
+      MeshPair pair = sphere_pair(depth);
+      const MeshPair original = pair;
+      const ShapeSdf sdf(ShapeKind::kSphere);
+      const SnapStats st = snap_boundary(pair, sdf, limits);
+      ASSERT_EQ(pair.inside.hexes, original.inside.hexes);
+      ASSERT_EQ(pair.outside.hexes, original.outside.hexes);
+      std::vector<uint8_t> on(pair.inside.points.size(), 0);
+      for (const auto& q : boundary_quads(pair.inside))
+        for (uint32_t v : q) on[v] = 1;
+      std::size_t boundary = 0, on_sphere = 0, moved = 0;
+      double sum_before = 0, sum_after = 0;
+      for (std::size_t v = 0; v < on.size(); ++v) {
+        const Vec3 a = original.inside.points[v], b = pair.inside.points[v];
+        if (!on[v]) {
+          EXPECT_EQ(a, b) << "an interior vertex moved";
+          continue;
+        }
+        ++boundary;
+        moved += !(a == b);
+        on_sphere += std::abs(norm(b) - 1) < 1e-9;
+        sum_before += std::abs(norm(a) - 1);
+        sum_after += std::abs(norm(b) - 1);
+      }
+      EXPECT_EQ(st.vertices, boundary);
+      EXPECT_EQ(st.moved + st.partly + st.stayed, boundary);
+      EXPECT_EQ(st.moved + st.partly, moved);
+      EXPECT_GE(on_sphere, st.moved);
+      EXPECT_GT(st.moved + st.partly, 0u);
+      EXPECT_LT(sum_after, sum_before);
+      if (limits.floor == kSnapFloor) {  // keeping quality, a sliver of 1e-3 of a cell holds its vertices
+        EXPECT_GT(st.moved, boundary / 2);
+        EXPECT_LT(sum_after, 0.5 * sum_before);
+      }
+      for (const auto* m : {&pair.inside, &pair.outside})
+        for (std::size_t h = 0; h < m->hexes.size(); ++h) {
+          const HexCorners x0 = (m == &pair.inside ? original.inside : original.outside).corners(h);
+          const HexCorners x = m->corners(h);
+          ASSERT_TRUE(bernstein_certified(x)) << h;
+          ASSERT_GE(scaled_jacobian(x), std::min(scaled_jacobian(x0), limits.floor)) << h;
+          ASSERT_LE(edge_ratio(x), std::max(edge_ratio(x0), limits.max_edge_ratio)) << h;
+        }
+      // The outside mesh's points on the interface moved with the inside ones.
+      EXPECT_EQ(interface_points(pair), interface_points(original));
+      const MeshCheck c = check_mesh(pair.inside, &pair.outside, nullptr);
+      EXPECT_TRUE(c.ok) << (c.errors.empty() ? "" : c.errors.front());
+    }
+}
+
+TEST(Snap, SameResultOnOneAndTwoThreads) {
+  const ShapeSdf sdf(ShapeKind::kSphere);
+  MeshPair a = sphere_pair(3), b = a;
+  SnapStats sa, sb;
+  {
+    const ThreadLimit one(1);
+    sa = snap_boundary(a, sdf);
+  }
+  {
+    const ThreadLimit two(2);
+    sb = snap_boundary(b, sdf);
+  }
+  EXPECT_EQ(sa.moved, sb.moved);
+  EXPECT_EQ(sa.partly, sb.partly);
+  ASSERT_EQ(a.inside.points, b.inside.points);
+  ASSERT_EQ(a.outside.points, b.outside.points);
 }
 
 TEST(Optimize, ProjectionLandsOnTheSurface) {

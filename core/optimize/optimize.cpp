@@ -225,6 +225,133 @@ void project_to_surface(const SignedDistance& surface, std::span<Vec3> points) {
   }
 }
 
+SnapStats snap_boundary(MeshPair& meshes, const SignedDistance& surface, const SnapLimits& limits) {
+  const double t0 = now();
+  SnapStats st;
+  HexMesh& in = meshes.inside;
+  HexMesh& out = meshes.outside;
+  constexpr uint32_t kNo = std::numeric_limits<uint32_t>::max();
+  // The boundary's vertices, in increasing order.
+  std::vector<uint32_t> boundary;
+  {
+    std::vector<uint8_t> on(in.points.size(), 0);
+    for (const auto& q : boundary_quads(in))
+      for (uint32_t v : q) on[v] = 1;
+    for (uint32_t v = 0; v < on.size(); ++v)
+      if (on[v]) boundary.push_back(v);
+  }
+  st.vertices = boundary.size();
+  if (boundary.empty()) return st;
+  // Each one's place among them (inside point -> its number), and its outside twin: the outside
+  // point at the same coordinates (the interface is shared bit for bit).
+  std::vector<uint32_t> number(in.points.size(), kNo);
+  for (uint32_t b = 0; b < boundary.size(); ++b) number[boundary[b]] = b;
+  std::vector<uint32_t> twin_number(out.points.size(), kNo), twin(boundary.size(), kNo);
+  if (!out.points.empty()) {
+    std::vector<uint32_t> order(boundary.size());
+    std::iota(order.begin(), order.end(), 0u);
+    auto at = [&](uint32_t b) { return in.points[boundary[b]]; };
+    std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return lexicographic_less(at(a), at(b)); });
+    parallel_for(out.points.size(), [&](std::size_t k) {
+      const Vec3 p = out.points[k];
+      const auto it = std::lower_bound(order.begin(), order.end(), p,
+                                       [&](uint32_t b, const Vec3& q) { return lexicographic_less(at(b), q); });
+      if (it != order.end() && at(*it) == p) twin_number[k] = *it;
+    });
+    for (uint32_t k = 0; k < twin_number.size(); ++k)
+      if (twin_number[k] != kNo) twin[twin_number[k]] = k;
+  }
+  const std::size_t ni = in.hexes.size();
+  auto corner_number = [&](uint64_t h, int c) {
+    return h < ni ? number[in.hexes[h][c]] : twin_number[out.hexes[h - ni][c]];
+  };
+  // Items: hex * 8 + corner over both meshes (outside hexes after the inside ones), grouped by
+  // the boundary vertex at that corner, each group sorted.
+  KeyGroups star = group_by_key(
+      boundary.size(),
+      [&](auto&& f) {
+        parallel_for((ni + out.hexes.size()) * 8, [&](std::size_t k) {
+          if (corner_number(k / 8, int(k % 8)) != kNo) f(uint32_t(k));
+        });
+      },
+      [&](uint32_t k) { return corner_number(k / 8, int(k % 8)); });
+  parallel_for(boundary.size(), [&](std::size_t b) {
+    std::sort(star.items.begin() + star.start[b], star.items.begin() + star.start[b + 1]);
+  });
+  auto corners = [&](uint64_t h) {
+    HexCorners x;
+    for (int c = 0; c < 8; ++c) x[c] = h < ni ? in.points[in.hexes[h][c]] : out.points[out.hexes[h - ni][c]];
+    return x;
+  };
+  // Where each would go; vertices on a face of the box (an outside mesh's boundary there) stay.
+  Box box;
+  for (const Vec3& p : out.points) box.extend(p);
+  std::vector<Vec3> target(boundary.size());
+  for (std::size_t b = 0; b < boundary.size(); ++b) target[b] = in.points[boundary[b]];
+  project_to_surface(surface, target);
+  std::vector<uint8_t> stays(boundary.size(), 0);
+  if (!out.points.empty())
+    for (std::size_t b = 0; b < boundary.size(); ++b)
+      for (int a = 0; a < 3; ++a) {
+        const double x = in.points[boundary[b]][a];
+        if (x == box.lo[a] || x == box.hi[a]) stays[b] = 1;
+      }
+  // Colours, greedily in boundary order: a vertex takes the smallest colour that no boundary
+  // vertex of its hexes has taken.
+  std::vector<int> colour(boundary.size(), -1);
+  std::vector<std::vector<uint32_t>> classes;
+  {
+    std::vector<uint32_t> seen;  // seen[c] == b + 1: taken by a neighbour of b
+    for (uint32_t b = 0; b < boundary.size(); ++b) {
+      if (stays[b]) continue;  // by topology alone: the colours do not depend on rounding
+      for (uint32_t k = star.start[b]; k < star.start[b + 1]; ++k)
+        for (int c = 0; c < 8; ++c) {
+          const uint32_t w = corner_number(star.items[k] / 8, c);
+          if (w != kNo && colour[w] >= 0) seen[colour[w]] = b + 1;
+        }
+      int pick = 0;
+      while (pick < int(seen.size()) && seen[pick] == b + 1) ++pick;
+      if (pick == int(seen.size())) seen.push_back(0), classes.emplace_back();
+      colour[b] = pick;
+      classes[pick].push_back(b);
+    }
+  }
+  std::vector<uint8_t> result(boundary.size(), 0);  // 1 moved, 2 partly
+  for (const std::vector<uint32_t>& cls : classes)
+    parallel_for(cls.size(), [&](std::size_t i) {
+      const uint32_t b = cls[i];
+      const uint32_t first = star.start[b], count = star.start[b + 1] - first;
+      constexpr uint32_t kMost = 64;
+      if (count > kMost) return;
+      std::array<HexCorners, kMost> x;
+      std::array<double, kMost> floor, cap;
+      for (uint32_t k = 0; k < count; ++k) {
+        x[k] = corners(star.items[first + k] / 8);
+        floor[k] = std::min(scaled_jacobian(x[k]), limits.floor);
+        cap[k] = limits.max_edge_ratio < kInf ? std::max(edge_ratio(x[k]), limits.max_edge_ratio) : kInf;
+      }
+      const Vec3 from = in.points[boundary[b]];
+      for (const double t : {1.0, 0.5, 0.25}) {
+        const Vec3 y = t == 1 ? target[b] : from + t * (target[b] - from);
+        bool ok = true;
+        for (uint32_t k = 0; k < count && ok; ++k) {
+          HexCorners c = x[k];
+          c[star.items[first + k] % 8] = y;
+          // Certified after the move whether or not it was before: the mesher's hexes are.
+          ok = !(scaled_jacobian(c) < floor[k]) && !(edge_ratio(c) > cap[k]) && bernstein_certified(c);
+        }
+        if (!ok) continue;
+        in.points[boundary[b]] = y;
+        if (twin[b] != kNo) out.points[twin[b]] = y;
+        result[b] = t == 1 ? 1 : 2;
+        return;
+      }
+    });
+  for (uint8_t r : result) (r == 1 ? st.moved : r == 2 ? st.partly : st.stayed) += 1;
+  st.seconds = now() - t0;
+  return st;
+}
+
 namespace {
 
 struct Optimizer {

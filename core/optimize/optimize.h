@@ -52,6 +52,7 @@
 #pragma once
 
 #include <cstddef>
+#include <limits>
 #include <vector>
 
 #include "core/base/geometry.h"
@@ -159,6 +160,33 @@ struct OptimizeStats {
 // on the surface.
 OptimizeStats optimize(MeshPair& meshes, const SignedDistance* surface, const OptimizeOptions& options = {},
                        const TriangleSurface* triangles = nullptr);
+
+// The boundary snapped onto the surface, certified (`mesh` does it after each cut unless
+// --no-snap; docs/pipeline.md, "The boundary snapped"). Every vertex of the inside mesh's
+// boundary (the interface, shared with the outside mesh) goes to its projection on the zero set
+// of `surface` (project_to_surface), or half or a quarter of the way, the first of the three at
+// which every hex it is a corner of, in either mesh, is Bernstein-certified, has a scaled
+// Jacobian at least min(the one it had, limits.floor) and an edge ratio at most max(the one it
+// had, limits.max_edge_ratio); else it stays. Vertices are taken in colours
+// (no two of a colour share a hex), a colour's in parallel: the same result on any number of
+// threads. Vertices on a face of the outside mesh's box stay. Moves only points: hexes, their
+// corners and the certificates (never lost) are as they were.
+inline constexpr double kSnapFloor = 0.2;
+struct SnapLimits {
+  double floor = kSnapFloor;  // a hex's scaled Jacobian may fall to min(its own, floor)
+  // A hex's edge ratio may grow up to max(its own, this); infinity: no limit.
+  double max_edge_ratio = std::numeric_limits<double>::infinity();
+};
+// No hex's scaled Jacobian falls and no edge ratio grows (mesh --repel: quality asked for).
+inline constexpr SnapLimits kSnapKeepingQuality{1, 0};
+struct SnapStats {
+  std::size_t vertices = 0;  // on the boundary
+  std::size_t moved = 0;     // to the surface
+  std::size_t partly = 0;    // half or a quarter of the way
+  std::size_t stayed = 0;    // refused (or already on the surface: no move)
+  double seconds = 0;
+};
+SnapStats snap_boundary(MeshPair& meshes, const SignedDistance& surface, const SnapLimits& limits = {});
 
 // Projects points onto the zero set of `surface` (what optimize uses; public for the tests).
 void project_to_surface(const SignedDistance& surface, std::span<Vec3> points);
