@@ -31,6 +31,7 @@
 #include "core/io/surface_io.h"
 #include "core/mesh/orientation.h"
 #include "core/mesh/quality.h"
+#include "core/optimize/optimize.h"
 #include "core/pipeline/pipeline.h"
 #include "core/pipeline/report.h"
 #include "core/sdf/sdf.h"
@@ -125,8 +126,12 @@ TEST(Pipeline, ShapeOnAUniformGridIsTheMesherCalledDirectly) {
   const ShapeSdf sdf(ShapeKind::kTwoHoled);
   const UniformGrid grid(padded_cube(sdf.bounds(), 0.1), 2);
   MchexStats stats;
-  const MeshPair direct = mesh_mchex(grid, values_at(sdf, grid), 1e-3, &stats);
+  MeshPair direct = mesh_mchex(grid, values_at(sdf, grid), 1e-3, &stats);
+  const SnapStats snapped = snap_boundary(direct, sdf);  // then the boundary snapped onto the shape
   expect_same_pair(t.run.meshes, direct);
+  ASSERT_TRUE(t.run.snap);
+  EXPECT_EQ(t.run.snap->moved, snapped.moved);
+  EXPECT_GT(snapped.moved, 0u);
   EXPECT_EQ(t.run.mchex.cases, stats.cases);
   EXPECT_EQ(t.run.mchex.refined_cells, stats.refined_cells);
 
@@ -207,7 +212,8 @@ TEST(Pipeline, SurfaceFromAFileIsTheMesherCalledDirectly) {
   const TriangleSurface surface = read_surface(kGearwheel, &welded);
   const SurfaceSdf sdf(surface);
   const UniformGrid grid(padded_cube(sdf.bounds(), 0.1), 2);
-  const MeshPair direct = mesh_mchex(grid, values_at(sdf, grid), 1e-3);
+  MeshPair direct = mesh_mchex(grid, values_at(sdf, grid), 1e-3);
+  snap_boundary(direct, sdf);
   expect_same_pair(t.run.meshes, direct);
 
   const nlohmann::json r = report_json(t.run);
@@ -235,7 +241,8 @@ TEST(Pipeline, AdaptiveGridIsTheOctreeAndMesherCalledDirectly) {
   AdaptiveGrid g = build_adaptive_complex(tree);
   const std::size_t unsampled = g.unsampled.size();
   evaluate_unsampled(g, sdf);
-  const MeshPair direct = mesh_mchex(g.complex, g.values, 1e-3);
+  MeshPair direct = mesh_mchex(g.complex, g.values, 1e-3);
+  snap_boundary(direct, sdf);
   expect_same_pair(t.run.meshes, direct);
   EXPECT_EQ(t.run.adaptive->complex.cells.size(), g.complex.cells.size());
 
@@ -336,6 +343,7 @@ TEST(Pipeline, ARepairedOpenSurfaceIsRepairAndTheWindingSignCalledDirectly) {
   MeshRequest request;
   request.solid = SolidSource::in_memory(broken, "broken-torus");
   request.options.depth = 2;
+  request.options.snap = false;  // the cut itself (the snap: the tests above)
   const Timed t = run_timed(request);
   expect_sound(t);
   EXPECT_TRUE(broken.triangles == given.triangles && broken.vertices == given.vertices);

@@ -2,7 +2,7 @@
 nearest triangle's pseudonormal makes a valid mesh of the wrong solid (a folded-back spike, a third
 of the faces flipped, holes, overlapping and nested shells), written as STL with tests/models.py
 and judged against the clean solid by a brute-force numpy winding number (independent of the code
-under test); the npm bunny (open) and gearwheel; and a model's scale (1e-9 .. 1e9)."""
+under test); the npm bunny (open) and gearwheel; and a model's scale (2^-30 .. 2^30)."""
 import json
 import os
 import unittest
@@ -216,10 +216,14 @@ class RepairOptionsTest(ScratchTestCase):
 
 
 class ScaleTest(ScratchTestCase):
-    def test_a_sphere_meshes_alike_at_1e_minus_9_1_and_1e9(self):
+    def test_a_sphere_meshes_alike_at_2_to_the_minus_30_1_and_2_to_the_30(self):
+        # Scales by powers of two: the STL's float32 stores the scaled sphere exactly and every
+        # rounding in the pipeline scales with it, so the meshes must be the same to the bit
+        # (with 1e-9 and 1e9 the input's own rounding moved the snapped boundary's decisions).
         v, t = models.uv_sphere(32, 16)
         meshes = {}
-        for scale in (1e-9, 1.0, 1e9):
+        scales = (2.0**-30, 2.0**30)
+        for scale in (scales[0], 1.0, scales[1]):
             stl = os.path.join(self.dir, f"s{scale}.stl")
             models.write_binary_stl(stl, v * scale, t)
             for grid in (("--depth", 3), ("--threshold", 0.05, "--max-depth", 3)):
@@ -230,11 +234,10 @@ class ScaleTest(ScratchTestCase):
                 meshes[scale, grid[0]] = (m.points / scale, m.cells_dict["hexahedron"])
         for grid in ("--depth", "--threshold"):
             p1, h1 = meshes[1.0, grid]
-            for scale in (1e-9, 1e9):
+            for scale in scales:
                 p, h = meshes[scale, grid]
                 np.testing.assert_array_equal(h, h1)
-                # The STL stores float32: the scaled input differs by its rounding.
-                np.testing.assert_allclose(p, p1, rtol=0, atol=1e-6)
+                np.testing.assert_array_equal(p, p1)
 
 
 if __name__ == "__main__":

@@ -351,6 +351,13 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
       check_memory_budget(run);
       mesh_grid();
     }
+    // Several regions: a shell's projection near a junction curve could land on the other
+    // shell, so their boundary stays where the cut put it.
+    if (o.snap && o.method == "mchex" && !regions)
+      run.snap = run.clock.run("snap", [&] {
+        // With --repel the user asked for quality: no hex may lose any (docs/pipeline.md).
+        return snap_boundary(run.meshes, solid.sdf(), o.repel > 0 ? kSnapKeepingQuality : SnapLimits{});
+      });
   };
   mesh_and_remedy();
   // The fitted grid's measured rounds (core/pipeline/fit.h): where the mesh lies farther from the

@@ -79,6 +79,9 @@ struct MeshOptions {
   // on the input surface, every hex still Bernstein-certified.
   bool optimize = false;
   OptimizeOptions optimize_options;
+  // Method mchex, one solid: after each cut the boundary is snapped onto the surface where every
+  // hex stays certified (core/optimize/optimize.h snap_boundary; mesh --no-snap turns it off).
+  bool snap = true;
   // The check keeps each hex's scaled Jacobian for write_meshes (a .vtu output's cell field,
   // which its writer would otherwise compute again): 8 bytes per hex.
   bool keep_scaled_jacobians = false;
@@ -146,6 +149,7 @@ struct MeshRun {
   MeshCheck check;
   MchexStats mchex;                       // method mchex (of the last meshing)
   RemedyStats remedy;                     // adaptive grid, method mchex
+  std::optional<SnapStats> snap;          // the last cut's snap (MeshOptions::snap)
   std::optional<RepelStats> repel;        // when asked for (of the last meshing)
   std::vector<FitRound> fit_rounds;       // hausdorff with fidelity: the measured rounds
   std::optional<Fidelity> fidelity;       // when asked for

@@ -286,6 +286,13 @@ json report_json(const MeshRun& run, const MeshOutputs* outputs) {
                        {"pinned", run.repel->pinned},     {"restored", run.repel->restored},
                        {"relaxed", run.repel->relaxed},   {"rounds", run.repel->rounds},
                        {"off_line", run.repel->off_line}, {"off_line_rounds", run.repel->off_line_rounds}};
+  // The boundary snapped onto the surface after the last cut (core/optimize/optimize.h).
+  if (run.snap)
+    report["snap"] = {{"vertices", run.snap->vertices},
+                      {"moved", run.snap->moved},
+                      {"partly", run.snap->partly},
+                      {"stayed", run.snap->stayed},
+                      {"seconds", run.snap->seconds}};
   if (run.optimize) report["optimize"] = optimize_json(*run.optimize);
   if (run.regions) report["regions"] = regions_json(*run.regions);
   if (run.fidelity) report["fidelity"] = fidelity_json(*run.fidelity);

@@ -189,6 +189,9 @@ MeshCli::MeshCli(CLI::App& app) {
                  "along the SDF's gradient instead (0: Awad's grid-aligned rule alone; docs/repel.md)")
       ->check(CLI::Range(0, 100))
       ->capture_default_str();
+  app.add_flag("--no-snap{false}", command.options.snap,
+               "--method mchex: leave the boundary where the cut put it (by default each boundary vertex is moved onto "
+               "the input surface, or part of the way, where every hex stays certified; docs/pipeline.md)");
   app.add_flag("--optimize", command.options.optimize,
                "move vertices after meshing to raise the minimum and mean scaled Jacobian: boundary vertices stay "
                "on the input surface, every hex stays Bernstein-certified (docs/optimize.md)");
