@@ -107,6 +107,9 @@ void print_summary(const MeshRun& run, const MeshOutputs& outputs) {
                "{} + {} rounds\n",
                run.repel->delta, run.repel->moved, run.repel->off_line, run.repel->pinned, run.repel->relaxed,
                run.repel->restored, run.repel->rounds, run.repel->off_line_rounds);
+  if (run.snap)
+    fmt::print("  snap: {} of {} boundary vertices on the surface, {} part of the way (hexes kept certified)\n",
+               run.snap->moved, run.snap->vertices, run.snap->partly);
   if (run.optimize) fmt::print("{}", optimize_line(*run.optimize));
   fmt::print("{}", summary(run.check));
   if (run.fidelity) fmt::print("{}", fidelity_line(*run.fidelity));
