@@ -120,36 +120,62 @@ struct Joined {
   std::vector<uint32_t> outside_point;  // outside point -> joined vertex
 };
 
+constexpr uint32_t kNoPoint = std::numeric_limits<uint32_t>::max();
+
+// For each of `points`, the lowest i < count whose at(i) has exactly its coordinates, or kNoPoint:
+// how the outside mesh's points on the interface find their inside twins (the interface is shared
+// bit for bit).
+template <class At>
+std::vector<uint32_t> coinciding(std::span<const Vec3> points, std::size_t count, const At& at) {
+  std::vector<uint32_t> order(count);
+  std::iota(order.begin(), order.end(), 0u);
+  parallel_sort(order.begin(), order.end(),
+                [&](uint32_t a, uint32_t b) { return at(a) != at(b) ? lexicographic_less(at(a), at(b)) : a < b; });
+  std::vector<uint32_t> found(points.size(), kNoPoint);
+  parallel_for(points.size(), [&](std::size_t k) {
+    const auto it = std::lower_bound(order.begin(), order.end(), points[k],
+                                     [&](uint32_t a, const Vec3& q) { return lexicographic_less(at(a), q); });
+    if (it != order.end() && at(*it) == points[k]) found[k] = *it;
+  });
+  return found;
+}
+
+// Greedy colouring in index order: each i < n that `take` accepts gets the smallest colour that
+// none of its neighbours (for_each_neighbour(i, f) calls f(w) for each) has yet. Sequential, so
+// deterministic; the classes list their members in increasing order.
+template <class Take, class ForEachNeighbour>
+std::vector<std::vector<uint32_t>> greedy_colours(std::size_t n, const Take& take,
+                                                  const ForEachNeighbour& for_each_neighbour) {
+  std::vector<int> colour(n, -1);
+  std::vector<std::vector<uint32_t>> classes;
+  std::vector<std::size_t> seen;  // seen[c] == i + 1: a neighbour of i has colour c
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!take(i)) continue;
+    for_each_neighbour(i, [&](uint32_t w) {
+      if (colour[w] >= 0) seen[std::size_t(colour[w])] = i + 1;
+    });
+    std::size_t pick = 0;
+    while (pick < seen.size() && seen[pick] == i + 1) ++pick;
+    if (pick == seen.size()) {
+      seen.push_back(0);
+      classes.emplace_back();
+    }
+    colour[i] = int(pick);
+    classes[pick].push_back(uint32_t(i));
+  }
+  return classes;
+}
+
 Joined join(const MeshPair& m) {
   Joined j;
   j.x = m.inside.points;
-  const std::size_t ni = m.inside.points.size();
-  std::vector<uint32_t> order(ni);
-  std::iota(order.begin(), order.end(), 0u);
-  auto less = [&](uint32_t a, uint32_t b) {
-    const Vec3 &p = j.x[a], &q = j.x[b];
-    if (p.x != q.x) return p.x < q.x;
-    if (p.y != q.y) return p.y < q.y;
-    if (p.z != q.z) return p.z < q.z;
-    return a < b;
-  };
-  parallel_sort(order.begin(), order.end(), less);
-  j.outside_point.resize(m.outside.points.size());
-  for (std::size_t k = 0; k < m.outside.points.size(); ++k) {
-    const Vec3 p = m.outside.points[k];
-    auto it = std::lower_bound(order.begin(), order.end(), p, [&](uint32_t a, const Vec3& q) {
-      const Vec3& s = j.x[a];
-      if (s.x != q.x) return s.x < q.x;
-      if (s.y != q.y) return s.y < q.y;
-      return s.z < q.z;
-    });
-    if (it != order.end() && j.x[*it] == p) {
-      j.outside_point[k] = *it;
-    } else {
+  j.outside_point = coinciding(m.outside.points, m.inside.points.size(),
+                               [&](uint32_t a) -> const Vec3& { return m.inside.points[a]; });
+  for (std::size_t k = 0; k < m.outside.points.size(); ++k)
+    if (j.outside_point[k] == kNoPoint) {
       j.outside_point[k] = uint32_t(j.x.size());
-      j.x.push_back(p);
+      j.x.push_back(m.outside.points[k]);
     }
-  }
   j.hexes = m.inside.hexes;
   j.inside_hexes = m.inside.hexes.size();
   j.hexes.reserve(j.hexes.size() + m.outside.hexes.size());
@@ -230,7 +256,6 @@ SnapStats snap_boundary(MeshPair& meshes, const SignedDistance& surface, const S
   SnapStats st;
   HexMesh& in = meshes.inside;
   HexMesh& out = meshes.outside;
-  constexpr uint32_t kNo = std::numeric_limits<uint32_t>::max();
   // The boundary's vertices, in increasing order.
   std::vector<uint32_t> boundary;
   {
@@ -244,23 +269,13 @@ SnapStats snap_boundary(MeshPair& meshes, const SignedDistance& surface, const S
   if (boundary.empty()) return st;
   // Each one's place among them (inside point -> its number), and its outside twin: the outside
   // point at the same coordinates (the interface is shared bit for bit).
-  std::vector<uint32_t> number(in.points.size(), kNo);
+  std::vector<uint32_t> number(in.points.size(), kNoPoint);
   for (uint32_t b = 0; b < boundary.size(); ++b) number[boundary[b]] = b;
-  std::vector<uint32_t> twin_number(out.points.size(), kNo), twin(boundary.size(), kNo);
-  if (!out.points.empty()) {
-    std::vector<uint32_t> order(boundary.size());
-    std::iota(order.begin(), order.end(), 0u);
-    auto at = [&](uint32_t b) { return in.points[boundary[b]]; };
-    std::sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) { return lexicographic_less(at(a), at(b)); });
-    parallel_for(out.points.size(), [&](std::size_t k) {
-      const Vec3 p = out.points[k];
-      const auto it = std::lower_bound(order.begin(), order.end(), p,
-                                       [&](uint32_t b, const Vec3& q) { return lexicographic_less(at(b), q); });
-      if (it != order.end() && at(*it) == p) twin_number[k] = *it;
-    });
-    for (uint32_t k = 0; k < twin_number.size(); ++k)
-      if (twin_number[k] != kNo) twin[twin_number[k]] = k;
-  }
+  const std::vector<uint32_t> twin_number =
+      coinciding(out.points, boundary.size(), [&](uint32_t b) -> const Vec3& { return in.points[boundary[b]]; });
+  std::vector<uint32_t> twin(boundary.size(), kNoPoint);
+  for (uint32_t k = 0; k < twin_number.size(); ++k)
+    if (twin_number[k] != kNoPoint) twin[twin_number[k]] = k;
   const std::size_t ni = in.hexes.size();
   auto corner_number = [&](uint64_t h, int c) {
     return h < ni ? number[in.hexes[h][c]] : twin_number[out.hexes[h - ni][c]];
@@ -271,7 +286,7 @@ SnapStats snap_boundary(MeshPair& meshes, const SignedDistance& surface, const S
       boundary.size(),
       [&](auto&& f) {
         parallel_for((ni + out.hexes.size()) * 8, [&](std::size_t k) {
-          if (corner_number(k / 8, int(k % 8)) != kNo) f(uint32_t(k));
+          if (corner_number(k / 8, int(k % 8)) != kNoPoint) f(uint32_t(k));
         });
       },
       [&](uint32_t k) { return corner_number(k / 8, int(k % 8)); });
@@ -296,26 +311,15 @@ SnapStats snap_boundary(MeshPair& meshes, const SignedDistance& surface, const S
         const double x = in.points[boundary[b]][a];
         if (x == box.lo[a] || x == box.hi[a]) stays[b] = 1;
       }
-  // Colours, greedily in boundary order: a vertex takes the smallest colour that no boundary
-  // vertex of its hexes has taken.
-  std::vector<int> colour(boundary.size(), -1);
-  std::vector<std::vector<uint32_t>> classes;
-  {
-    std::vector<uint32_t> seen;  // seen[c] == b + 1: taken by a neighbour of b
-    for (uint32_t b = 0; b < boundary.size(); ++b) {
-      if (stays[b]) continue;  // by topology alone: the colours do not depend on rounding
-      for (uint32_t k = star.start[b]; k < star.start[b + 1]; ++k)
-        for (int c = 0; c < 8; ++c) {
-          const uint32_t w = corner_number(star.items[k] / 8, c);
-          if (w != kNo && colour[w] >= 0) seen[colour[w]] = b + 1;
-        }
-      int pick = 0;
-      while (pick < int(seen.size()) && seen[pick] == b + 1) ++pick;
-      if (pick == int(seen.size())) seen.push_back(0), classes.emplace_back();
-      colour[b] = pick;
-      classes[pick].push_back(b);
-    }
-  }
+  // Colours in boundary order, among the boundary vertices of each one's hexes; by topology alone
+  // (not skipping those already on the surface), so the colours do not depend on rounding.
+  const auto classes = greedy_colours(
+      boundary.size(), [&](std::size_t b) { return !stays[b]; },
+      [&](std::size_t b, auto&& f) {
+        for (uint32_t k = star.start[b]; k < star.start[b + 1]; ++k)
+          for (int c = 0; c < 8; ++c)
+            if (const uint32_t w = corner_number(star.items[k] / 8, c); w != kNoPoint) f(w);
+      });
   std::vector<uint8_t> result(boundary.size(), 0);  // 1 moved, 2 partly
   for (const std::vector<uint32_t>& cls : classes)
     parallel_for(cls.size(), [&](std::size_t i) {
@@ -342,7 +346,7 @@ SnapStats snap_boundary(MeshPair& meshes, const SignedDistance& surface, const S
         }
         if (!ok) continue;
         in.points[boundary[b]] = y;
-        if (twin[b] != kNo) out.points[twin[b]] = y;
+        if (twin[b] != kNoPoint) out.points[twin[b]] = y;
         result[b] = t == 1 ? 1 : 2;
         return;
       }
@@ -490,27 +494,12 @@ struct Optimizer {
   // Greedy colouring in vertex order: each movable vertex takes the smallest colour that no
   // movable vertex sharing a hex with it has taken. Sequential, so deterministic.
   std::vector<std::vector<uint32_t>> colour() const {
-    const std::size_t nv = j.x.size();
-    std::vector<int> c(nv, -1);
-    std::vector<std::vector<uint32_t>> classes;
-    std::vector<int> seen;  // seen[colour] == v: taken by a neighbour of v
-    for (std::size_t v = 0; v < nv; ++v) {
-      if (!movable(v)) continue;
-      for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k) {
-        const Hex& h = j.hexes[incident.items[k] / 8];
-        for (uint32_t w : h)
-          if (c[w] >= 0) seen[c[w]] = int(v);
-      }
-      int pick = 0;
-      while (pick < int(seen.size()) && seen[pick] == int(v)) ++pick;
-      if (pick == int(seen.size())) {
-        seen.push_back(-1);
-        classes.emplace_back();
-      }
-      c[v] = pick;
-      classes[pick].push_back(uint32_t(v));
-    }
-    return classes;
+    return greedy_colours(
+        j.x.size(), [&](std::size_t v) { return movable(v); },
+        [&](std::size_t v, auto&& f) {
+          for (uint32_t k = incident.start[v]; k < incident.start[v + 1]; ++k)
+            for (uint32_t w : j.hexes[incident.items[k] / 8]) f(w);
+        });
   }
 
   struct Local {
