@@ -53,6 +53,17 @@ class TimedSdf final : public SignedDistance {
   const SignedDistance& s_;
 };
 
+// What the snap may cost a hex (docs/pipeline.md, "The boundary snapped"). With --repel the user
+// asked for quality: alone, no hex may lose any; followed by --optimize, which raises the scaled
+// Jacobian again but can only lower an edge ratio it is given room for, the fidelity's floor and
+// the optimiser's own edge-ratio cap (a snap that kept quality left the optimiser a boundary it
+// could not fit: the bunny's IoU 0.9979 under the plain snapped mesh's 0.9984).
+SnapLimits snap_limits(const MeshOptions& o) {
+  if (o.repel > 0 && o.optimize) return {kSnapFloor, o.optimize_options.max_edge_ratio};
+  if (o.repel > 0) return kSnapKeepingQuality;
+  return {};
+}
+
 // The run's estimated peak memory against its budget (core/pipeline/estimate.h): refused early
 // (ResourceError, exit 2) with a coarser setting that fits, rather than dying half-way. A uniform
 // grid is estimated before any work; an adaptive one once the octree is refined, from its cells
@@ -354,10 +365,7 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
     // Several regions: a shell's projection near a junction curve could land on the other
     // shell, so their boundary stays where the cut put it.
     if (o.snap && o.method == "mchex" && !regions)
-      run.snap = run.clock.run("snap", [&] {
-        // With --repel the user asked for quality: no hex may lose any (docs/pipeline.md).
-        return snap_boundary(run.meshes, solid.sdf(), o.repel > 0 ? kSnapKeepingQuality : SnapLimits{});
-      });
+      run.snap = run.clock.run("snap", [&] { return snap_boundary(run.meshes, solid.sdf(), snap_limits(o)); });
   };
   mesh_and_remedy();
   // The fitted grid's measured rounds (core/pipeline/fit.h): where the mesh lies farther from the
