@@ -6,7 +6,16 @@
    Linear elasticity has the exact solution u = (s x / E, -nu s y / E, -nu s z / E) (s the
    stress); trilinear hexes hold a linear field exactly, so CalculiX's displacements must match it
    to solver precision. A wrong corner order (a C3D8 with a negative Jacobian) is an error there.
-2. A mesh of mchex-gpu itself (`mesh --shape rounded-box -o inside.inp`): CalculiX must accept it
+2. An optimised mesh of mchex-gpu (`mesh --shape sphere --repel --optimize -o inside.inp`, hexes
+   moved off the grid, boundary faces curved) under a uniform pressure p on its boundary faces:
+   for any solid the exact solution is the hydrostatic state, stress -p I and u = -p (1 - 2 nu) x
+   / E. It is linear, so trilinear hexes hold it exactly whatever their shape (the patch test:
+   with full 2 x 2 x 2 integration both the stiffness and the pressure loads on a bilinear face
+   are integrated exactly), and CalculiX's displacements must match it to solver precision; the
+   three nodes that remove the rigid motions are held at their exact values (printed to 13
+   digits: CalculiX reads 20 characters a field). A sign or corner
+   order error in the element, or a face numbered against C3D8's convention, breaks it.
+3. A mesh of mchex-gpu itself (`mesh --shape rounded-box -o inside.inp`): CalculiX must accept it
    (every element of the REGION1 set, positive Jacobians) and finish a gravity load case with a
    finite displacement at every node, zero where fixed.
 
@@ -127,6 +136,42 @@ class CalculixSolves(unittest.TestCase):
         self.assertEqual(sorted(u), list(range(1, len(points) + 1)))
         exact = np.column_stack([stress * points[:, 0] / E, -NU * stress * points[:, 1] / E,
                                  -NU * stress * points[:, 2] / E])
+        got = np.array([u[n + 1] for n in range(len(points))])
+        # The .dat prints 7 significant digits.
+        np.testing.assert_allclose(got, exact, rtol=0, atol=1e-6 * np.abs(exact).max())
+
+    def test_an_optimised_mesh_under_pressure_matches_the_exact_solution(self):
+        self.run_cli("mesh", "--shape", "sphere", "--depth", 2, "--repel", "--optimize", "-o", "inside.inp",
+                     "--no-fidelity", "--quiet")
+        mesh = meshio.read(os.path.join(self.dir, "inside.inp"))
+        points, hexes = mesh.points, mesh.cells_dict["hexahedron"]
+        # Moved off the grid: most points are not on the lattice of cell corners and midpoints.
+        self.assertGreater(np.count_nonzero(np.abs(points * 18 - np.round(points * 18)) > 1e-9), len(points) / 10)
+        # Boundary faces (on one hex only), each as its element and C3D8 face number (Abaqus:
+        # S1 1-2-3-4, S2 5-8-7-6, S3 1-5-6-2, S4 2-6-7-3, S5 3-7-8-4, S6 4-8-5-1).
+        faces = [(0, 1, 2, 3), (4, 7, 6, 5), (0, 4, 5, 1), (1, 5, 6, 2), (2, 6, 7, 3), (3, 7, 4, 0)]
+        seen = {}
+        for e, h in enumerate(hexes):
+            for k, f in enumerate(faces):
+                seen.setdefault(tuple(sorted(h[i] for i in f)), []).append((e, k))
+        boundary = [v[0] for v in seen.values() if len(v) == 1]
+        self.assertGreater(len(boundary), 100)
+        pressure = 100.0
+        exact = -pressure * (1 - 2 * NU) / E * points
+        a = 0
+        b = int(np.argmax(np.linalg.norm(points - points[a], axis=1)))
+        ab = (points[b] - points[a]) / np.linalg.norm(points[b] - points[a])
+        off = points - points[a]
+        c = int(np.argmax(np.linalg.norm(off - np.outer(off @ ab, ab), axis=1)))
+        held = "".join(f"{n + 1}, {d + 1}, {d + 1}, {exact[n, d]:.12e}\n" for n in (a, b, c) for d in range(3))
+        deck = ("*INCLUDE, INPUT=inside.inp\n"
+                + f"*MATERIAL, NAME=STEEL\n*ELASTIC\n{E}, {NU}\n"
+                + "*SOLID SECTION, ELSET=REGION1, MATERIAL=STEEL\n"
+                + "*STEP\n*STATIC\n*BOUNDARY\n" + held + "*DLOAD\n"
+                + "".join(f"{e + 1}, P{k + 1}, {pressure!r}\n" for e, k in boundary)
+                + "*NODE PRINT, NSET=EVERY\nU\n*END STEP\n")
+        u = self.solve(deck, len(points))
+        self.assertEqual(sorted(u), list(range(1, len(points) + 1)))
         got = np.array([u[n + 1] for n in range(len(points))])
         # The .dat prints 7 significant digits.
         np.testing.assert_allclose(got, exact, rtol=0, atol=1e-6 * np.abs(exact).max())
