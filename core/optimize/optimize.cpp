@@ -16,6 +16,7 @@
 #include "core/base/stage_clock.h"
 #include "core/check/mesh_check.h"
 #include "core/mesh/feature_curves.h"
+#include "core/mesh/point_index.h"
 #include "core/mesh/quality.h"
 
 namespace mchex {
@@ -124,19 +125,16 @@ constexpr uint32_t kNoPoint = std::numeric_limits<uint32_t>::max();
 
 // For each of `points`, the lowest i < count whose at(i) has exactly its coordinates, or kNoPoint:
 // how the outside mesh's points on the interface find their inside twins (the interface is shared
-// bit for bit).
+// bit for bit). A hash of the count points, probed once per point (most outside points fall
+// outside the box of the others and are not even hashed).
 template <class At>
 std::vector<uint32_t> coinciding(std::span<const Vec3> points, std::size_t count, const At& at) {
-  std::vector<uint32_t> order(count);
-  std::iota(order.begin(), order.end(), 0u);
-  parallel_sort(order.begin(), order.end(),
-                [&](uint32_t a, uint32_t b) { return at(a) != at(b) ? lexicographic_less(at(a), at(b)) : a < b; });
-  std::vector<uint32_t> found(points.size(), kNoPoint);
-  parallel_for(points.size(), [&](std::size_t k) {
-    const auto it = std::lower_bound(order.begin(), order.end(), points[k],
-                                     [&](uint32_t a, const Vec3& q) { return lexicographic_less(at(a), q); });
-    if (it != order.end() && at(*it) == points[k]) found[k] = *it;
-  });
+  std::vector<Vec3> keys(count);
+  parallel_for(count, [&](std::size_t i) { keys[i] = at(uint32_t(i)); });
+  const PointIndex index(keys);
+  static_assert(PointIndex::kNone == kNoPoint);
+  std::vector<uint32_t> found(points.size());
+  parallel_for(points.size(), [&](std::size_t k) { found[k] = index.find(points[k]); });
   return found;
 }
 
