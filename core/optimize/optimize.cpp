@@ -249,7 +249,8 @@ void project_to_surface(const SignedDistance& surface, std::span<Vec3> points) {
   }
 }
 
-SnapStats snap_boundary(MeshPair& meshes, const SignedDistance& surface, const SnapLimits& limits) {
+SnapStats snap_boundary(MeshPair& meshes, const SignedDistance& surface, const SnapLimits& limits,
+                        const SnapHeld& held) {
   const double t0 = now();
   SnapStats st;
   HexMesh& in = meshes.inside;
@@ -303,6 +304,11 @@ SnapStats snap_boundary(MeshPair& meshes, const SignedDistance& surface, const S
   for (std::size_t b = 0; b < boundary.size(); ++b) target[b] = in.points[boundary[b]];
   project_to_surface(surface, target);
   std::vector<uint8_t> stays(boundary.size(), 0);
+  if (held) {
+    std::vector<Vec3> at(boundary.size());
+    for (std::size_t b = 0; b < boundary.size(); ++b) at[b] = in.points[boundary[b]];
+    stays = held(at);
+  }
   if (!out.points.empty())
     for (std::size_t b = 0; b < boundary.size(); ++b)
       for (int a = 0; a < 3; ++a) {

@@ -52,7 +52,10 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
+#include <functional>
 #include <limits>
+#include <span>
 #include <vector>
 
 #include "core/base/geometry.h"
@@ -186,7 +189,12 @@ struct SnapStats {
   std::size_t stayed = 0;    // refused (or already on the surface: no move)
   double seconds = 0;
 };
-SnapStats snap_boundary(MeshPair& meshes, const SignedDistance& surface, const SnapLimits& limits = {});
+// `held`, where given, marks the boundary points that stay where they are (several regions: those
+// near a junction curve, where the cut leaves the shells by design and a projection could land on
+// the other shell).
+using SnapHeld = std::function<std::vector<uint8_t>(std::span<const Vec3> points)>;
+SnapStats snap_boundary(MeshPair& meshes, const SignedDistance& surface, const SnapLimits& limits = {},
+                        const SnapHeld& held = {});
 
 // Projects points onto the zero set of `surface` (what optimize uses; public for the tests).
 void project_to_surface(const SignedDistance& surface, std::span<Vec3> points);

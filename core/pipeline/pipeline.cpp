@@ -57,9 +57,11 @@ class TimedSdf final : public SignedDistance {
 // asked for quality: alone, no hex may lose any; followed by --optimize, which raises the scaled
 // Jacobian again but can only lower an edge ratio it is given room for, the fidelity's floor and
 // the optimiser's own edge-ratio cap (a snap that kept quality left the optimiser a boundary it
-// could not fit: the bunny's IoU 0.9979 under the plain snapped mesh's 0.9984).
-SnapLimits snap_limits(const MeshOptions& o) {
-  if (o.repel > 0 && o.optimize) return {kSnapFloor, o.optimize_options.max_edge_ratio};
+// could not fit: the bunny's IoU 0.9979 under the plain snapped mesh's 0.9984). Several regions
+// keep quality with --optimize too: beside a junction curve the cap then left no room (two
+// crossing spheres at cap 8.3 ended at 8.45), for 0.001 of IoU.
+SnapLimits snap_limits(const MeshOptions& o, bool regions) {
+  if (o.repel > 0 && o.optimize && !regions) return {kSnapFloor, o.optimize_options.max_edge_ratio};
   if (o.repel > 0) return kSnapKeepingQuality;
   return {};
 }
@@ -362,10 +364,16 @@ MeshRun mesh_solid(const MeshRequest& request, const Solid& solid, StageClock cl
       check_memory_budget(run);
       mesh_grid();
     }
-    // Several regions: a shell's projection near a junction curve could land on the other
-    // shell, so their boundary stays where the cut put it.
-    if (o.snap && o.method == "mchex" && !regions)
-      run.snap = run.clock.run("snap", [&] { return snap_boundary(run.meshes, solid.sdf(), snap_limits(o)); });
+    // Several regions: the cut's interface is every shell at once, and the closest point on them
+    // is on the shell it approximates, except near a junction curve, where the lifted cut leaves
+    // the shells by design and a projection could land on the other shell: those points stay
+    // (the fitted rounds' margin, kJunctionFitMargin lift radii).
+    if (o.snap && o.method == "mchex") {
+      SnapHeld held;
+      if (lift) held = [&](std::span<const Vec3> p) { return lift->near(p, kJunctionFitMargin); };
+      run.snap = run.clock.run(
+          "snap", [&] { return snap_boundary(run.meshes, solid.sdf(), snap_limits(o, regions != nullptr), held); });
+    }
   };
   mesh_and_remedy();
   // The fitted grid's measured rounds (core/pipeline/fit.h): where the mesh lies farther from the
