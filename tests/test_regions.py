@@ -146,9 +146,12 @@ class Regions(ScratchTestCase):
                     self.assertLessEqual(q["max_dihedral_angle"], 157.9, side)
                 if extra == capped:
                     self.assertLessEqual(q["max_edge_ratio"], 8.3 * (1 + 1e-9), side)
-            # The shells' interface is snapped onto them, except within the junction's margin.
-            self.assertGreater(rep["snap"]["moved"], rep["snap"]["vertices"] / 2, extra)
-            self.assertGreater(rep["snap"]["stayed"], 0, extra)
+            # The shells' interface is snapped onto them where no hex loses quality (--repel),
+            # never within the junction's margin (measured 2026-12-06: 506 of 7,044 points moved).
+            snap = rep["snap"]
+            self.assertEqual(snap["moved"] + snap["partly"] + snap["stayed"], snap["vertices"], extra)
+            self.assertGreater(snap["moved"], 0, extra)
+            self.assertGreater(snap["stayed"], 0, extra)
             if not extra:
                 # The lift is what does it: off, the junction's neck gives the worst hex.
                 _, off = self.mesh([a, b], 3, "--repel", "--junction-lift", "0")
