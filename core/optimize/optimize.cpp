@@ -302,13 +302,9 @@ SnapStats snap_boundary(MeshPair& meshes, const SignedDistance& surface, const S
   for (const Vec3& p : out.points) box.extend(p);
   std::vector<Vec3> target(boundary.size());
   for (std::size_t b = 0; b < boundary.size(); ++b) target[b] = in.points[boundary[b]];
+  // The points held are asked about where they are, before the projection moves the targets.
+  std::vector<uint8_t> stays = held ? held(target) : std::vector<uint8_t>(boundary.size(), 0);
   project_to_surface(surface, target);
-  std::vector<uint8_t> stays(boundary.size(), 0);
-  if (held) {
-    std::vector<Vec3> at(boundary.size());
-    for (std::size_t b = 0; b < boundary.size(); ++b) at[b] = in.points[boundary[b]];
-    stays = held(at);
-  }
   if (!out.points.empty())
     for (std::size_t b = 0; b < boundary.size(); ++b)
       for (int a = 0; a < 3; ++a) {

@@ -79,8 +79,9 @@ struct MeshOptions {
   // on the input surface, every hex still Bernstein-certified.
   bool optimize = false;
   OptimizeOptions optimize_options;
-  // Method mchex, one solid: after each cut the boundary is snapped onto the surface where every
-  // hex stays certified (core/optimize/optimize.h snap_boundary; mesh --no-snap turns it off).
+  // Method mchex: after each cut the boundary is snapped onto the surface (several regions: onto
+  // their shells, away from junction curves) where every hex stays certified (core/optimize/
+  // optimize.h snap_boundary; mesh --no-snap turns it off).
   bool snap = true;
   // The check keeps each hex's scaled Jacobian for write_meshes (a .vtu output's cell field,
   // which its writer would otherwise compute again): 8 bytes per hex.
