@@ -295,6 +295,60 @@ TEST(quality, AxisAlignedBoxesAreBitIdentical) {
   EXPECT_EQ(taken, 40 * 6 * 4);  // half the orientations are positive
 }
 
+// QualityCache against hex_quality, every field bit for bit, over a stream like a mesh's: the
+// midpoint-subdivided cells of a grid with rounded coordinates (boxes whose edges repeat, some
+// equal to an ulp), sheared parallelepipeds, hexes with one corner nudged off (no longer
+// parallelepipeds) and flat or inverted boxes, in an order that makes slots collide; the table
+// must answer a good part of them, or this would test nothing but the miss path.
+TEST(quality, CachedQualityIsBitIdentical) {
+  auto same_bits = [](double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; };
+  std::mt19937_64 rng(31);
+  std::uniform_real_distribution<double> unit(-1, 1);
+  QualityCache cache;
+  std::size_t n = 0;
+  auto expect_same = [&](const HexCorners& c) {
+    const HexQuality got = cache(c), want = hex_quality(c);
+    const double g[] = {got.min_corner_jacobian, got.min_bernstein,      got.min_bernstein_scaled,
+                        got.scaled_jacobian,     got.edge_ratio,         got.volume,
+                        got.min_dihedral_angle,  got.max_dihedral_angle, got.inverse_condition};
+    const double w[] = {want.min_corner_jacobian, want.min_bernstein,      want.min_bernstein_scaled,
+                        want.scaled_jacobian,     want.edge_ratio,         want.volume,
+                        want.min_dihedral_angle,  want.max_dihedral_angle, want.inverse_condition};
+    for (int k = 0; k < 9; ++k) EXPECT_TRUE(same_bits(g[k], w[k])) << n << " measure " << k;
+    ++n;
+  };
+  const double h = 0.1 + 1e-3 * unit(rng);
+  for (int cell = 0; cell < 3000; ++cell) {
+    const int i = cell % 17, j = cell / 17 % 13, k = cell / 221;
+    // Cell corners as a grid computes them (origin + index * h), children at the midpoints.
+    const double x[3] = {-1 + i * h, -1 + (i + 0.5) * h, -1 + (i + 1) * h};
+    const double y[3] = {-2 + j * h, -2 + (j + 0.5) * h, -2 + (j + 1) * h};
+    const double z[3] = {3 + k * h, 3 + (k + 0.5) * h, 3 + (k + 1) * h};
+    for (int child = 0; child < 8; ++child) {
+      HexCorners c;
+      for (int v = 0; v < 8; ++v)
+        c[v] = {x[(child & 1) + (kUnitCube[v].x > 0)], y[(child >> 1 & 1) + (kUnitCube[v].y > 0)],
+                z[(child >> 2 & 1) + (kUnitCube[v].z > 0)]};
+      expect_same(c);
+      if (cell % 7 == 0) {
+        HexCorners nudged = c;
+        nudged[6].y = std::nextafter(nudged[6].y, 10.0);
+        expect_same(nudged);
+      }
+      if (cell % 11 == 0) {
+        HexCorners flat = c;
+        for (int v = 4; v < 8; ++v) flat[v].z = c[0].z;
+        expect_same(flat);
+        HexCorners inverted = c;
+        for (int v = 0; v < 4; ++v) std::swap(inverted[v], inverted[v + 4]);
+        expect_same(inverted);
+      }
+    }
+    if (cell % 5 == 0) expect_same(map_corners(kUnitCube, random_affine(rng, true)));
+  }
+  EXPECT_GT(cache.hits(), n / 2) << n;
+}
+
 // bernstein_jacobian's coefficients are the means of their triple products (quality.cpp, "Collecting
 // terms"), summed from 0 in the order a, then b, then c ascending, and the mean edge length the mean
 // of norm() of the 12 edges in Edges::for_each order; the library lays both out for speed. Written

@@ -749,6 +749,35 @@ HexQuality hex_quality(const HexCorners& c) { return quality_of(Edges(c)); }
 
 bool is_parallelepiped(const HexCorners& c) { return Edges(c).parallel; }
 
+QualityCache::QualityCache() = default;
+
+HexQuality QualityCache::operator()(const HexCorners& c) {
+  const Edges e(c);
+  if (!e.parallel) return quality_of(e);
+  std::array<double, 9> key;
+  std::memcpy(key.data(), &e.xi[0][0], sizeof(Vec3));
+  std::memcpy(key.data() + 3, &e.eta[0][0], sizeof(Vec3));
+  std::memcpy(key.data() + 6, &e.zeta[0][0], sizeof(Vec3));
+  // A multiplicative hash over the nine doubles' bits, its top bits the slot: a grid's edges
+  // differ from their neighbours' in low mantissa bits, which the products carry upwards.
+  uint64_t h = 0;
+  for (double d : key) {
+    uint64_t bits;
+    std::memcpy(&bits, &d, sizeof bits);
+    h = (h ^ bits) * 0x9E3779B97F4A7C15ull;
+    h ^= h >> 32;
+  }
+  Slot& s = slots_[h * 0x9E3779B97F4A7C15ull >> (64 - kSlotBits)];
+  if (s.used && std::memcmp(s.key.data(), key.data(), sizeof key) == 0) {
+    ++hits_;
+    return s.quality;
+  }
+  s.key = key;
+  s.quality = quality_of(e);
+  s.used = true;
+  return s.quality;
+}
+
 namespace detail {
 HexQuality hex_quality_without_shortcuts(const HexCorners& c) { return quality_of(Edges(c, false)); }
 bool takes_axis_box_path(const HexCorners& c) { return axis_box_quality(Edges(c)).has_value(); }

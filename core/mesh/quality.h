@@ -16,6 +16,7 @@
 #pragma once
 
 #include <array>
+#include <cstddef>
 
 #include "core/base/geometry.h"
 
@@ -141,6 +142,32 @@ HexQuality hex_quality(const HexCorners& c);
 // Whether the four edges of each direction are the same vector, bit for bit (then hex_quality
 // computes each product of edge vectors once: the same results, for less work).
 bool is_parallelepiped(const HexCorners& c);
+
+// hex_quality for a caller that measures millions of hexes (the mesh check). A parallelepiped's
+// quality is a function of its three edge vectors alone, bit for bit (every product hex_quality
+// forms is of those doubles), and a mesh has few of them: the 3.97 M outside hexes of the bumpy
+// torus at depth 4 have 96,220 distinct triples, and in the mesher's order a table of 512 slots
+// holds 97 % of the triples asked for (simulated on that mesh). So this keeps the quality of the
+// last parallelepiped per slot and answers from it when all nine doubles match: the value
+// hex_quality would compute (tests: quality.CachedQualityIsBitIdentical). The check of that mesh
+// pair took 0.80-1.00 s with it, 0.99-1.35 s without (alternating runs). Not shared between
+// threads; one per thread keeps the results independent of the thread count.
+class QualityCache {
+ public:
+  QualityCache();
+  HexQuality operator()(const HexCorners& c);
+  std::size_t hits() const { return hits_; }  // answers from the table so far
+
+ private:
+  static constexpr int kSlotBits = 9, kSlots = 1 << kSlotBits;
+  struct Slot {
+    std::array<double, 9> key;  // the xi, eta and zeta edges
+    HexQuality quality;
+    bool used = false;
+  };
+  std::array<Slot, kSlots> slots_;
+  std::size_t hits_ = 0;
+};
 
 namespace detail {
 // hex_quality computing every product of edge vectors, also where a parallelepiped's are equal
