@@ -328,21 +328,29 @@ SnapStats snap_boundary(MeshPair& meshes, const SignedDistance& surface, const S
       constexpr uint32_t kMost = 64;
       if (count > kMost) return;
       std::array<HexCorners, kMost> x;
+      // Each hex's measures as this corner moves: scaled_jacobian and edge_ratio bit for bit
+      // (quality.h), a trial costing the corner's own edges only.
+      std::array<MovingCorner, kMost> moving;
       std::array<double, kMost> floor, cap;
+      const Vec3 from = in.points[boundary[b]];
       for (uint32_t k = 0; k < count; ++k) {
         x[k] = corners(star.items[first + k] / 8);
-        floor[k] = std::min(scaled_jacobian(x[k]), limits.floor);
-        cap[k] = limits.max_edge_ratio < kInf ? std::max(edge_ratio(x[k]), limits.max_edge_ratio) : kInf;
+        moving[k] = MovingCorner(x[k], int(star.items[first + k] % 8));
+        floor[k] = std::min(moving[k].scaled_jacobian(from, -kInf), limits.floor);
+        cap[k] = limits.max_edge_ratio < kInf ? std::max(moving[k].edge_ratio(from), limits.max_edge_ratio) : kInf;
       }
-      const Vec3 from = in.points[boundary[b]];
       for (const double t : {1.0, 0.5, 0.25}) {
         const Vec3 y = t == 1 ? target[b] : from + t * (target[b] - from);
         bool ok = true;
         for (uint32_t k = 0; k < count && ok; ++k) {
+          if (moving[k].scaled_jacobian(y, floor[k]) < floor[k] || moving[k].edge_ratio(y) > cap[k]) {
+            ok = false;
+            break;
+          }
           HexCorners c = x[k];
           c[star.items[first + k] % 8] = y;
           // Certified after the move whether or not it was before: the mesher's hexes are.
-          ok = !(scaled_jacobian(c) < floor[k]) && !(edge_ratio(c) > cap[k]) && bernstein_certified(c);
+          ok = bernstein_certified(c);
         }
         if (!ok) continue;
         in.points[boundary[b]] = y;
