@@ -11,6 +11,8 @@ those triangles exceeds 1/2."""
 import glob
 import json
 import os
+import random
+import struct
 import subprocess
 import unittest
 
@@ -115,10 +117,6 @@ class BadInputSweep(ScratchTestCase):
         return True
 
 
-if __name__ == "__main__":
-    unittest.main()
-
-
 class ResourceLimits(ScratchTestCase):
     """mesh --max-memory (core/pipeline/estimate.h): a run whose estimated peak memory is over the
     budget exits 2 before the mesher's work, with one line that names a setting that fits, and
@@ -180,3 +178,119 @@ class BackendChoices(ScratchTestCase):
         self.assertEqual(r.returncode, 1)
         self.assertIn("metal not in {" + ",".join(sorted(built, key=["auto", "cpu", "opencl", "vulkan"].index)) + "}",
                       r.stderr)
+
+
+def mutations(data, seed, count):
+    """`count` damaged copies of `data`, the same ones on every run (seeded): cut short, bytes
+    overwritten, a number replaced by an extreme token, a run of bytes zeroed, garbage inserted,
+    and, for a binary STL, its triangle count replaced."""
+    rng = random.Random(seed)
+    tokens = [b"1e308", b"nan", b"-inf", b"99999999999", b"-7", b"4294967295", b"1e-320", b"0"]
+    for k in range(count):
+        d = bytearray(data)
+        op = k % 6
+        if op == 0:
+            d = d[:rng.randrange(1, len(d))]
+        elif op == 1:
+            for _ in range(rng.randrange(1, 10)):
+                d[rng.randrange(len(d))] = rng.randrange(256)
+        elif op == 2:
+            digits = [i for i, c in enumerate(d) if 48 <= c <= 57]
+            if digits:
+                i = rng.choice(digits)
+                d[i:i + 1] = rng.choice(tokens)
+        elif op == 3:
+            i = rng.randrange(len(d))
+            j = min(len(d), i + rng.randrange(1, 64))
+            d[i:j] = bytes(j - i)
+        elif op == 4:
+            i = rng.randrange(len(d))
+            d[i:i] = bytes(rng.randrange(256) for _ in range(20))
+        elif data[:5] != b"solid" and len(d) >= 84:
+            d[80:84] = struct.pack("<I", rng.choice([0, 1, 2**31, 2**32 - 1, 12345678]))
+        yield bytes(d)
+
+
+class MutatedFiles(ScratchTestCase):
+    """Seeded damage to small valid files of every format the CLI reads: each damaged file either
+    works or is refused with exit 1 and exactly one stderr line; never a signal, a hang, or (for
+    mesh and convert) an output file left behind. Surfaces through `mesh`, hex meshes through
+    `check` and `convert`. The files the test packages ship broken are swept above; these reach
+    the readers' other paths (counts past the data, NaN coordinates, indices out of range)."""
+
+    def expect_clean(self, args, folder, what):
+        try:
+            r = run(*args, cwd=folder, timeout=TIMEOUT)
+        except subprocess.TimeoutExpired:
+            self.fail(f"{what}: no answer in {TIMEOUT} s")
+        self.assertGreaterEqual(r.returncode, 0, f"{what}: killed by signal {-r.returncode}: {r.stderr}")
+        self.assertIn(r.returncode, (0, 1), f"{what}: {r.stderr}")
+        if r.returncode:
+            self.assertEqual(len(r.stderr.splitlines()), 1, f"{what}: {r.stderr}")
+        return r.returncode
+
+    def test_damaged_surfaces(self):
+        verts, tris = models.box_surface((0, 0, 0), (1, 1, 1))
+        path = os.path.join(self.dir, "base.stl")
+        models.write_binary_stl(path, verts, tris)
+        with open(path, "rb") as f:
+            stl = f.read()
+        vs = "".join(f"{x} {y} {z}\n" for x, y, z in verts)
+        obj = ("".join(f"v {x} {y} {z}\n" for x, y, z in verts) + "".join(f"f {a + 1} {b + 1} {c + 1}\n" for a, b, c in tris)).encode()
+        off = (f"OFF\n{len(verts)} {len(tris)} 0\n" + vs + "".join(f"3 {a} {b} {c}\n" for a, b, c in tris)).encode()
+        ply = ("ply\nformat ascii 1.0\n" + f"element vertex {len(verts)}\nproperty float x\nproperty float y\n"
+               f"property float z\nelement face {len(tris)}\nproperty list uchar int vertex_indices\nend_header\n" + vs +
+               "".join(f"3 {a} {b} {c}\n" for a, b, c in tris)).encode()
+        outcomes = []
+        for seed, (ext, data) in enumerate((("stl", stl), ("obj", obj), ("off", off), ("ply", ply))):
+            for k, damaged in enumerate(mutations(data, seed=seed, count=18)):
+                folder = os.path.join(self.dir, f"{ext}{k}")
+                os.mkdir(folder)
+                name = f"damaged.{ext}"
+                with open(os.path.join(folder, name), "wb") as f:
+                    f.write(damaged)
+                with self.subTest(file=f"{ext} {k}"):
+                    rc = self.expect_clean(("mesh", name, "--depth", 1, "-o", "in.mesh", "--quiet"), folder, f"{ext} {k}")
+                    outcomes.append(rc)
+                    left = sorted(set(os.listdir(folder)) - {name})
+                    if rc:
+                        self.assertEqual(left, [], f"{ext} {k}")
+                        continue
+                    self.assertEqual(left, ["in.mesh", "outside.mesh"], f"{ext} {k}")
+                    c = run("check", "in.mesh", "--outside", "outside.mesh", cwd=folder, timeout=TIMEOUT)
+                    self.assertEqual(c.returncode, 0, f"{ext} {k}: {c.stdout[-1500:]}{c.stderr}")
+        # Both outcomes occur: the damage is not all harmless, nor all fatal.
+        self.assertIn(0, outcomes)
+        self.assertIn(1, outcomes)
+
+    def test_damaged_hex_meshes(self):
+        sources = []
+        for ext, extra in (("mesh", []), ("meshb", []), ("vtu", []), ("msh", []), ("msh", ["--binary"]), ("exo", []),
+                           ("inp", [])):
+            name = f"base{len(sources)}.{ext}"
+            r = run("mesh", "--shape", "sphere", "--depth", 1, *extra, "-o", name, "--outside",
+                    f"out{len(sources)}.{ext}", "--quiet", cwd=self.dir)
+            self.assertEqual(r.returncode, 0, r.stderr)
+            sources.append(name)
+        outcomes = []
+        for n, source in enumerate(sources):
+            ext = source.rsplit(".", 1)[1]
+            with open(os.path.join(self.dir, source), "rb") as f:
+                data = f.read()
+            for k, damaged in enumerate(mutations(data, seed=100 + n, count=12)):
+                folder = os.path.join(self.dir, f"m{n}-{k}")
+                os.mkdir(folder)
+                name = f"damaged.{ext}"
+                with open(os.path.join(folder, name), "wb") as f:
+                    f.write(damaged)
+                with self.subTest(file=f"{source} {k}"):
+                    outcomes.append(self.expect_clean(("check", name), folder, f"check {source} {k}"))
+                    rc = self.expect_clean(("convert", name, "copy.vtu"), folder, f"convert {source} {k}")
+                    left = sorted(set(os.listdir(folder)) - {name})
+                    self.assertEqual(left, [] if rc else ["copy.vtu"], f"convert {source} {k}")
+        self.assertIn(0, outcomes)
+        self.assertIn(1, outcomes)
+
+
+if __name__ == "__main__":
+    unittest.main()

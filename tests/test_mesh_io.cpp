@@ -667,6 +667,11 @@ TEST(HexmeshGmsh, BadFiles) {
        "unexpected end of file where a node coordinate was expected"},
       {format + nodes + "$Elements\n1 1 1 1\n2 1 3 1\n", "unexpected end of file where an element was expected"},
       {format + "$Foo\n1 2 3\n", "unexpected end of file where '$EndFoo' was expected"},
+      // A damaged section name reaches the message escaped: one line of valid UTF-8 (a byte that
+      // begins no UTF-8 sequence, a cut-short sequence, a control byte; an intact one stays).
+      {format + "$N\xa9"
+                "d\xe2\x01\xc3\xa9s\n1 2 3\n",
+       "unexpected end of file where '$EndN\\xa9d\\xe2\\x01\xc3\xa9s' was expected"},
       {format + "$EndNodes\n", "'$EndNodes' without its opening section"},
       {format + nodes + "$Elements\n1 1 1 1\n4 1 5 1\n1 1 2 3 4 5 6 7 8\n$EndElements\n",
        "entity dimension 4 is not 0..3"},

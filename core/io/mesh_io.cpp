@@ -2,6 +2,7 @@
 // one place where a format's reason becomes an InputError "PATH: reason". The formats themselves
 // are in medit.cpp, meshb.cpp, vtu.cpp, gmsh.cpp, exodus.cpp and abaqus.cpp (mesh_formats.h).
 #include "core/io/mesh_io.h"
+#include "core/io/surface_text.h"
 
 #include <algorithm>
 #include <cstdint>
@@ -73,7 +74,7 @@ void write_hex_mesh(const HexMesh& mesh, const std::filesystem::path& path, cons
     }
     out.commit();
   } catch (const FormatError& e) {
-    throw InputError(path.string() + ": " + e.what());
+    throw InputError(io_detail::one_line(path.string()) + ": " + io_detail::one_line(e.what()));
   }
 }
 
@@ -92,7 +93,7 @@ HexMesh read_hex_mesh(const std::filesystem::path& path) {
     }
     throw FormatError("unknown format");
   } catch (const FormatError& e) {
-    throw InputError(path.string() + ": " + e.what());
+    throw InputError(io_detail::one_line(path.string()) + ": " + io_detail::one_line(e.what()));
   }
 }
 

@@ -13,18 +13,31 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Error messages are one stderr line: control characters (a newline in a path, or in an
-// Assimp message that quotes the rest of the file) become escapes; UTF-8 names stay readable.
+}  // namespace
+
 std::string one_line(std::string_view text) {
   std::string out;
-  for (char ch : text) {
-    const auto c = static_cast<unsigned char>(ch);
-    out += (c < 0x20 || c == 0x7f) ? hex_byte(c) : std::string(1, ch);
+  for (std::size_t i = 0; i < text.size();) {
+    const auto c = static_cast<unsigned char>(text[i]);
+    // The length of the UTF-8 sequence c starts (0: not a lead byte), its continuation bytes
+    // checked below.
+    const std::size_t n = c < 0x80                 ? 1
+                          : c >= 0xc2 && c <= 0xdf ? 2
+                          : c >= 0xe0 && c <= 0xef ? 3
+                          : c >= 0xf0 && c <= 0xf4 ? 4
+                                                   : 0;
+    bool whole = n > 0 && i + n <= text.size();
+    for (std::size_t k = 1; whole && k < n; ++k) whole = (static_cast<unsigned char>(text[i + k]) & 0xc0) == 0x80;
+    if (!whole || c < 0x20 || c == 0x7f) {
+      out += hex_byte(c);
+      ++i;
+      continue;
+    }
+    out.append(text.substr(i, n));
+    i += n;
   }
   return out;
 }
-
-}  // namespace
 
 std::string hex_byte(unsigned char c) {
   char buffer[8];

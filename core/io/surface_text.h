@@ -21,6 +21,11 @@ inline constexpr std::size_t kMaxPolygonCorners = 1000;
 
 // "\xNN", for a byte that must not reach a message as it is.
 std::string hex_byte(unsigned char c);
+// Error messages are one stderr line of valid UTF-8: control characters (a newline in a path, in
+// an Assimp message that quotes the rest of the file, or in a section name read from a damaged
+// mesh file) and bytes that are not part of a UTF-8 sequence become \xHH escapes; UTF-8 names
+// stay readable.
+std::string one_line(std::string_view text);
 
 // A token quoted from a file: kept short and printable, because the file may be binary.
 std::string quote(std::string_view token);
