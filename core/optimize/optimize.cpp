@@ -255,23 +255,35 @@ SnapStats snap_boundary(MeshPair& meshes, const SignedDistance& surface, const S
   SnapStats st;
   HexMesh& in = meshes.inside;
   HexMesh& out = meshes.outside;
-  // The boundary's vertices, in increasing order.
+  // The boundary's vertices, in increasing order, and each outside point's twin among them: the
+  // inside point at the same coordinates (the interface is shared bit for bit), as its number in
+  // `boundary`. With an outside mesh the inside mesh's boundary is all interface, but where the
+  // solid reaches the box: so the boundary vertices are the inside points an outside point
+  // coincides with, and those on the box that none does are held there anyway (below). One
+  // lookup of every outside point finds both, no face grouping of the inside mesh (the bunny's
+  // 62,470 quads: 76 -> 30 ms a snap). Without one, its boundary quads.
   std::vector<uint32_t> boundary;
+  std::vector<uint32_t> twin_number;  // outside point -> number in `boundary`, or kNoPoint
   {
     std::vector<uint8_t> on(in.points.size(), 0);
-    for (const auto& q : boundary_quads(in))
-      for (uint32_t v : q) on[v] = 1;
+    if (out.points.empty()) {
+      for (const auto& q : boundary_quads(in))
+        for (uint32_t v : q) on[v] = 1;
+    } else {
+      twin_number = coinciding(out.points, in.points.size(), [&](uint32_t a) -> const Vec3& { return in.points[a]; });
+      for (uint32_t a : twin_number)
+        if (a != kNoPoint) on[a] = 1;
+    }
     for (uint32_t v = 0; v < on.size(); ++v)
       if (on[v]) boundary.push_back(v);
   }
   st.vertices = boundary.size();
   if (boundary.empty()) return st;
-  // Each one's place among them (inside point -> its number), and its outside twin: the outside
-  // point at the same coordinates (the interface is shared bit for bit).
+  // Each one's place among them (inside point -> its number).
   std::vector<uint32_t> number(in.points.size(), kNoPoint);
   for (uint32_t b = 0; b < boundary.size(); ++b) number[boundary[b]] = b;
-  const std::vector<uint32_t> twin_number =
-      coinciding(out.points, boundary.size(), [&](uint32_t b) -> const Vec3& { return in.points[boundary[b]]; });
+  for (uint32_t& a : twin_number)
+    if (a != kNoPoint) a = number[a];
   std::vector<uint32_t> twin(boundary.size(), kNoPoint);
   for (uint32_t k = 0; k < twin_number.size(); ++k)
     if (twin_number[k] != kNoPoint) twin[twin_number[k]] = k;
