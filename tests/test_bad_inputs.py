@@ -229,6 +229,15 @@ class MutatedFiles(ScratchTestCase):
             self.assertEqual(len(r.stderr.splitlines()), 1, f"{what}: {r.stderr}")
         return r.returncode
 
+    def damaged_file(self, folder_name, ext, data):
+        """A fresh folder holding `data` as damaged.EXT: the folder and the file's name."""
+        folder = os.path.join(self.dir, folder_name)
+        os.mkdir(folder)
+        name = f"damaged.{ext}"
+        with open(os.path.join(folder, name), "wb") as f:
+            f.write(data)
+        return folder, name
+
     def test_damaged_surfaces(self):
         verts, tris = models.box_surface((0, 0, 0), (1, 1, 1))
         path = os.path.join(self.dir, "base.stl")
@@ -244,11 +253,7 @@ class MutatedFiles(ScratchTestCase):
         outcomes = []
         for seed, (ext, data) in enumerate((("stl", stl), ("obj", obj), ("off", off), ("ply", ply))):
             for k, damaged in enumerate(mutations(data, seed=seed, count=18)):
-                folder = os.path.join(self.dir, f"{ext}{k}")
-                os.mkdir(folder)
-                name = f"damaged.{ext}"
-                with open(os.path.join(folder, name), "wb") as f:
-                    f.write(damaged)
+                folder, name = self.damaged_file(f"{ext}{k}", ext, damaged)
                 with self.subTest(file=f"{ext} {k}"):
                     rc = self.expect_clean(("mesh", name, "--depth", 1, "-o", "in.mesh", "--quiet"), folder, f"{ext} {k}")
                     outcomes.append(rc)
@@ -278,11 +283,7 @@ class MutatedFiles(ScratchTestCase):
             with open(os.path.join(self.dir, source), "rb") as f:
                 data = f.read()
             for k, damaged in enumerate(mutations(data, seed=100 + n, count=12)):
-                folder = os.path.join(self.dir, f"m{n}-{k}")
-                os.mkdir(folder)
-                name = f"damaged.{ext}"
-                with open(os.path.join(folder, name), "wb") as f:
-                    f.write(damaged)
+                folder, name = self.damaged_file(f"m{n}-{k}", ext, damaged)
                 with self.subTest(file=f"{source} {k}"):
                     outcomes.append(self.expect_clean(("check", name), folder, f"check {source} {k}"))
                     rc = self.expect_clean(("convert", name, "copy.vtu"), folder, f"convert {source} {k}")

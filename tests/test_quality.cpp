@@ -243,6 +243,13 @@ TEST(quality, ParallelepipedShortcutIsBitIdentical) {
   }
 }
 
+// Every measure of a HexQuality, in one order, for comparing two bit for bit.
+std::array<double, 9> measures_of(const HexQuality& q) {
+  return {q.min_corner_jacobian, q.min_bernstein,      q.min_bernstein_scaled,
+          q.scaled_jacobian,     q.edge_ratio,         q.volume,
+          q.min_dihedral_angle,  q.max_dihedral_angle, q.inverse_condition};
+}
+
 // hex_quality's axis-aligned box path (quality.cpp axis_box_quality) against the general
 // computation with no shortcut, bit for bit, on boxes in every one of the 48 orientations a hex's
 // corner numbering can give them (which axis each reference direction takes, and which way), with
@@ -274,12 +281,7 @@ TEST(quality, AxisAlignedBoxesAreBitIdentical) {
         const bool positive = full.min_corner_jacobian > 0;
         EXPECT_EQ(detail::takes_axis_box_path(c), positive) << t << " " << signs;
         taken += detail::takes_axis_box_path(c) ? 1 : 0;
-        const double got[] = {q.min_corner_jacobian, q.min_bernstein,      q.min_bernstein_scaled,
-                              q.scaled_jacobian,     q.edge_ratio,         q.volume,
-                              q.min_dihedral_angle,  q.max_dihedral_angle, q.inverse_condition};
-        const double want[] = {full.min_corner_jacobian, full.min_bernstein,      full.min_bernstein_scaled,
-                               full.scaled_jacobian,     full.edge_ratio,         full.volume,
-                               full.min_dihedral_angle,  full.max_dihedral_angle, full.inverse_condition};
+        const auto got = measures_of(q), want = measures_of(full);
         for (int k = 0; k < 9; ++k) EXPECT_TRUE(same_bits(got[k], want[k])) << t << " " << signs << " measure " << k;
         if (positive) {
           EXPECT_EQ(q.scaled_jacobian, 1.0);
@@ -307,13 +309,7 @@ TEST(quality, CachedQualityIsBitIdentical) {
   QualityCache cache;
   std::size_t n = 0;
   auto expect_same = [&](const HexCorners& c) {
-    const HexQuality got = cache(c), want = hex_quality(c);
-    const double g[] = {got.min_corner_jacobian, got.min_bernstein,      got.min_bernstein_scaled,
-                        got.scaled_jacobian,     got.edge_ratio,         got.volume,
-                        got.min_dihedral_angle,  got.max_dihedral_angle, got.inverse_condition};
-    const double w[] = {want.min_corner_jacobian, want.min_bernstein,      want.min_bernstein_scaled,
-                        want.scaled_jacobian,     want.edge_ratio,         want.volume,
-                        want.min_dihedral_angle,  want.max_dihedral_angle, want.inverse_condition};
+    const auto g = measures_of(cache(c)), w = measures_of(hex_quality(c));
     for (int k = 0; k < 9; ++k) EXPECT_TRUE(same_bits(g[k], w[k])) << n << " measure " << k;
     ++n;
   };
