@@ -9,11 +9,8 @@
 #include "core/base/error.h"
 
 namespace mchex::io_detail {
-namespace {
 
 namespace fs = std::filesystem;
-
-}  // namespace
 
 std::string one_line(std::string_view text) {
   std::string out;

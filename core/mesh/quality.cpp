@@ -749,8 +749,6 @@ HexQuality hex_quality(const HexCorners& c) { return quality_of(Edges(c)); }
 
 bool is_parallelepiped(const HexCorners& c) { return Edges(c).parallel; }
 
-QualityCache::QualityCache() = default;
-
 HexQuality QualityCache::operator()(const HexCorners& c) {
   const Edges e(c);
   if (!e.parallel) return quality_of(e);

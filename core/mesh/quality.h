@@ -154,7 +154,6 @@ bool is_parallelepiped(const HexCorners& c);
 // threads; one per thread keeps the results independent of the thread count.
 class QualityCache {
  public:
-  QualityCache();
   HexQuality operator()(const HexCorners& c);
   std::size_t hits() const { return hits_; }  // answers from the table so far
 

@@ -123,14 +123,11 @@ struct Joined {
 
 constexpr uint32_t kNoPoint = std::numeric_limits<uint32_t>::max();
 
-// For each of `points`, the lowest i < count whose at(i) has exactly its coordinates, or kNoPoint:
-// how the outside mesh's points on the interface find their inside twins (the interface is shared
-// bit for bit). A hash of the count points, probed once per point (most outside points fall
-// outside the box of the others and are not even hashed).
-template <class At>
-std::vector<uint32_t> coinciding(std::span<const Vec3> points, std::size_t count, const At& at) {
-  std::vector<Vec3> keys(count);
-  parallel_for(count, [&](std::size_t i) { keys[i] = at(uint32_t(i)); });
+// For each of `points`, the lowest index into `keys` of a point with exactly its coordinates, or
+// kNoPoint: how the outside mesh's points on the interface find their inside twins (the interface
+// is shared bit for bit). A hash of the keys, probed once per point (most outside points fall
+// outside the box of the keys and are not even hashed).
+std::vector<uint32_t> coinciding(std::span<const Vec3> points, const std::vector<Vec3>& keys) {
   const PointIndex index(keys);
   static_assert(PointIndex::kNone == kNoPoint);
   std::vector<uint32_t> found(points.size());
@@ -167,8 +164,7 @@ std::vector<std::vector<uint32_t>> greedy_colours(std::size_t n, const Take& tak
 Joined join(const MeshPair& m) {
   Joined j;
   j.x = m.inside.points;
-  j.outside_point = coinciding(m.outside.points, m.inside.points.size(),
-                               [&](uint32_t a) -> const Vec3& { return m.inside.points[a]; });
+  j.outside_point = coinciding(m.outside.points, m.inside.points);
   for (std::size_t k = 0; k < m.outside.points.size(); ++k)
     if (j.outside_point[k] == kNoPoint) {
       j.outside_point[k] = uint32_t(j.x.size());
@@ -270,7 +266,7 @@ SnapStats snap_boundary(MeshPair& meshes, const SignedDistance& surface, const S
       for (const auto& q : boundary_quads(in))
         for (uint32_t v : q) on[v] = 1;
     } else {
-      twin_number = coinciding(out.points, in.points.size(), [&](uint32_t a) -> const Vec3& { return in.points[a]; });
+      twin_number = coinciding(out.points, in.points);
       for (uint32_t a : twin_number)
         if (a != kNoPoint) on[a] = 1;
     }
@@ -355,10 +351,8 @@ SnapStats snap_boundary(MeshPair& meshes, const SignedDistance& surface, const S
         const Vec3 y = t == 1 ? target[b] : from + t * (target[b] - from);
         bool ok = true;
         for (uint32_t k = 0; k < count && ok; ++k) {
-          if (moving[k].scaled_jacobian(y, floor[k]) < floor[k] || moving[k].edge_ratio(y) > cap[k]) {
-            ok = false;
-            break;
-          }
+          ok = !(moving[k].scaled_jacobian(y, floor[k]) < floor[k]) && !(moving[k].edge_ratio(y) > cap[k]);
+          if (!ok) break;
           HexCorners c = x[k];
           c[star.items[first + k] % 8] = y;
           // Certified after the move whether or not it was before: the mesher's hexes are.
